@@ -1,0 +1,15 @@
+"""impactosc: event-driven simulation of the tape-edge / roller-flange impact oscillator.
+
+The model is the one-dimensional impact oscillator with Coulomb friction of
+"Characterization of Tape Edge Contact Force With Acoustic Emission" (ASME, DOI
+10.1115/1.2748775), section 5. Every flange contact, friction reversal, stick and
+release is a located event.
+"""
+
+from .engine import EVENT_KINDS, Mode
+from .model import Oscillator
+from .simulate import simulate
+from .solution import Solution
+
+__all__ = ["Oscillator", "simulate", "Solution", "Mode", "EVENT_KINDS"]
+__version__ = "0.1.0"

@@ -1,0 +1,25 @@
+"""Backends: each integrates smooth pieces and locates guards; the engine owns the physics.
+
+A backend is looked up by name in :data:`BACKENDS`. Optional backends are imported lazily
+so that a missing optional dependency fails with an install hint only when it is used.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+#: name -> "module:callable" of a function ``run(osc, t_end, x0, v0, record, max_events, **options)``
+BACKENDS = {
+    "heyoka": "impactosc.backends.heyoka:run",
+}
+
+
+def get_backend(name):
+    """Return the ``run`` function of the backend called ``name``."""
+    if not isinstance(name, str):
+        raise TypeError(f"backend must be a string, got {name!r} of type {type(name).__name__}")
+    if name not in BACKENDS:
+        known = ", ".join(repr(b) for b in BACKENDS)
+        raise ValueError(f"backend must be one of {known}, got {name!r}")
+    module, func = BACKENDS[name].split(":")
+    return getattr(importlib.import_module(module), func)

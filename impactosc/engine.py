@@ -1,0 +1,256 @@
+"""The one transition rule of the hybrid system, and the one driver loop around it.
+
+Every event-locating backend integrates a *smooth piece* of motion in a fixed mode until
+the first armed guard fires (or the end time), and hands the guard back here. This module
+alone decides what that guard means physically: which mode comes next, whether the mass
+sticks, which event is recorded. Backends therefore cannot drift apart in the physics.
+
+Modes
+-----
+``Mode(region, motion, armed)`` with ``region`` in {-1, 0, +1} (lower flange, free, upper
+flange), ``motion`` in {-1, 0, +1} (slip down, stick, slip up) and ``armed`` saying whether
+the "slip ends" guard ``motion * V -> 0`` may fire.
+
+Why ``armed``: when a stuck mass is released, ``|f_net| = beta`` exactly, so the
+acceleration is zero and the velocity has a *double* root at the release time. Any
+rounding in the first Taylor coefficient makes that root look like a fresh "slip ends"
+crossing, and the mass would be swallowed back into stick forever. After a release the
+"slip ends" guard is disarmed and an "acceleration zero" guard (``motion * V'`` falls to
+0) is armed instead: the velocity cannot return to zero before the acceleration has
+changed sign, so re-arming there is exact, not a heuristic.
+
+Guards (direction-filtered)
+---------------------------
+``ENTER_UPPER``  X - 1 rises through 0        free region, slipping
+``ENTER_LOWER``  X + 1 falls through 0        free region, slipping
+``LEAVE``        region*X - 1 falls through 0 flange region, slipping
+``SLIP_END``     motion*V falls through 0     slipping, armed
+``ACCEL_ZERO``   motion*V' falls through 0    slipping, not armed (internal, no event)
+``RELEASE_UP``   f_net - beta rises through 0 stuck
+``RELEASE_DOWN`` f_net + beta falls through 0 stuck
+
+Each piece between two guards is monotonic in X (every turning point is a ``SLIP_END``),
+so a flange crossing inside a piece is a simple root: grazing contacts become two simple
+roots on either side of a located turning point instead of one double root.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Protocol
+
+from . import _validation as _v
+from .model import Oscillator
+
+__all__ = [
+    "Mode",
+    "EVENT_KINDS",
+    "GUARD_NAMES",
+    "initial_mode",
+    "motion_at_rest",
+    "transition",
+    "guard_gates",
+    "drive",
+]
+
+# Event kinds recorded in Solution.events
+CONTACT_START = "contact_start"
+CONTACT_END = "contact_end"
+REVERSAL = "reversal"
+STICK = "stick"
+RELEASE = "release"
+EVENT_KINDS = (CONTACT_START, CONTACT_END, REVERSAL, STICK, RELEASE)
+
+# Guard indices: the order is the contract between this module and the backends.
+ENTER_UPPER, ENTER_LOWER, LEAVE, SLIP_END, ACCEL_ZERO, RELEASE_UP, RELEASE_DOWN = range(7)
+GUARD_NAMES = (
+    "enter_upper",
+    "enter_lower",
+    "leave",
+    "slip_end",
+    "accel_zero",
+    "release_up",
+    "release_down",
+)
+N_GUARDS = len(GUARD_NAMES)
+#: Direction of each guard: +1 fires on a rising crossing, -1 on a falling one.
+GUARD_DIRECTIONS = (1, -1, -1, -1, -1, 1, -1)
+
+#: The state has not reached a guard: the piece ended at the requested end time.
+NO_GUARD = -1
+
+
+class Mode(NamedTuple):
+    """Discrete state of the hybrid system (see the module docstring)."""
+
+    region: int
+    motion: int
+    armed: bool = True
+
+
+def guard_gates(mode: Mode) -> tuple[float, ...]:
+    """1.0 for every guard that is armed in ``mode``, 0.0 for the others (order of ``GUARD_NAMES``)."""
+    return _GATES[mode]
+
+
+def _compute_gates(mode: Mode) -> tuple[float, ...]:
+    r, s, armed = mode
+    moving = s != 0
+    return (
+        float(moving and r == 0),
+        float(moving and r == 0),
+        float(moving and r != 0),
+        float(moving and armed),
+        float(moving and not armed),
+        float(not moving),
+        float(not moving),
+    )
+
+
+_ALL_MODES = [Mode(r, s, a) for r in (-1, 0, 1) for s in (-1, 0, 1) for a in (True, False)]
+_GATES = {m: _compute_gates(m) for m in _ALL_MODES}
+
+
+def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
+    """Filippov stick test for a mass at rest at time ``t`` and position ``x``.
+
+    Returns ``(motion, armed)``. The mass sticks when ``|f_net| < beta``; it slips towards
+    ``f_net`` when ``|f_net| > beta``. Exactly on the threshold it is released only if
+    ``|f_net|`` is still rising (then with zero acceleration, hence ``armed=False``).
+    ``f_net`` includes the flange spring (:meth:`Oscillator.net_force`).
+    """
+    f = osc._net_force_scalar(t, x)
+    b = osc.beta
+    af = abs(f)
+    if af < b:
+        return 0, True
+    if af > b:
+        return (1 if f > 0.0 else -1), True
+    # On the threshold: x is frozen while stuck, so f_net changes only with the forcing.
+    rate = -osc.F * osc.Omega * math.sin(osc.Omega * t + osc.phase)
+    if f * rate > 0.0:
+        return (1 if f > 0.0 else -1), False
+    return 0, True
+
+
+def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
+    """Mode at the initial time (not an event).
+
+    A mass starting exactly on a flange boundary belongs to the flange region if it moves
+    into the flange. With ``v == 0`` the stick test of :func:`motion_at_rest` decides the
+    motion, as at any other rest point.
+    """
+    if v > 0.0:
+        motion, armed = 1, True
+    elif v < 0.0:
+        motion, armed = -1, True
+    else:
+        motion, armed = motion_at_rest(osc, t, x)
+    if x > 1.0 or (x == 1.0 and motion > 0):
+        region = 1
+    elif x < -1.0 or (x == -1.0 and motion < 0):
+        region = -1
+    else:
+        region = 0
+    return Mode(region, motion, armed)
+
+
+def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float):
+    """The transition rule: what a guard firing at ``(t, x, v)`` in ``mode`` means.
+
+    Returns ``(new_mode, x, v, kind, side)``: the state is snapped onto the guard surface
+    (``X = +-1`` at flange crossings, ``V = 0`` at rest points) so the next piece starts
+    exactly on it; ``kind`` is the event kind to record (``None`` for internal guards)
+    and ``side`` is +1/-1 for flange events, 0 for friction events.
+    """
+    r, s, armed = mode
+    if guard == SLIP_END:
+        s_new, armed_new = motion_at_rest(osc, t, x)
+        if s_new == 0:
+            return Mode(r, 0, True), x, 0.0, STICK, 0
+        if s_new == s:
+            # Degenerate tangency (V and V' vanish together): the mass pauses and goes on.
+            return Mode(r, s, False), x, 0.0, None, 0
+        return Mode(r, s_new, armed_new), x, 0.0, REVERSAL, 0
+    if guard == ENTER_UPPER:
+        return Mode(1, s, armed), 1.0, v, CONTACT_START, 1
+    if guard == ENTER_LOWER:
+        return Mode(-1, s, armed), -1.0, v, CONTACT_START, -1
+    if guard == LEAVE:
+        return Mode(0, s, armed), float(r), v, CONTACT_END, r
+    if guard == ACCEL_ZERO:
+        return Mode(r, s, True), x, v, None, 0
+    if guard == RELEASE_UP:
+        return Mode(r, 1, False), x, 0.0, RELEASE, 0
+    if guard == RELEASE_DOWN:
+        return Mode(r, -1, False), x, 0.0, RELEASE, 0
+    raise ValueError(f"guard must be one of 0..{N_GUARDS - 1}, got {guard!r}")
+
+
+class PieceStepper(Protocol):
+    """What an event-locating backend provides to :func:`drive`.
+
+    ``advance`` integrates the smooth vector field of ``mode`` from ``(t, x, v)`` until the
+    first armed guard of ``mode`` fires or ``t_end`` is reached, and returns
+    ``(t1, x1, v1, guard, impulse, impulse_sq, forcing_work, steps)``: ``guard`` is the
+    index of the guard that fired or ``NO_GUARD``; the three integrals are over the piece:
+    ``int K(|X|-1) dt`` (flange regions only), ``int (K(|X|-1))^2 dt`` and
+    ``int V F cos(Omega t + phase) dt``; ``steps`` counts integrator steps.
+    """
+
+    def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float): ...
+
+
+#: Consecutive events at one instant after which the loop declares it is stuck.
+MAX_EVENTS_AT_ONE_INSTANT = 64
+
+
+def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: float,
+          recorder, max_events: int) -> None:
+    """The event loop shared by every event-locating backend.
+
+    Integrates piece by piece, applies :func:`transition` at every guard and streams the
+    results into ``recorder``. Stops at ``t_end`` (status 0), at ``max_events`` recorded
+    events (status 1) or when time stops advancing (status -1, a Zeno-like cascade).
+    """
+    t, x, v = 0.0, x0, v0
+    mode = initial_mode(osc, t, x, v)
+    recorder.begin(osc, t, x, v, mode)
+    same_instant = 0
+    advance = stepper.advance
+    while True:
+        t1, x1, v1, guard, q, q2, w, steps = advance(mode, t, x, v, t_end)
+        if not (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(t1)):
+            recorder.finish(t, x, v, mode, -1, f"integration produced a non-finite state at t={t1!r}")
+            return
+        recorder.piece(mode, t, x, t1, x1, q, q2, w, steps)
+        if guard == NO_GUARD:
+            recorder.finish(t1, x1, v1, mode, 0, "The end time was reached.")
+            return
+        mode, x1, v1, kind, side = transition(osc, mode, guard, t1, x1, v1)
+        same_instant = same_instant + 1 if t1 == t else 0
+        t, x, v = t1, x1, v1
+        if kind is not None:
+            recorder.event(t, kind, x, v, side)
+        recorder.segment(t, x, v, mode)
+        if kind is not None and recorder.n_events >= max_events:
+            recorder.finish(t, x, v, mode, 1,
+                            f"The event limit max_events={max_events} was reached at t={t!r}; "
+                            "results up to that time are kept.")
+            return
+        if same_instant > MAX_EVENTS_AT_ONE_INSTANT:
+            recorder.finish(t, x, v, mode, -1,
+                            f"{same_instant} consecutive events at t={t!r} without time advancing; "
+                            "stopped to avoid an endless loop.")
+            return
+
+
+def check_run_arguments(osc, t_end, x0, v0, max_events):
+    """Validate the arguments common to every backend; returns them normalised."""
+    if not isinstance(osc, Oscillator):
+        raise TypeError(f"osc must be an impactosc.Oscillator, got {type(osc).__name__}")
+    t_end = _v.positive("t_end", t_end)
+    x0 = _v.real("x0", x0)
+    v0 = _v.real("v0", v0)
+    max_events = _v.integer("max_events", max_events, minimum=1)
+    return osc, t_end, x0, v0, max_events

@@ -1,0 +1,381 @@
+"""Results of a run: streamed statistics, the event and impact tables, dense output.
+
+What is kept is chosen with ``record``:
+
+``"full"``    events, impacts and the start of every smooth piece, so that
+              :meth:`Solution.sample` and windowed averages can re-integrate any piece.
+``"events"``  events and impacts only.
+``"stats"``   counts and integrals only: memory stays flat however many events occur.
+
+Averages are integrals, not samples: the flange impulse ``int K(|X|-1)+ dLambda`` is
+integrated by the backend over every piece, per flange, in every recording mode.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from . import _validation as _v
+from .engine import CONTACT_END, CONTACT_START, EVENT_KINDS, Mode
+from .model import Oscillator
+
+__all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE"]
+
+RECORD_OPTIONS = ("full", "events", "stats")
+
+EVENT_DTYPE = np.dtype([("t", "f8"), ("kind", "U13"), ("x", "f8"), ("v", "f8"), ("side", "i1")])
+IMPACT_DTYPE = np.dtype(
+    [
+        ("start", "f8"),
+        ("end", "f8"),
+        ("side", "i1"),
+        ("entry_velocity", "f8"),
+        ("exit_velocity", "f8"),
+        ("peak_penetration", "f8"),
+        ("peak_force", "f8"),
+        ("impulse", "f8"),
+        ("complete", "?"),
+    ]
+)
+SEGMENT_DTYPE = np.dtype(
+    [
+        ("t", "f8"),
+        ("x", "f8"),
+        ("v", "f8"),
+        ("region", "i1"),
+        ("motion", "i1"),
+        ("armed", "?"),
+        ("impulse_upper", "f8"),
+        ("impulse_lower", "f8"),
+    ]
+)
+
+#: Evaluates one smooth piece: (mode, t_start, x_start, v_start, times) -> (x, v, impulse).
+PieceEvaluator = Callable[[Mode, float, float, float, np.ndarray], tuple]
+
+
+class _Recorder:
+    """Streams a run into counters and, depending on ``record``, tables.
+
+    The engine's driver loop calls ``begin``, then ``piece``/``event``/``segment`` as the
+    run proceeds, then ``finish``. Only the tables asked for grow with the run.
+    """
+
+    def __init__(self, record: str, backend: str, evaluator: PieceEvaluator | None):
+        self.record = record
+        self.backend = backend
+        self.evaluator = evaluator
+        self.keep_events = record != "stats"
+        self.keep_segments = record == "full"
+        self.events: list[tuple] = []
+        self.impacts: list[tuple] = []
+        self.segments: list[tuple] = []
+        self.counts = dict.fromkeys(EVENT_KINDS, 0)
+        self.entries = {1: 0, -1: 0}
+        self.n_events = 0
+        self.impulse = {1: 0.0, -1: 0.0}
+        self.impulse_sq = {1: 0.0, -1: 0.0}
+        self.contact_time = {1: 0.0, -1: 0.0}
+        self.max_pen = {1: 0.0, -1: 0.0}
+        self.forcing_work = 0.0
+        self.slip_path = 0.0
+        self.steps = 0
+        self.pieces = 0
+        self._open: list | None = None  # [start, side, entry_v, peak_pen, impulse, complete]
+
+    def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
+        self.osc = osc
+        self.t0, self.x0, self.v0, self.mode0 = t, x, v, mode
+        if mode.region != 0:
+            # A run that starts inside a flange: a contact in progress, not an event.
+            self._open = [t, mode.region, v, mode.region * x - 1.0, 0.0, False]
+        self.segment(t, x, v, mode)
+
+    def piece(self, mode: Mode, t0: float, x0: float, t1: float, x1: float,
+              q: float, q2: float, w: float, steps: int) -> None:
+        r = mode.region
+        if r != 0:
+            self.impulse[r] += q
+            self.impulse_sq[r] += q2
+            self.contact_time[r] += t1 - t0
+            # Pieces are monotonic in X, so the deepest point of a piece is at an end.
+            pen = max(r * x0, r * x1) - 1.0
+            if pen > self.max_pen[r]:
+                self.max_pen[r] = pen
+            op = self._open
+            if op is not None:
+                op[4] += q
+                if pen > op[3]:
+                    op[3] = pen
+        if mode.motion != 0:
+            self.slip_path += abs(x1 - x0)
+        self.forcing_work += w
+        self.steps += steps
+        self.pieces += 1
+
+    def event(self, t: float, kind: str, x: float, v: float, side: int) -> None:
+        self.counts[kind] += 1
+        self.n_events += 1
+        if self.keep_events:
+            self.events.append((t, kind, x, v, side))
+        if kind == CONTACT_START:
+            self.entries[side] += 1
+            self._open = [t, side, v, 0.0, 0.0, True]
+        elif kind == CONTACT_END and self._open is not None:
+            self._close(t, v)
+
+    def _close(self, t: float, v: float) -> None:
+        start, side, v_in, pen, imp, complete = self._open
+        pen = max(pen, 0.0)
+        if self.keep_events:
+            self.impacts.append((start, t, side, v_in, v, pen, self.osc.K * pen, imp, complete))
+        self._open = None
+
+    def segment(self, t: float, x: float, v: float, mode: Mode) -> None:
+        if self.keep_segments:
+            self.segments.append((t, x, v, mode.region, mode.motion, mode.armed,
+                                  self.impulse[1], self.impulse[-1]))
+
+    def finish(self, t: float, x: float, v: float, mode: Mode, status: int, message: str) -> None:
+        if self._open is not None:
+            self._open[5] = False
+            self._close(t, math.nan)
+        self.t_final, self.x_final, self.v_final, self.mode_final = t, x, v, mode
+        self.status, self.message = status, message
+
+
+class Solution:
+    """The result of :func:`impactosc.simulate`.
+
+    Attributes
+    ----------
+    oscillator : Oscillator
+        The model that was run.
+    backend : str
+        Name of the backend that produced the result.
+    t_end : float
+        Requested end time; ``t_final`` is the time actually reached.
+    t_final, x_final, v_final : float
+        Final time and state.
+    status : int
+        0: ``t_end`` was reached; 1: the event limit was reached (results up to
+        ``t_final`` are kept); -1: the integration failed (see ``message``).
+    message : str
+        Human-readable reason for ``status``.
+    counts : dict
+        Number of events of each kind (``contact_start``, ``contact_end``, ``reversal``,
+        ``stick``, ``release``), counted in every recording mode.
+    record : str
+        What was kept: ``"full"``, ``"events"`` or ``"stats"``.
+    """
+
+    def __init__(self, rec: _Recorder, t_end: float):
+        self.oscillator = rec.osc
+        self.backend = rec.backend
+        self.record = rec.record
+        self.t_end = t_end
+        self.t0, self.x0, self.v0 = rec.t0, rec.x0, rec.v0
+        self.t_final, self.x_final, self.v_final = rec.t_final, rec.x_final, rec.v_final
+        self.final_mode = rec.mode_final
+        self.status, self.message = rec.status, rec.message
+        self.counts = dict(rec.counts)
+        self.n_steps, self.n_pieces = rec.steps, rec.pieces
+        self.forcing_work = rec.forcing_work
+        self.friction_work = self.oscillator.beta * rec.slip_path
+        self._entries = dict(rec.entries)
+        self._impulse = dict(rec.impulse)
+        self._impulse_sq = dict(rec.impulse_sq)
+        self._contact_time = dict(rec.contact_time)
+        self._max_pen = dict(rec.max_pen)
+        self._evaluator = rec.evaluator
+        self._events = (np.rec.array(rec.events, dtype=EVENT_DTYPE) if rec.events
+                        else np.recarray((0,), dtype=EVENT_DTYPE)) if rec.keep_events else None
+        self._impacts = (np.rec.array(rec.impacts, dtype=IMPACT_DTYPE) if rec.impacts
+                         else np.recarray((0,), dtype=IMPACT_DTYPE)) if rec.keep_events else None
+        self._segments = np.array(rec.segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
+
+    # -- status ------------------------------------------------------------------------
+    @property
+    def success(self) -> bool:
+        """True when the run reached ``t_end``."""
+        return self.status == 0
+
+    def __repr__(self) -> str:
+        return (f"Solution(backend={self.backend!r}, status={self.status}, t_final={self.t_final:.6g}, "
+                f"counts={self.counts})")
+
+    # -- tables ------------------------------------------------------------------------
+    def _need(self, level: str, what: str) -> None:
+        order = RECORD_OPTIONS.index
+        if order(self.record) > order(level):
+            raise ValueError(f"{what} needs record={level!r} or more, but this run used "
+                             f"record={self.record!r}; rerun simulate(..., record={level!r})")
+
+    @property
+    def events(self) -> np.recarray:
+        """One record per event: fields ``t, kind, x, v, side`` (``side`` +1/-1 at a flange, 0 otherwise)."""
+        self._need("events", "Solution.events")
+        return self._events
+
+    @property
+    def impacts(self) -> np.recarray:
+        """One row per contact: ``start, end, side, entry_velocity, exit_velocity,
+        peak_penetration, peak_force, impulse, complete``.
+
+        ``peak_force = K * peak_penetration`` in units of ``k L``; ``impulse`` is
+        ``int K(|X|-1) dLambda`` over the contact. ``complete`` is False for a contact in
+        progress at the start or end of the run (then ``exit_velocity`` is NaN if it had
+        not ended).
+        """
+        self._need("events", "Solution.impacts")
+        return self._impacts
+
+    # -- contact statistics, streamed in every recording mode -----------------------------
+    @staticmethod
+    def _sides(side) -> tuple[int, ...]:
+        if side is None:
+            return (1, -1)
+        if isinstance(side, bool) or side not in (1, -1):
+            raise ValueError(f"side must be +1 (upper flange), -1 (lower flange) or None (both), got {side!r}")
+        return (int(side),)
+
+    def contact_entries(self, side: int | None = None) -> int:
+        """Number of contacts that started during the run on ``side`` (+1, -1, or None for both)."""
+        return sum(self._entries[s] for s in self._sides(side))
+
+    def contact_time(self, side: int | None = None) -> float:
+        """Total time spent with the flange spring of ``side`` compressed."""
+        return sum(self._contact_time[s] for s in self._sides(side))
+
+    def max_penetration(self, side: int | None = None) -> float:
+        """Deepest penetration ``max(|X| - 1)`` into ``side`` over the run (0 without contact)."""
+        return max(self._max_pen[s] for s in self._sides(side))
+
+    def max_flange_force(self, side: int | None = None) -> float:
+        """Peak flange force ``K * max_penetration`` in units of ``k L``."""
+        return self.oscillator.K * self.max_penetration(side)
+
+    def rms_flange_force(self, side: int | None = None) -> float:
+        """Root mean square of the flange force over the whole run, in units of ``k L``."""
+        dur = self.t_final - self.t0
+        return math.sqrt(sum(self._impulse_sq[s] for s in self._sides(side)) / dur) if dur > 0 else 0.0
+
+    def flange_impulse(self, side: int | None = None, t0: float | None = None,
+                       t1: float | None = None) -> float:
+        """Integral of the flange force ``K (|X| - 1)+`` over ``[t0, t1]`` (default: the whole run)."""
+        sides = self._sides(side)
+        t0, t1 = self._window(t0, t1)
+        if t0 == self.t0 and t1 == self.t_final:
+            return sum(self._impulse[s] for s in sides)
+        self._need("full", "a flange impulse over a partial window")
+        return sum(self._cumulative_impulse(s, t1) - self._cumulative_impulse(s, t0) for s in sides)
+
+    def mean_flange_force(self, side: int | None = None, t0: float | None = None,
+                          t1: float | None = None) -> float:
+        """Time average of the flange force ``K (|X| - 1)+`` over ``[t0, t1]``, in units of ``k L``.
+
+        This is the quantity the paper averages over 1 s (its Fig. 7 and 8). ``side`` is
+        +1 (upper flange), -1 (lower) or None (both). The default window is the whole run.
+        It is computed from the exactly integrated impulse, not from samples.
+        """
+        lo, hi = self._window(t0, t1)
+        return self.flange_impulse(side, lo, hi) / (hi - lo)
+
+    def _window(self, t0, t1) -> tuple[float, float]:
+        lo = self.t0 if t0 is None else _v.real("t0", t0)
+        hi = self.t_final if t1 is None else _v.real("t1", t1)
+        if not (self.t0 <= lo < hi <= self.t_final):
+            raise ValueError(f"the window [t0, t1] must satisfy {self.t0!r} <= t0 < t1 <= t_final={self.t_final!r}, "
+                             f"got t0={lo!r}, t1={hi!r}")
+        return lo, hi
+
+    # -- dense output ------------------------------------------------------------------
+    def _segment_index(self, t: np.ndarray) -> np.ndarray:
+        return np.searchsorted(self._segments["t"], t, side="right") - 1
+
+    def _evaluate(self, t: np.ndarray):
+        """State and piece impulse at times ``t`` (already validated to lie in the run)."""
+        seg = self._segments
+        k = self._segment_index(t)
+        x = np.empty_like(t)
+        v = np.empty_like(t)
+        q = np.zeros_like(t)
+        at_start = t == seg["t"][k]
+        x[at_start] = seg["x"][k[at_start]]
+        v[at_start] = seg["v"][k[at_start]]
+        for j in np.unique(k[~at_start]):
+            sel = (k == j) & ~at_start
+            s = seg[j]
+            mode = Mode(int(s["region"]), int(s["motion"]), bool(s["armed"]))
+            xs, vs, qs = self._evaluator(mode, float(s["t"]), float(s["x"]), float(s["v"]), t[sel])
+            x[sel], v[sel], q[sel] = xs, vs, qs
+        at_end = t == self.t_final
+        x[at_end], v[at_end] = self.x_final, self.v_final
+        return x, v, q, k
+
+    def sample(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Position and velocity ``(X, V)`` at the requested times.
+
+        Exact at event times (the recorded event states); in between, each smooth piece
+        is re-integrated by the backend that produced the run. Needs ``record="full"``.
+        """
+        self._need("full", "Solution.sample")
+        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
+        if t_arr.size and (not np.all(np.isfinite(t_arr)) or t_arr.min() < self.t0
+                           or t_arr.max() > self.t_final):
+            raise ValueError(f"sample times must be finite and within [{self.t0!r}, t_final={self.t_final!r}], "
+                             f"got values in [{t_arr.min()!r}, {t_arr.max()!r}]")
+        x, v, _, _ = self._evaluate(t_arr)
+        if np.ndim(t) == 0:
+            return x[0], v[0]
+        return x, v
+
+    def flange_force(self, t) -> np.ndarray:
+        """Flange force ``K (|X| - 1)+`` at times ``t`` (from :meth:`sample`)."""
+        x, _ = self.sample(t)
+        return self.oscillator.flange_force(x)
+
+    def _cumulative_impulse(self, side: int, t: float) -> float:
+        if t == self.t_final:
+            return self._impulse[side]
+        t_arr = np.array([t])
+        _, _, q, k = self._evaluate(t_arr)
+        seg = self._segments[k[0]]
+        cum = float(seg["impulse_upper" if side == 1 else "impulse_lower"])
+        return cum + (float(q[0]) if int(seg["region"]) == side else 0.0)
+
+    # -- reports -----------------------------------------------------------------------
+    def summary(self) -> str:
+        """One line: backend, status, event counts and mean flange force per flange."""
+        c = self.counts
+        return (f"[{self.backend}] t_final={self.t_final:.6g} status={self.status}: "
+                f"{self.contact_entries(1)} upper / {self.contact_entries(-1)} lower contacts, "
+                f"{c['reversal']} reversals, {c['stick']} sticks, {c['release']} releases; "
+                f"mean flange force upper={self.mean_flange_force(1):.6g} "
+                f"lower={self.mean_flange_force(-1):.6g} (units of kL)")
+
+    def event_table(self, limit: int | None = 20) -> str:
+        """The event list as fixed-width text (the first ``limit`` rows)."""
+        ev = self.events
+        rows = [f"{'t':>14} {'kind':<14} {'x':>12} {'v':>12} {'side':>4}"]
+        for e in ev[:limit]:
+            rows.append(f"{e.t:14.8f} {e.kind:<14} {e.x:12.8f} {e.v:12.8f} {e.side:4d}")
+        if limit is not None and len(ev) > limit:
+            rows.append(f"... {len(ev) - limit} more events")
+        return "\n".join(rows)
+
+    def impact_table(self, limit: int | None = 20) -> str:
+        """The impact list as fixed-width text (the first ``limit`` rows)."""
+        im = self.impacts
+        rows = [f"{'start':>12} {'end':>12} {'side':>4} {'v_in':>10} {'v_out':>10} "
+                f"{'penetration':>12} {'peak force':>11} {'impulse':>10}"]
+        for i in im[:limit]:
+            rows.append(f"{i.start:12.6f} {i.end:12.6f} {i.side:4d} {i.entry_velocity:10.6f} "
+                        f"{i.exit_velocity:10.6f} {i.peak_penetration:12.4e} {i.peak_force:11.6f} "
+                        f"{i.impulse:10.6f}")
+        if limit is not None and len(im) > limit:
+            rows.append(f"... {len(im) - limit} more impacts")
+        return "\n".join(rows)
