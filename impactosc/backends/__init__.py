@@ -11,6 +11,9 @@ import importlib
 #: name -> "module:callable" of a function ``run(osc, t_end, x0, v0, record, max_events, **options)``
 BACKENDS = {
     "heyoka": "impactosc.backends.heyoka:run",
+    "scipy": "impactosc.backends.scipy:run",
+    "exact": "impactosc.backends.exact:run",
+    "rk4": "impactosc.backends.rk4:run",
 }
 
 
