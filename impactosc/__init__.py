@@ -10,6 +10,7 @@ from .engine import EVENT_KINDS, Mode
 from .model import Oscillator
 from .simulate import simulate
 from .solution import Solution
+from .tape import TapeDrive
 
-__all__ = ["Oscillator", "simulate", "Solution", "Mode", "EVENT_KINDS"]
+__all__ = ["Oscillator", "TapeDrive", "simulate", "Solution", "Mode", "EVENT_KINDS"]
 __version__ = "0.1.0"
