@@ -50,6 +50,8 @@ __all__ = [
     "motion_at_rest",
     "transition",
     "guard_gates",
+    "guard_offsets",
+    "pending_guard",
     "drive",
 ]
 
@@ -116,21 +118,45 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
 
     Returns ``(motion, armed)``. The mass sticks when ``|f_net| < beta``; it slips towards
     ``f_net`` when ``|f_net| > beta``. Exactly on the threshold it is released only if
-    ``|f_net|`` is still rising (then with zero acceleration, hence ``armed=False``).
-    ``f_net`` includes the flange spring (:meth:`Oscillator.net_force`).
+    ``|f_net|`` is about to rise, and then with zero acceleration (``armed=False``, see the
+    module docstring). ``f_net`` includes the flange spring (:meth:`Oscillator.net_force`).
     """
     f = osc._net_force_scalar(t, x)
     b = osc.beta
     af = abs(f)
-    if af < b:
+    # Within the rounding of f_net of the threshold counts as on it: a release root at
+    # tau ~ 1e-87 (beta = 1e-173, f_net = 0) is beyond any event finder (heyoka's gives up).
+    tie = _tie_tolerance(osc, x, f)
+    if af < b - tie:
         return 0, True
-    if af > b:
+    if af > b + tie:
         return (1 if f > 0.0 else -1), True
-    # On the threshold: x is frozen while stuck, so f_net changes only with the forcing.
-    rate = -osc.F * osc.Omega * math.sin(osc.Omega * t + osc.phase)
-    if f * rate > 0.0:
-        return (1 if f > 0.0 else -1), False
+    # On the threshold (|f_net| == beta, possibly 0 == 0 without friction). X is frozen,
+    # so f_net changes only with the forcing: look at its first derivative, and at the
+    # second where the first is rounding noise (a stationary point of the forcing, e.g.
+    # sin(pi) = 1.2e-16 in floating point).
+    theta = osc.Omega * t + osc.phase
+    d1 = -osc.F * osc.Omega * math.sin(theta)
+    d2 = -osc.F * osc.Omega * osc.Omega * math.cos(theta)
+    noise = 8.0 * _EPS * osc.F * osc.Omega * (1.0 + abs(theta))
+    trend = d1 if abs(d1) > noise else d2
+    if abs(f) > tie:
+        if f * trend > 0.0:
+            return (1 if f > 0.0 else -1), False
+        return 0, True
+    if trend != 0.0:  # beta == 0 and f_net == 0: the mass moves the way f_net starts to point
+        return (1 if trend > 0.0 else -1), False
     return 0, True
+
+
+_EPS = 2.0**-52
+
+
+def _tie_tolerance(osc: Oscillator, x: float, f: float) -> float:
+    """Rounding level of f_net at ``x``: a few ulps of the largest term that forms it."""
+    pen = abs(x) - 1.0
+    spring = abs(x) + (osc.K * pen if pen > 0.0 else 0.0)
+    return 4.0 * _EPS * max(osc.F, spring, abs(f))
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
@@ -179,12 +205,36 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     if guard == LEAVE:
         return Mode(0, s, armed), float(r), v, CONTACT_END, r
     if guard == ACCEL_ZERO:
+        if s * v <= 0.0:
+            # The guard fires a rounding-level offset late (see guard_offsets): if the
+            # velocity is already back at zero, the slip ended here.
+            return transition(osc, Mode(r, s, True), SLIP_END, t, x, 0.0)
         return Mode(r, s, True), x, v, None, 0
     if guard == RELEASE_UP:
         return Mode(r, 1, False), x, 0.0, RELEASE, 0
     if guard == RELEASE_DOWN:
         return Mode(r, -1, False), x, 0.0, RELEASE, 0
     raise ValueError(f"guard must be one of 0..{N_GUARDS - 1}, got {guard!r}")
+
+
+#: Offset of the kinematic guards (X -+ 1, V): it only keeps an exactly snapped guard
+#: off zero at a piece start, where heyoka drops the guard's next root in the same step.
+KINEMATIC_GUARD_OFFSET = 1e-300
+
+
+def guard_offsets(osc: Oscillator, mode: Mode, x: float) -> tuple[float, ...]:
+    """How far each guard is shifted towards the side it crosses *from* (order of ``GUARD_NAMES``).
+
+    A backend fires guard ``g`` (direction ``d``) at ``g - d * offset = 0``. The force
+    guards (release, acceleration zero) sit at a threshold where ``f_net`` is computed
+    with rounding error; offsetting them by the same tolerance as the stick test's tie
+    (:func:`motion_at_rest`) makes the event finder and the stick test agree on what
+    "reaching beta" means, so rounding noise at a tie cannot fire a spurious release.
+    The shift of a genuine crossing is of the order of the rounding of ``f_net``.
+    """
+    tie = _tie_tolerance(osc, x, 0.0)
+    k = KINEMATIC_GUARD_OFFSET
+    return (k, k, k, k, tie, tie, tie)
 
 
 class PieceStepper(Protocol):
@@ -205,13 +255,69 @@ class PieceStepper(Protocol):
 MAX_EVENTS_AT_ONE_INSTANT = 64
 
 
+def pending_guard(mode: Mode, x: float) -> int:
+    """A guard that already holds at the start of a piece, or ``NO_GUARD``.
+
+    After a turning point, stick or release exactly on a flange boundary (``|X| = 1`` with
+    ``V = 0``), the contact guard of the next piece has a *double* root at its start: no
+    event finder sees it cross. Here the new motion direction decides: moving out of the
+    free zone means the contact starts now; moving back from the boundary into the free
+    zone means it ends now. Part of the transition rule, applied by :func:`drive`.
+    """
+    r, s, _ = mode
+    if s == 0:
+        return NO_GUARD
+    if r == 0:
+        if s > 0 and x >= 1.0:
+            return ENTER_UPPER
+        if s < 0 and x <= -1.0:
+            return ENTER_LOWER
+    elif s == -r and r * x <= 1.0:
+        return LEAVE
+    return NO_GUARD
+
+
+#: Slack for the integrity checks of :func:`missed_guard`, far above rounding at event snaps.
+INTEGRITY_SLACK = 1e-9
+
+
+def missed_guard(mode: Mode, guard: int, x: float, v: float, osc: Oscillator | None = None,
+                 t: float | None = None) -> str | None:
+    """Name of a guard that must have been crossed unseen in the piece just integrated.
+
+    A backstop, not physics: in a slipping mode the velocity keeps the sign of the motion
+    until ``SLIP_END``; the flange region must match ``|X| > 1`` except on the guard that
+    ends the piece; a piece that stays stuck to its end must end with ``|f_net| <= beta``.
+    A violation means a wrong answer would follow, so :func:`drive` stops.
+    """
+    r, s, _ = mode
+    if s == 0:
+        if guard == NO_GUARD and t is not None:
+            f = osc._net_force_scalar(t, x)
+            if abs(f) > osc.beta + INTEGRITY_SLACK * (1.0 + abs(f)):
+                return "release_up" if f > 0 else "release_down"
+        return None
+    if guard != SLIP_END and s * v < -INTEGRITY_SLACK:
+        return GUARD_NAMES[SLIP_END]
+    if r == 0 and guard not in (ENTER_UPPER, ENTER_LOWER) and abs(x) > 1.0 + INTEGRITY_SLACK:
+        return "enter_upper" if x > 0 else "enter_lower"
+    if r != 0 and guard != LEAVE and r * x < 1.0 - INTEGRITY_SLACK:
+        return GUARD_NAMES[LEAVE]
+    return None
+
+
+def stepper_name(stepper) -> str:
+    return getattr(stepper, "name", type(stepper).__module__.rsplit(".", 1)[-1])
+
+
 def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: float,
           recorder, max_events: int) -> None:
     """The event loop shared by every event-locating backend.
 
-    Integrates piece by piece, applies :func:`transition` at every guard and streams the
-    results into ``recorder``. Stops at ``t_end`` (status 0), at ``max_events`` recorded
-    events (status 1) or when time stops advancing (status -1, a Zeno-like cascade).
+    Integrates piece by piece, applies :func:`transition` at every guard (and at once to
+    any :func:`pending_guard` it leaves behind) and streams the results into
+    ``recorder``. Stops at ``t_end`` (status 0), at ``max_events`` recorded events
+    (status 1) or when time stops advancing (status -1, a Zeno-like cascade).
     """
     t, x, v = 0.0, x0, v0
     mode = initial_mode(osc, t, x, v)
@@ -224,16 +330,27 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             recorder.finish(t, x, v, mode, -1, f"integration produced a non-finite state at t={t1!r}")
             return
         recorder.piece(mode, t, x, t1, x1, q, q2, w, steps)
+        missed = missed_guard(mode, guard, x1, v1, osc, t1)
+        if missed:
+            recorder.finish(t1, x1, v1, mode, -1,
+                            f"the {stepper_name(stepper)} backend missed a {missed} guard in the piece "
+                            f"[{t!r}, {t1!r}] (mode {tuple(mode)}); results up to t={t!r} are kept. "
+                            "This is a bug: please report it with the parameters.")
+            return
         if guard == NO_GUARD:
             recorder.finish(t1, x1, v1, mode, 0, "The end time was reached.")
             return
-        mode, x1, v1, kind, side = transition(osc, mode, guard, t1, x1, v1)
+        recorded = False
+        while guard != NO_GUARD:
+            mode, x1, v1, kind, side = transition(osc, mode, guard, t1, x1, v1)
+            if kind is not None:
+                recorder.event(t1, kind, x1, v1, side)
+                recorded = True
+            guard = pending_guard(mode, x1)
         same_instant = same_instant + 1 if t1 == t else 0
         t, x, v = t1, x1, v1
-        if kind is not None:
-            recorder.event(t, kind, x, v, side)
         recorder.segment(t, x, v, mode)
-        if kind is not None and recorder.n_events >= max_events:
+        if recorded and recorder.n_events >= max_events:
             recorder.finish(t, x, v, mode, 1,
                             f"The event limit max_events={max_events} was reached at t={t!r}; "
                             "results up to that time are kept.")

@@ -22,7 +22,7 @@ import threading
 import numpy as np
 
 from .. import _validation as _v
-from ..engine import GUARD_DIRECTIONS, N_GUARDS, NO_GUARD, Mode, drive, guard_gates
+from ..engine import GUARD_DIRECTIONS, N_GUARDS, NO_GUARD, Mode, drive, guard_gates, guard_offsets
 from ..model import Oscillator
 from ..solution import Solution, _Recorder
 
@@ -32,8 +32,9 @@ DEFAULT_TOL = 2.0**-52  # machine epsilon of double precision
 
 # Indices into the runtime parameter vector.
 _P_F, _P_OMEGA, _P_BETA, _P_K, _P_PHASE, _P_REGION, _P_MOTION, _P_REGION2, _P_MOTION2 = range(9)
-_P_GATES = 9  # N_GUARDS gate parameters follow
-_N_PARS = _P_GATES + N_GUARDS
+_P_GATES = 9  # N_GUARDS gate parameters follow, then N_GUARDS guard offsets
+_P_OFFSETS = _P_GATES + N_GUARDS
+_N_PARS = _P_OFFSETS + N_GUARDS
 
 _cache = threading.local()
 
@@ -45,7 +46,8 @@ def _build(tol: float):
     p = [hy.par[i] for i in range(_N_PARS)]
     F, Om, beta, K, phase = p[_P_F], p[_P_OMEGA], p[_P_BETA], p[_P_K], p[_P_PHASE]
     r, s, r2, s2 = p[_P_REGION], p[_P_MOTION], p[_P_REGION2], p[_P_MOTION2]
-    gates = p[_P_GATES:]
+    gates = p[_P_GATES:_P_OFFSETS]
+    offsets = p[_P_OFFSETS:]
 
     forcing = F * hy.cos(Om * hy.time + phase)
     # In region r the compressed flange pushes with -K (X - r); r2 = r*r switches it off when free.
@@ -68,9 +70,14 @@ def _build(tol: float):
     # cooldown=0: after a guard fires the engine changes the mode, which gates that guard
     # off or flips its sign, so there is nothing to re-trigger; an automatic cooldown
     # could hide a genuine second event shortly after the first.
+    # Each guard is shifted by engine.guard_offsets towards the side it crosses from: the
+    # engine snaps the state onto guard surfaces, and heyoka, seeing a root exactly at
+    # tau = 0 that its direction filter drops, skips the guard's next root if it falls in
+    # the same step (measured: a quick second turning point was lost). The offset is a
+    # separate term so that constant folding cannot absorb it into the 1.0 of X - 1.
     events = [
-        hy.t_event(g * expr + (1.0 - g), direction=direction[d], cooldown=0.0)
-        for g, expr, d in zip(gates, guard_exprs, GUARD_DIRECTIONS, strict=True)
+        hy.t_event(g * expr + (1.0 - g) - d * off * g, direction=direction[d], cooldown=0.0)
+        for g, expr, off, d in zip(gates, guard_exprs, offsets, GUARD_DIRECTIONS, strict=True)
     ]
     return hy.taylor_adaptive(rhs, [0.0] * 5, pars=[0.0] * _N_PARS, t_events=events, tol=tol,
                               compact_mode=False)
@@ -94,41 +101,43 @@ class _Stepper:
         import heyoka as hy
 
         self.ta = ta
+        self.osc = osc
         self.state = ta.state  # a view onto the integrator's state
         self.pars = ta.pars
         self.pars[:_P_REGION] = (osc.F, osc.Omega, osc.beta, osc.K, osc.phase)
         self.time_limit = hy.taylor_outcome.time_limit
         self.mode_pars = {}
 
-    def _set_mode(self, mode: Mode) -> None:
+    def _set_mode(self, mode: Mode, x: float) -> None:
         vals = self.mode_pars.get(mode)
         if vals is None:
             r, s, _ = mode
             vals = self.mode_pars[mode] = (r, s, r * r, s * s, *guard_gates(mode))
-        self.pars[_P_REGION:] = vals
+        self.pars[_P_REGION:_P_OFFSETS] = vals
+        self.pars[_P_OFFSETS:] = guard_offsets(self.osc, mode, x)
 
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
         ta = self.ta
-        self._set_mode(mode)
+        self._set_mode(mode, x)
         ta.time = t
         self.state[:] = (x, v, 0.0, 0.0, 0.0)
         res = ta.propagate_until(t_end)
         outcome = res[0]
         st = self.state
         if outcome == self.time_limit:
-            guard = NO_GUARD
-        else:
-            code = outcome.value
-            if code >= 0 or -code - 1 >= N_GUARDS:
-                raise FloatingPointError(f"heyoka stopped with outcome {outcome!r} at t={ta.time!r}")
-            guard = -code - 1
-        return ta.time, st[0], st[1], guard, st[2], st[3], st[4], res[3]
+            # heyoka keeps time in double-length arithmetic; its leading part can land an
+            # ulp past t_end. The run ends at t_end exactly.
+            return t_end, st[0], st[1], NO_GUARD, st[2], st[3], st[4], res[3]
+        code = outcome.value
+        if code >= 0 or -code - 1 >= N_GUARDS:
+            raise FloatingPointError(f"heyoka stopped with outcome {outcome!r} at t={ta.time!r}")
+        return ta.time, st[0], st[1], -code - 1, st[2], st[3], st[4], res[3]
 
     def evaluate(self, mode: Mode, t0: float, x: float, v: float, times: np.ndarray):
         """(X, V, impulse since t0) at ``times`` inside one piece, all guards gated off."""
         ta = self.ta
         r, s, _ = mode
-        self.pars[_P_REGION:] = (r, s, r * r, s * s) + (0.0,) * N_GUARDS
+        self.pars[_P_REGION:] = (r, s, r * r, s * s) + (0.0,) * (2 * N_GUARDS)
         order = np.argsort(times)
         grid = np.concatenate(([t0], times[order]))
         ta.time = t0
