@@ -1,0 +1,228 @@
+"""rk4 backend: the paper's fixed-step baseline, its genuine errors measured against heyoka."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import impactosc as io
+from impactosc.backends import rk4
+
+CONTACT_CASE = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
+
+
+@pytest.fixture(scope="module")
+def contact_pair():
+    """The contact case with rk4 at its default step and with heyoka (the reference)."""
+    return (io.simulate(CONTACT_CASE, 400.0, 0.95, 0.0, backend="rk4"),
+            io.simulate(CONTACT_CASE, 400.0, 0.95, 0.0, backend="heyoka"))
+
+
+def test_free_oscillator_is_fourth_order():
+    # |X| stays below the flanges and beta = 0, so the right-hand side is smooth: classic RK4.
+    osc = io.Oscillator(F=0.0, Omega=0.0, beta=0.0, K=1e4)
+    errors = []
+    for dt in (0.1, 0.05):
+        sol = io.simulate(osc, 10.0, 0.5, 0.0, backend="rk4", dt=dt, record="stats")
+        assert sol.status == 0 and sol.t_final == 10.0 and sol.n_steps == round(10.0 / dt)
+        errors.append(abs(sol.x_final - 0.5 * math.cos(10.0)))
+    assert 12.0 <= errors[0] / errors[1] <= 20.0
+
+
+def test_contact_case_against_heyoka(contact_pair):
+    sol, ref = contact_pair
+    assert sol.status == 0 and sol.backend == "rk4"
+    # The default step resolves every contact: same count per flange as the reference.
+    assert sol.contact_entries(1) == ref.contact_entries(1) == 47
+    assert sol.contact_entries(-1) == ref.contact_entries(-1) == 47
+    assert sol.counts["stick"] == sol.counts["release"] == 0
+    # First entry: only free flight precedes it, so its error is the O(dt^2) linear
+    # interpolation of the crossing (measured 3.9e-8). Later entries carry the error RK4
+    # makes every time a step straddles the kink of the flange force (and the jump of
+    # sign(V)): they drift by up to ~1e-3 over the run (measured 1.3e-3).
+    first = abs(sol.events.t[0] - ref.events.t[0])
+    assert 1e-8 < first < 1e-2
+    drift = np.abs(sol.impacts.start - ref.impacts.start).max()
+    assert 1e-4 < drift < 1e-2
+    # Mean flange force (measured relative errors 5.4e-6 upper, 3.1e-5 lower).
+    for side in (1, -1):
+        rel = abs(sol.mean_flange_force(side) / ref.mean_flange_force(side) - 1.0)
+        assert 1e-8 < rel < 1e-2
+        assert sol.rms_flange_force(side) == pytest.approx(ref.rms_flange_force(side), rel=1e-3)
+        assert sol.contact_time(side) == pytest.approx(ref.contact_time(side), rel=1e-4)
+        assert sol.max_penetration(side) == pytest.approx(ref.max_penetration(side), rel=1e-3)
+    assert sol.forcing_work == pytest.approx(ref.forcing_work, rel=1e-3)
+    assert sol.friction_work == pytest.approx(ref.friction_work, rel=1e-4)
+
+
+def test_tables_and_recording_levels(contact_pair):
+    full, _ = contact_pair
+    ev = io.simulate(CONTACT_CASE, 400.0, 0.95, 0.0, backend="rk4", record="events")
+    st = io.simulate(CONTACT_CASE, 400.0, 0.95, 0.0, backend="rk4", record="stats")
+    for s in (ev, st):
+        assert s.counts == full.counts
+        assert s.mean_flange_force(-1) == full.mean_flange_force(-1)
+        assert s.rms_flange_force() == full.rms_flange_force()
+        assert s.max_penetration(1) == full.max_penetration(1)
+    np.testing.assert_array_equal(ev.events.t, full.events.t)
+    assert list(full.events.kind[:3]) == ["contact_start", "reversal", "contact_end"]
+    # Impacts: the per-contact impulses add up to the streamed totals, penetrations are positive.
+    imp = full.impacts
+    assert len(imp) == 94 and imp.complete.all()
+    for side in (1, -1):
+        assert imp.impulse[imp.side == side].sum() == pytest.approx(full.flange_impulse(side), rel=1e-12)
+    assert (imp.peak_penetration > 0).all()
+    np.testing.assert_allclose(imp.peak_force, CONTACT_CASE.K * imp.peak_penetration)
+
+
+def test_dense_output_and_windows(contact_pair):
+    full, ref = contact_pair
+    # Free flight before the first contact: only the naive sign(0) of the very first stage
+    # differs from the exact solution (an O(beta dt) velocity error, ~1e-6).
+    t = np.linspace(0.0, 3.0, 13)
+    x, v = full.sample(t)
+    xr, vr = ref.sample(t)
+    np.testing.assert_allclose(x, xr, atol=1e-5)
+    np.testing.assert_allclose(v, vr, atol=1e-5)
+    cuts = [0.0, 37.3, 100.0, 100.01, 255.5, 400.0]
+    parts = [full.flange_impulse(None, a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+    assert sum(parts) == pytest.approx(full.flange_impulse(), rel=1e-12)
+    imp = full.impacts[3]
+    mid = 0.5 * (imp.start + imp.end)
+    a = full.flange_impulse(int(imp.side), imp.start, mid)
+    b = full.flange_impulse(int(imp.side), mid, imp.end)
+    assert a > 0 and b > 0 and a + b == pytest.approx(imp.impulse, rel=1e-12)
+    # Keeping every 10th step: same streamed statistics, interpolation still close.
+    thin = io.simulate(CONTACT_CASE, 400.0, 0.95, 0.0, backend="rk4", every=10)
+    assert thin.mean_flange_force() == full.mean_flange_force()
+    tt = np.linspace(0.0, 400.0, 1001)
+    np.testing.assert_allclose(thin.sample(tt)[0], full.sample(tt)[0], atol=1e-4)
+
+
+def test_naive_sign_never_sticks():
+    # Exact answer: reversals at k pi (k = 1..4), then stuck at X = 0.05 from t = 5 pi on.
+    osc = io.Oscillator(F=0.0, Omega=0.0, beta=0.1, K=1e4)
+    sol = io.simulate(osc, 30.0, 0.95, 0.0, backend="rk4")
+    assert sol.counts["stick"] == 0 and sol.counts["release"] == 0
+    # At the default step RK4 does not chatter at the step ends, contrary to what one might
+    # expect: with |f_net| < beta the stages straddle V = 0 inside each step (sign(V) flips
+    # between stages) and the map V_n -> V_n+1 keeps V on one side, |V| ~ beta dt. So only
+    # the 4 true reversals are seen, and the "stuck" mass creeps at that spurious speed.
+    assert sol.counts["reversal"] == 4
+    np.testing.assert_allclose(sol.events.t, [math.pi, 2 * math.pi, 3 * math.pi, 4 * math.pi], atol=1e-3)
+    x, v = sol.sample(np.array([16.0, 23.0, 30.0]))
+    assert np.all(np.diff(x) < 0)  # still moving long after the exact solution stopped
+    assert 1e-5 < 0.05 - sol.x_final < 1e-3  # measured 2.2e-4 of creep by t = 30
+    assert 0 < -sol.v_final < 1e-3 * sol.oscillator.beta
+    # A coarse step (as a long baseline run would use) chatters: V changes sign at step
+    # ends, reported as spurious reversals after 5 pi (measured 10 at dt = 0.1).
+    coarse = io.simulate(osc, 30.0, 0.95, 0.0, backend="rk4", dt=0.1)
+    assert coarse.counts["stick"] == 0
+    assert np.count_nonzero(coarse.events.t > 5 * math.pi + 0.1) >= 5
+    assert coarse.counts["reversal"] > 4 + 4
+
+
+def test_paper_flange_misprint_throws_the_mass_out():
+    # Eq. 3 as printed, -K H(X^2-1)(X-1), is K(1+|X|) >= 2K for X < -1: the lower flange
+    # does not pull the mass in, it becomes a wall that jumps from 0 to 2K at X = -1 and
+    # stops the mass in far less than one step. The fixed step then hands the mass a
+    # spurious kick whose size depends on where the steps fall (energy gain from ~1x to
+    # ~25x for starting points in [0, 0.3]): the run gains energy with every bounce.
+    free = io.Oscillator(F=0.0, Omega=0.0, beta=0.0, K=1e4)
+    runs = {fl: io.simulate(free, 1.5, 0.0, -2.0, backend="rk4", flange=fl) for fl in ("consistent", "paper")}
+    for fl, s in runs.items():
+        first = s.impacts[0] if fl == "consistent" else None
+        xs, _ = s.sample(np.linspace(0.0, 1.5, 30001))
+        if fl == "consistent":
+            assert first.side == -1 and abs(first.exit_velocity + first.entry_velocity) < 1e-3
+            assert 0.0172 < -xs.min() - 1.0 < 0.0173  # sqrt(3)/sqrt(1+K)
+        else:
+            assert -xs.min() - 1.0 < 1e-3  # barely enters: not pulled through
+    energy = {fl: 0.5 * s.v_final**2 + 0.5 * s.x_final**2 for fl, s in runs.items()}
+    assert energy["consistent"] == pytest.approx(2.0, rel=1e-3)
+    assert energy["paper"] > 3.0  # measured 7.83
+
+    # Forcing pushing down from near the lower flange (the brief's case): the statistics
+    # are off by orders of magnitude (measured 854/753 vs 47/47 contacts, mean force ~97
+    # vs 0.18, upper penetration 0.90 vs 0.0084).
+    osc = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4, phase=math.pi)
+    cons = io.simulate(osc, 400.0, -0.95, 0.0, backend="rk4", record="stats")
+    paper = io.simulate(osc, 400.0, -0.95, 0.0, backend="rk4", record="stats", flange="paper")
+    assert cons.contact_entries(-1) == 47 and paper.contact_entries(-1) > 5 * 47
+    assert paper.mean_flange_force() > 100 * cons.mean_flange_force()
+    assert paper.max_penetration(1) > 10 * cons.max_penetration(1)
+
+
+def test_event_limit_keeps_results_up_to_the_limit(contact_pair):
+    full, _ = contact_pair
+    sol = io.simulate(CONTACT_CASE, 400.0, 0.95, 0.0, backend="rk4", max_events=10)
+    assert sol.status == 1 and "max_events=10" in sol.message
+    assert len(sol.events) == 10 and sol.t_final == sol.events.t[-1]
+    np.testing.assert_array_equal(sol.events.t, full.events.t[:10])
+    assert sol.events.kind[-1] == "contact_end"
+    n = len(sol.impacts)
+    assert n == 3 and sol.flange_impulse() == pytest.approx(full.impacts.impulse[:n].sum(), rel=1e-12)
+
+
+def test_start_inside_a_flange_and_blow_up():
+    sol = io.simulate(CONTACT_CASE, 5.0, 1.02, 0.5, backend="rk4")
+    first = sol.impacts[0]
+    assert first.start == 0.0 and first.side == 1 and not first.complete and first.entry_velocity == 0.5
+    assert list(sol.events.kind[:2]) == ["reversal", "contact_end"]
+    # Far too coarse a step for K = 1e4 (omega dt = 10): RK4 is unstable in contact.
+    bad = io.simulate(CONTACT_CASE, 400.0, 0.95, 0.0, backend="rk4", dt=0.1)
+    assert bad.status == -1 and "non-finite" in bad.message and bad.t_final < 400.0
+    assert math.isfinite(bad.x_final)
+
+
+@pytest.mark.parametrize("dt, match", [(0.0, "dt must be > 0"), (-1.0, "dt must be > 0"),
+                                       (math.nan, "dt must be finite"), (11.0, "dt must be <= t_end"),
+                                       (1e-12, "steps")])
+def test_bad_dt(dt, match):
+    with pytest.raises(ValueError, match=match):
+        io.simulate(CONTACT_CASE, 10.0, backend="rk4", dt=dt)
+
+
+def test_bad_flange_and_every():
+    with pytest.raises(ValueError, match="flange.*'nope'"):
+        io.simulate(CONTACT_CASE, 10.0, backend="rk4", flange="nope")
+    with pytest.raises(ValueError, match="every"):
+        io.simulate(CONTACT_CASE, 10.0, backend="rk4", every=0)
+    with pytest.raises(ValueError, match="flange.*'nope'"):
+        rk4.rk4_batch(0.5, 1.1, 0.01, 1e4, flange="nope")
+
+
+def test_batch_equals_single_runs():
+    F = np.array([0.5, 0.3, 0.7])
+    Om = np.array([1.1, 0.9, 1.3])
+    beta = np.array([0.01, 0.02, 0.0])
+    res = rk4.rk4_batch(F, Om, beta, 1e4, 0.0, 100.0, 0.95, 0.0)
+    assert res.mean_force_upper.shape == (3,)
+    for i in range(3):
+        s = io.simulate(io.Oscillator(F[i], Om[i], beta[i], 1e4), 100.0, 0.95, 0.0, backend="rk4", record="stats")
+        assert res.mean_force_upper[i] == s.mean_flange_force(1)
+        assert res.mean_force_lower[i] == s.mean_flange_force(-1)
+        assert res.contacts_upper[i] == s.contact_entries(1) and res.contacts_lower[i] == s.contact_entries(-1)
+        assert res.max_penetration_upper[i] == s.max_penetration(1)
+        assert res.max_penetration_lower[i] == s.max_penetration(-1)
+        assert res.status[i] == 0
+    assert res.contacts_upper.min() > 0
+    with pytest.raises(ValueError, match="K"):
+        rk4.rk4_batch(0.5, 1.1, 0.01, [1e4, -1.0])
+
+
+def test_plain_python_fallback_warns_and_agrees(monkeypatch):
+    """Without numba the same loop runs as plain Python, with a one-time install hint."""
+    fast = io.simulate(CONTACT_CASE, 4.0, 0.95, 0.0, backend="rk4")
+    monkeypatch.setattr(rk4, "_HAVE_NUMBA", False)
+    monkeypatch.setattr(rk4, "_warned_slow", False)
+    monkeypatch.setattr(rk4, "_KERNEL", getattr(rk4._kernel, "py_func", rk4._kernel))
+    with pytest.warns(RuntimeWarning, match=r"pip install impactosc\[fast\]"):
+        slow = io.simulate(CONTACT_CASE, 4.0, 0.95, 0.0, backend="rk4")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        io.simulate(CONTACT_CASE, 0.5, 0.95, 0.0, backend="rk4")  # warned once only
+    assert slow.counts == fast.counts
+    np.testing.assert_allclose(slow.events.t, fast.events.t, rtol=1e-12)
+    assert slow.mean_flange_force() == pytest.approx(fast.mean_flange_force(), rel=1e-12)
