@@ -5,9 +5,10 @@ Equation of motion, with ``X = x/L``, ``Lambda = omega_n t`` and primes for ``d/
     X'' + X + beta sgn(X') = F cos(Omega Lambda + phase) - K (X - sgn X) [|X| > 1]
 
 The paper prints the flange term as ``K H(X^2 - 1)(X - 1)`` for both flanges. At the lower
-flange that expression jumps by ``2K`` at ``X = -1`` and pulls the tape *into* the flange, so
-we use the consistent two-sided spring ``K (X - sgn X)``, which is continuous and vanishes
-at both contact boundaries ``|X| = 1``.
+flange (``X < -1``) that expression is ``K (1 + |X|) >= 2K``: the force jumps from 0 to ``2K``
+at ``X = -1``, a wall rather than a spring (``backend="rk4", flange="paper"`` shows what it
+does to a fixed-step integration). We use the consistent two-sided spring ``K (X - sgn X)``,
+which is continuous and vanishes at both contact boundaries ``|X| = 1``.
 
 The hybrid state is a *mode* ``(region, motion)``: ``region`` is -1 (lower flange spring
 compressed), 0 (free) or +1 (upper flange); ``motion`` is -1 (slipping down), 0 (stuck)

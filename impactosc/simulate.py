@@ -27,14 +27,18 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     x0, v0 : float
         Initial position ``X = x/L`` and velocity. The defaults are the paper's eq. 6-7.
         With ``v0 == 0`` the stick test decides whether the mass starts stuck.
-    backend : str
-        ``"heyoka"`` (default).
+    backend : {"heyoka", "scipy", "exact", "rk4"}
+        ``"heyoka"`` (default): Taylor integration, events at machine precision.
+        ``"scipy"``: ``solve_ivp`` per smooth piece, the independent cross-check.
+        ``"exact"``: closed-form pieces, the ground truth. ``"rk4"``: the paper's fixed-step
+        RK4 with a naive ``sign()``, events reconstructed from sign changes (the baseline).
     record : {"full", "events", "stats"}
         What to keep (see :mod:`impactosc.solution`). Use ``"stats"`` for long runs.
     max_events : int
         Stop with ``status = 1`` after this many recorded events (results are kept).
     **options
-        Backend options, e.g. ``tol`` for heyoka.
+        Backend options: ``tol`` (heyoka); ``method``, ``rtol``, ``atol`` (scipy); ``dt``,
+        ``flange`` (rk4).
 
     Returns
     -------
