@@ -1,0 +1,236 @@
+"""The closed-form backend: hand-derived solutions, the ODE itself, and agreement with heyoka.
+
+heyoka locates its events on Taylor polynomials at machine precision, so two independent
+numerics meeting at 1e-12 is the evidence that both are right. Windows are chosen short
+enough that the dynamics' own amplification of rounding (each contact multiplies a
+perturbation) keeps the event times comparable at that level.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from impactosc import Mode, Oscillator, simulate
+from impactosc.backends import exact
+
+CONTACT = Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
+
+
+def _pair(osc, t_end, x0, v0, **kw):
+    return (simulate(osc, t_end, x0, v0, backend="heyoka", **kw),
+            simulate(osc, t_end, x0, v0, backend="exact", **kw))
+
+
+def _assert_agree(h, e, *, t_tol=1e-12, force_rtol=1e-10):
+    assert h.status == e.status == 0
+    assert e.counts == h.counts
+    he, ee = h.events, e.events
+    assert len(he) == len(ee)
+    np.testing.assert_array_equal(ee.kind, he.kind)
+    np.testing.assert_array_equal(ee.side, he.side)
+    np.testing.assert_allclose(ee.t, he.t, rtol=0, atol=t_tol)
+    for side in (1, -1):
+        hf, ef = h.mean_flange_force(side), e.mean_flange_force(side)
+        assert ef == pytest.approx(hf, rel=force_rtol, abs=0.0)
+
+
+# -- hand-derived solutions --------------------------------------------------------------
+def test_free_coulomb_oscillator_reversals_and_final_stick():
+    # X'' + X = -beta s: half cycles of length pi about +-beta, amplitude shrinking by 2 beta.
+    sol = simulate(Oscillator(F=0.0, Omega=0.0, beta=0.1, K=1e4), 20.0, 0.95, 0.0, backend="exact")
+    ev = sol.events
+    assert list(ev.kind) == ["reversal"] * 4 + ["stick"]
+    k = np.arange(1, 6)
+    np.testing.assert_allclose(ev.t, k * math.pi, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ev.x[:4], (-1.0) ** k[:4] * (0.95 - 0.2 * k[:4]), rtol=0, atol=1e-12)
+    assert ev.x[4] == pytest.approx(0.05, abs=1e-12)
+    assert np.all(ev.v == 0.0)
+    # F = 0: the stuck mass is never released and the run ends at t_end, still stuck.
+    assert sol.status == 0 and sol.t_final == 20.0
+    assert sol.x_final == pytest.approx(0.05, abs=1e-12) and sol.v_final == 0.0
+    assert sol.final_mode == Mode(0, 0, True)
+
+
+def test_frictionless_contact_entry_and_exit():
+    # X = 2 sin t reaches the flange at pi/6 with V = sqrt(3); inside, Y'' + 25 Y = -1.
+    w = 5.0
+    sol = simulate(Oscillator(F=0.0, Omega=0.0, beta=0.0, K=24.0), 1.5, 0.0, 2.0, backend="exact")
+    ev = sol.events
+    assert list(ev.kind) == ["contact_start", "reversal", "contact_end"]
+    t_in = math.pi / 6
+    t_out = t_in + (2.0 / w) * math.atan(w * math.sqrt(3.0))
+    assert ev.t[0] == pytest.approx(t_in, abs=1e-12)
+    assert ev.v[0] == pytest.approx(math.sqrt(3.0), abs=1e-12)
+    assert ev.t[2] == pytest.approx(t_out, abs=1e-12)
+    assert ev.v[2] == pytest.approx(-math.sqrt(3.0), abs=1e-12)
+    # Impulse-momentum over the contact: K int Y = 2 v_in - int X = 2 v_in - tau_c - int Y.
+    tau_c = t_out - t_in
+    impulse = (2.0 * math.sqrt(3.0) - tau_c) / (1.0 + 1.0 / 24.0)
+    assert sol.impacts.impulse[0] == pytest.approx(impulse, rel=1e-12)
+
+
+@pytest.mark.parametrize("osc", [
+    Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4),
+    Oscillator(F=0.3, Omega=1.0, beta=0.02, K=1e4),  # free-region resonance w == Omega
+    Oscillator(F=0.5, Omega=math.sqrt(1.0 + 1e4), beta=0.01, K=1e4),  # contact resonance
+    Oscillator(F=0.2, Omega=1.0 + 1e-9, beta=0.0, K=3.0, phase=0.7),  # near resonance
+    Oscillator(F=0.2, Omega=0.0, beta=0.1, K=5.0),  # constant force
+])
+@pytest.mark.parametrize("region, motion", [(0, 1), (0, -1), (1, 1), (1, -1), (-1, -1)])
+def test_closed_form_satisfies_the_mode_ode(osc, region, motion):
+    # The piece must solve Y'' + w^2 Y = cY + F cos(Omega t + phase) with the start state,
+    # also at and next to resonance, where the classical particular solution breaks down.
+    st = exact._Stepper(osc)
+    t0, x0, v0 = 123.4, region + 0.3 * (motion if region == 0 else 1e-3), 0.7 * motion
+    p = st._slip_piece(Mode(region, motion), t0, x0, v0)
+    mc = p.mc
+    y, v = p.yv(0.0)
+    assert y + mc.ref == pytest.approx(x0, abs=1e-15) and v == pytest.approx(v0, abs=1e-15)
+    for tau in (1e-3, 0.37, 2.0, 9.0):
+        y, v = p.yv(tau)
+        v2, a2 = p.va(tau)
+        a2b, _ = p.aj(tau)
+        rhs = mc.cY + osc.F * math.cos(osc.Omega * (t0 + tau) + osc.phase) - mc.w2 * y
+        scale = 1.0 + abs(mc.cY) + osc.F + mc.w2 * abs(y)
+        # The reference rounds the phase Omega t (~1e4 rad for the contact resonance) itself.
+        phase_rounding = 4.0 * 2.0**-52 * osc.Omega * (t0 + tau) * osc.F
+        assert a2 == pytest.approx(rhs, abs=1e-13 * scale + phase_rounding)
+        assert a2b == a2 and v2 == pytest.approx(v, abs=1e-14 * (1.0 + abs(v)))
+        # V is the derivative of Y and Y''' that of Y'' (central differences).
+        h = 1e-5 / mc.w
+        ym, _ = p.yv(tau - h)
+        yp, _ = p.yv(tau + h)
+        assert (yp - ym) / (2 * h) == pytest.approx(v, abs=1e-7 * (1.0 + abs(v)))
+        am, _ = p.aj(tau - h)
+        ap, _ = p.aj(tau + h)
+        _, a3 = p.aj(tau)
+        assert (ap - am) / (2 * h) == pytest.approx(a3, abs=1e-6 * (1.0 + abs(a3)))
+
+
+def test_resonant_formula_is_continuous_in_omega():
+    # At w == Omega the exact formula takes the tau/2 limit; a hair off resonance it must
+    # agree to first order in the detuning, without cancellation.
+    st0 = exact._Stepper(Oscillator(F=0.3, Omega=1.0, beta=0.02, K=1e4))
+    st1 = exact._Stepper(Oscillator(F=0.3, Omega=1.0 + 1e-10, beta=0.02, K=1e4))
+    taus = np.linspace(0.0, 30.0, 61)
+    y0, v0 = st0._slip_piece(Mode(0, 1), 5.0, 0.1, 0.4).yv(taus)
+    y1, v1 = st1._slip_piece(Mode(0, 1), 5.0, 0.1, 0.4).yv(taus)
+    np.testing.assert_allclose(y1, y0, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(v1, v0, rtol=0, atol=1e-7)
+
+
+# -- the paper's contact case --------------------------------------------------------------
+def test_contact_case_matches_reference_and_heyoka():
+    h, e = _pair(CONTACT, 400.0, 0.95, 0.0)
+    assert e.contact_entries(1) == 47 and e.contact_entries(-1) == 47
+    assert e.mean_flange_force(1) == pytest.approx(0.180165173509774, rel=1e-10)
+    _assert_agree(h, e)
+    # The streamed integrals: rms force and forcing work (energy balance in exact).
+    assert e.rms_flange_force() == pytest.approx(h.rms_flange_force(), rel=1e-10)
+    assert e.forcing_work == pytest.approx(h.forcing_work, rel=1e-10)
+    np.testing.assert_allclose(e.impacts.impulse, h.impacts.impulse, rtol=1e-9)
+    np.testing.assert_allclose(e.impacts.peak_penetration, h.impacts.peak_penetration, rtol=1e-9)
+
+
+def test_dense_output_and_windowed_impulse_match_heyoka():
+    h, e = _pair(CONTACT, 120.0, 0.95, 0.0)
+    # Dense enough to land inside many contact pieces (each ~0.016 long).
+    times = np.concatenate([np.linspace(0.0, 120.0, 4001), e.events.t[:40] + 1e-3])
+    times = times[times <= 120.0]
+    xe, ve = e.sample(times)
+    xh, vh = h.sample(times)
+    np.testing.assert_allclose(xe, xh, rtol=0, atol=1e-12)
+    # Inside a contact V changes at |X''| ~ K (|X| - 1) ~ 100 per unit time, so the 1e-13
+    # agreement of the contact times is worth |X''| * 1e-13 in V at a fixed sample time.
+    accel = np.abs(CONTACT.net_force(times, xe)) + CONTACT.beta
+    assert np.all(np.abs(ve - vh) <= 1e-12 + 2e-13 * accel)
+    # A window that cuts through contacts uses the dense impulse of the cut pieces.
+    for side in (1, -1):
+        lo, hi = e.events.t[3] - 0.005, e.events.t[60] + 0.004
+        assert e.flange_impulse(side, lo, hi) == pytest.approx(h.flange_impulse(side, lo, hi), rel=1e-10)
+    x, v = e.sample(e.events.t[5])
+    assert np.ndim(x) == 0 and x == pytest.approx(e.events.x[5], abs=1e-15)
+
+
+# -- agreement with heyoka on the other regimes ----------------------------------------------
+def test_den_hartog_steady_state():
+    h, e = _pair(Oscillator(F=0.5, Omega=1.5, beta=0.1, K=1e4), 200.0, 0.0, 0.0)
+    assert e.counts["reversal"] > 80 and e.counts["stick"] == 0
+    _assert_agree(h, e)
+
+
+def test_forced_stick_and_release():
+    h, e = _pair(Oscillator(F=0.5, Omega=0.3, beta=0.3, K=1e4), 100.0, 0.95, 0.0)
+    assert e.counts["stick"] >= 5 and e.counts["release"] >= 5
+    # After a release the acceleration is zero: the mass must slip on, not be swallowed.
+    kinds = list(e.events.kind)
+    for i, k in enumerate(kinds[:-1]):
+        if k == "release":
+            assert kinds[i + 1] != "release"
+    _assert_agree(h, e)
+
+
+def test_near_grazing_contacts():
+    # v0 barely above 1: the turning points lie 5e-7 beyond the flanges. Every contact is
+    # found: one contact per flange and period 2 pi, i.e. 4 contact events per period.
+    h, e = _pair(Oscillator(F=0.0, Omega=0.0, beta=0.0, K=24.0), 20.0, 0.0, 1.000001)
+    n_per = (e.counts["contact_start"] + e.counts["contact_end"]) / 3.0
+    assert e.t_final > 3 * 2 * math.pi
+    assert n_per == 4.0
+    assert np.all(e.impacts.complete)
+    # The penetration is set by v_in^2 = v0^2 - 1 = 2e-6, itself carrying eps/2e-6 ~ 1e-10 of
+    # rounding in any double-precision run: the forces agree to that conditioning.
+    _assert_agree(h, e)
+
+
+def test_free_resonance_without_contacts():
+    # Omega = 1 = w in the free region; F < 4 beta / pi keeps the amplitude bounded (Den Hartog).
+    h, e = _pair(Oscillator(F=0.01, Omega=1.0, beta=0.01, K=1e4), 200.0, 0.5, 0.0)
+    assert e.contact_entries() == 0 and e.counts["reversal"] > 50
+    _assert_agree(h, e)
+
+
+def test_contact_resonance():
+    # Omega equal to the contact frequency sqrt(1 + K): the exact w == Omega branch in contact.
+    osc = Oscillator(F=0.5, Omega=math.sqrt(1.0 + 1e4), beta=0.01, K=1e4)
+    h, e = _pair(osc, 8.0, 0.95, 1.0)
+    assert e.contact_entries() >= 4
+    _assert_agree(h, e)
+
+
+def test_constant_force_sticks_for_ever():
+    h, e = _pair(Oscillator(F=0.3, Omega=0.0, beta=0.1, K=1e4), 50.0, 0.95, 0.5)
+    assert e.counts["stick"] == 1 and e.counts["release"] == 0
+    assert e.final_mode.motion == 0
+    _assert_agree(h, e)
+
+
+def test_long_creep_run_event_counts():
+    # Omega = 1e-3 over 1e5: thousands of stick/release pairs, each stick jumped by an arccos.
+    osc = Oscillator(F=0.1, Omega=1e-3, beta=0.05, K=1e4)
+    h, e = _pair(osc, 1e5, 0.95, 0.0, record="stats")
+    assert e.status == 0 and e.t_final == 1e5
+    assert e.counts["release"] > 1000
+    assert e.counts == h.counts
+    assert e.forcing_work == pytest.approx(h.forcing_work, rel=1e-9)
+
+
+# -- run control -----------------------------------------------------------------------------
+def test_event_limit_and_recording_levels():
+    sol = simulate(CONTACT, 400.0, 0.95, 0.0, backend="exact", max_events=10)
+    assert sol.status == 1 and len(sol.events) == 10
+    full = simulate(CONTACT, 100.0, 0.95, 0.0, backend="exact")
+    stats = simulate(CONTACT, 100.0, 0.95, 0.0, backend="exact", record="stats")
+    assert stats.counts == full.counts
+    assert stats.mean_flange_force(1) == full.mean_flange_force(1)
+    with pytest.raises(ValueError, match="record='full'"):
+        stats.sample(1.0)
+    assert full.backend == "exact" and full.n_steps == full.n_pieces
+
+
+def test_unknown_option_is_rejected():
+    with pytest.raises(TypeError, match="does not accept"):
+        simulate(CONTACT, 10.0, backend="exact", tol=1e-12)
