@@ -10,7 +10,8 @@ from .engine import EVENT_KINDS, Mode
 from .model import Oscillator
 from .simulate import simulate
 from .solution import Solution
+from .sweep import load_sweep, sweep
 from .tape import TapeDrive
 
-__all__ = ["Oscillator", "TapeDrive", "simulate", "Solution", "Mode", "EVENT_KINDS"]
+__all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS"]
 __version__ = "0.1.0"
