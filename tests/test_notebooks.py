@@ -72,7 +72,7 @@ def kernel_dir(tmp_path_factory):
 
 def _expected_outputs(source: str) -> set[str]:
     want = set()
-    if "plt.show()" in source or "display(fig" in source or "display(Image" in source:
+    if "plt.show()" in source or "display(fig)" in source:
         want.add("image")
     if "print(" in source:
         want.add("text")
