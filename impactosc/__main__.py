@@ -109,8 +109,171 @@ def _simulate(args) -> int:
     return 0 if sol.status == 0 else 1
 
 
+def _parse_grid_value(key: str, text: str):
+    if key == "bending":
+        return text.strip()
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"--grid {key}: {text.strip()!r} is not a number") from None
+
+
+def _parse_grid_option(item: str) -> tuple[str, list]:
+    from impactosc.sweep import SWEEP_KEYS
+
+    if "=" not in item:
+        raise ValueError(f"--grid {item!r}: expected field=v1,v2,... (e.g. --grid speed=4,8,12)")
+    key, _, values = item.partition("=")
+    key = key.strip().replace("-", "_")
+    if key not in SWEEP_KEYS:
+        raise ValueError(f"--grid: unknown field {key!r}; valid fields: {', '.join(SWEEP_KEYS)}")
+    parts = [v for v in values.split(",") if v.strip()]
+    if not parts:
+        raise ValueError(f"--grid {item!r}: no values after '='")
+    return key, [_parse_grid_value(key, v) for v in parts]
+
+
+def _read_toml(path: str) -> tuple[dict, dict]:
+    import tomllib
+
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except OSError as exc:
+        raise ValueError(f"--toml {path}: cannot read it ({exc.strerror or exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"--toml {path}: not valid TOML ({exc})") from None
+    unknown = sorted(set(doc) - {"grid", "drive"})
+    if unknown:
+        raise ValueError(f"--toml {path}: unknown table(s) {unknown}; expected [grid] and optional [drive]")
+    grid, drive = doc.get("grid", {}), doc.get("drive", {})
+    if not isinstance(grid, dict) or not isinstance(drive, dict):
+        raise ValueError(f"--toml {path}: [grid] and [drive] must be tables")
+    grid = {k: (v if isinstance(v, list) else [v]) for k, v in grid.items()}
+    return grid, drive
+
+
+def _sweep(args) -> int:
+    import impactosc as io
+
+    grid, base_fields = {}, {}
+    if args.toml:
+        grid, base_fields = _read_toml(args.toml)
+    for item in args.grid or []:
+        key, values = _parse_grid_option(item)
+        grid[key] = values
+    if not grid:
+        raise ValueError("give a grid: --grid field=v1,v2,... (repeatable) or --toml FILE with a [grid] table")
+    base_fields.update({field: getattr(args, opt.replace("-", "_")) for opt, (field, _, _) in DRIVE_OPTIONS.items()
+                        if getattr(args, opt.replace("-", "_")) is not None})
+    base = io.TapeDrive(**base_fields)
+    if args.plot:
+        from impactosc.plotting import require_matplotlib
+
+        require_matplotlib()  # fail before the sweep runs, not after
+    options = {}
+    if args.tol is not None:
+        options["tol"] = args.tol
+    if args.dt is not None:
+        options["dt"] = args.dt
+    t = time.perf_counter()
+    ds = io.sweep(base, grid, duration=args.duration, backend=args.backend,
+                  executor="serial" if args.serial else None, progress=not args.no_progress, store=args.store,
+                  **options)
+    wall = time.perf_counter() - t
+    n = int(ds["status"].size)
+    failed = int((ds["status"] != 0).sum())
+    print(f"sweep: {n} points ({' x '.join(f'{k}[{ds.sizes[k]}]' for k in grid)}), {args.duration:g} s each, "
+          f"backend {args.backend}: {wall:.2f} s wall, {failed} failed")
+    table = ds[["mean_flange_force", "impacts", "sticks", "status"]].to_dataframe().reset_index()
+    with _pandas_display():
+        print(table.head(args.rows).to_string(index=False))
+    if n > args.rows:
+        print(f"... {n - args.rows} more rows (--rows, or --out FILE.nc for all of them)")
+    if args.out:
+        ds.to_netcdf(args.out, engine="scipy")
+        print(f"dataset written to {args.out}")
+    if args.plot:
+        _plot_sweep(ds, list(grid), args.plot)
+        print(f"plot written to {args.plot}")
+    return 0 if failed == 0 else 1
+
+
+class _pandas_display:
+    def __enter__(self):
+        import pandas as pd
+
+        self._ctx = pd.option_context("display.width", 200, "display.float_format", "{:.6g}".format)
+        self._ctx.__enter__()
+
+    def __exit__(self, *exc):
+        return self._ctx.__exit__(*exc)
+
+
+def _plot_sweep(ds, dims: list, path: str) -> None:
+    import itertools
+
+    import numpy as np
+
+    from impactosc.plotting import require_matplotlib
+
+    plt = require_matplotlib()
+    x_dim, rest = dims[0], dims[1:]
+    var = ds["mean_flange_force"].transpose(*dims)
+    x = ds[x_dim].values
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    combos = list(itertools.product(*(range(ds.sizes[d]) for d in rest))) if rest else [()]
+    for i, combo in enumerate(combos):
+        sel = dict(zip(rest, combo, strict=True))
+        y = var.isel(sel).values
+        label = ", ".join(f"{d} = {ds[d].values[j]:g} {ds[d].attrs.get('units', '')}".strip()
+                          if np.issubdtype(ds[d].dtype, np.number) else f"{d} = {ds[d].values[j]}"
+                          for d, j in sel.items()) or None
+        ax.plot(x, y, "o-", ms=3, color=f"C{i % 10}", label=label)
+    unit = ds[x_dim].attrs.get("units", "")
+    ax.set_xlabel(f"{ds[x_dim].attrs.get('long_name', x_dim)} [{unit}]" if unit else x_dim)
+    ax.set_ylabel("mean flange force, both flanges [N]")
+    ax.set_title(f"sweep: {ds.attrs.get('duration', 0):g} s per point, backend {ds.attrs.get('backend', '')}",
+                 fontsize=9)
+    ax.grid(alpha=0.3)
+    if len(combos) > 1 or combos[0]:
+        ax.legend(fontsize=7)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _paper(args) -> int:
+    from impactosc.paper import reproduce
+
+    s = reproduce(args.out, quick=args.quick, executor="serial" if args.serial else None,
+                  progress=not args.no_progress)
+    ed, cost = s["event_driven"], s["rk4_default_step"]
+    rk = s["rk4_figure_step"]["consistent"]
+    print(f"Fig. 6-8 recomputed ({'quick' if args.quick else 'full'}), written to {args.out}/paper_reproduction.md, "
+          f"{args.out}/*.csv and {args.out}/figures/*.png")
+    print(f"  paper's parameters: {ed['fig7']['impacts_total'] + ed['fig8']['impacts_total']} flange contacts, "
+          f"max mean flange force {max(ed['fig7']['max_mean_force_N'], ed['fig8']['max_mean_force_N']):g} N "
+          f"(event-driven); RK4 + sign(): {rk['fig7_max_force_N']:g} N")
+    print(f"  event-driven Fig. 7 grid ({ed['fig7_points']} points): {ed['fig7_wall_s']:.1f} s; RK4 at the figure "
+          f"step: {rk['fig7_wall_s']:.2f} s; RK4 at the default step (extrapolated): "
+          f"{cost['fig7_full_extrapolated_s']:.0f} s")
+    for name, info in s["alternatives"].items():
+        t = info["trends"]
+        print(f"  alternative {name}: {info['impacts_total']} contacts, max {t['max_force']:.3g} N, "
+              f"up with speed: {t['up_with_speed']}, down with T sin: {t['down_with_t_sin']}, "
+              f"0.1/0.7 ratio {t['ratio_01_07']:.3g}")
+    return 0
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``impactosc: error: ...`` and exit status 2 (no usage block)."""
+
+    def error(self, message):
+        self.exit(2, f"impactosc: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="impactosc",
+    parser = _Parser(prog="impactosc",
                                      description="Event-driven tape-edge / flange impact oscillator.")
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("demo", help="a short contacting case, its event and impact tables, and the paper's drive")
@@ -134,13 +297,46 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--dt", type=float, help="rk4 step")
     sim.add_argument("--events", type=int, default=20, help="rows of the event and impact tables (default 20)")
     sim.add_argument("--plot", metavar="PNG", help="write a figure of X(t), flange force and phase portrait")
+    sw = sub.add_parser("sweep", help="run a grid of tape drives in parallel; table, netCDF and figure",
+                        description="The outer product of a grid of TapeDrive fields (SI units), run in parallel "
+                                    "with impactosc.sweep. Example: impactosc sweep "
+                                    "--grid pack_diameter=0.05,0.07,0.09 --grid speed=4,8,12 --duration 0.1 "
+                                    "--out sweep.nc --plot sweep.png")
+    sw.add_argument("--grid", action="append", metavar="FIELD=V1,V2,...",
+                    help="a swept TapeDrive field (or t_sin_half_theta) and its values; repeat for more dimensions "
+                         "(the first is the x axis of --plot, the second one line per value)")
+    sw.add_argument("--toml", metavar="FILE", help="TOML file with a [grid] table (field = [values]) and an optional "
+                                                   "[drive] table of base TapeDrive fields; --grid adds to it")
+    d = sw.add_argument_group("base drive (SI units, defaults from the paper)")
+    for opt, (_, typ, text) in DRIVE_OPTIONS.items():
+        d.add_argument(f"--{opt}", type=typ, help=text)
+    sw.add_argument("--duration", type=float, default=1.0, help="simulated time per point [s] (default 1, the paper)")
+    sw.add_argument("--backend", default="heyoka", help="heyoka (default), scipy, exact or rk4")
+    sw.add_argument("--tol", type=float, help="heyoka tolerance")
+    sw.add_argument("--dt", type=float, help="rk4 step")
+    sw.add_argument("--out", metavar="FILE.nc", help="write the xarray Dataset as netCDF (scipy engine)")
+    sw.add_argument("--store", metavar="DIR", help="resumable per-point store (rerun to continue or extend)")
+    sw.add_argument("--plot", metavar="PNG", help="mean flange force vs the first swept field, a line per value of "
+                                                  "the others")
+    sw.add_argument("--rows", type=int, default=30, help="rows of the printed table (default 30)")
+    sw.add_argument("--serial", action="store_true", help="run in this process instead of a process pool")
+    sw.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    pp = sub.add_parser("paper", help="recompute the paper's Fig. 6-8 and the report",
+                        description="Fig. 6 (run-out law), Fig. 7 and 8 (average flange force vs pack diameter) with "
+                                    "the event-driven solver and the paper's RK4 baseline, alternative parameter "
+                                    "sets, timings; writes DIR/paper_reproduction.md, DIR/*.csv, DIR/figures/*.png.")
+    pp.add_argument("--quick", action="store_true", help="coarse grid (5 diameters) and a 10 ms average: ~30 s")
+    pp.add_argument("--out", default="reports", metavar="DIR", help="output directory (default reports)")
+    pp.add_argument("--serial", action="store_true", help="run the sweeps in this process instead of a pool")
+    pp.add_argument("--no-progress", action="store_true", help="no progress bars")
     return parser
 
 
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    handlers = {"demo": _demo, "simulate": _simulate}
+    handlers = {"demo": _demo, "simulate": _simulate, "sweep": _sweep, "paper": _paper}
     try:
         return handlers[args.command](args)
     except (ValueError, TypeError, ImportError) as exc:

@@ -41,3 +41,78 @@ def test_errors_are_one_line(capsys, argv, message):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("impactosc: error:") and message in err and "\n" not in err
+
+
+# -- impactosc sweep ------------------------------------------------------------------------
+def test_sweep_writes_a_netcdf_dataset(capsys, tmp_path):
+    import xarray as xr
+
+    nc = tmp_path / "x.nc"
+    assert main(["sweep", "--grid", "speed=4,8", "--duration", "0.001", "--out", str(nc), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "2 points (speed[2])" in out and "dataset written" in out
+    with xr.open_dataset(nc, engine="scipy") as ds:
+        assert ds.speed.values.tolist() == [4.0, 8.0]
+        assert ds.mean_flange_force.attrs["units"] == "N"
+        assert (ds.status.values == 0).all() and (ds.mean_flange_force.values == 0).all()
+        assert ds.attrs["duration"] == 0.001
+
+
+def test_sweep_toml_grid_and_plot(capsys, tmp_path):
+    import xarray as xr
+
+    toml = tmp_path / "grid.toml"
+    toml.write_text('[grid]\npack_diameter = [0.05, 0.09]\nt_sin_half_theta = [0.1, 0.7]\n\n'
+                    '[drive]\nspeed = 12.0\nclearance = 50e-6\n')
+    nc, png = tmp_path / "t.nc", tmp_path / "t.png"
+    assert main(["sweep", "--toml", str(toml), "--duration", "0.0005", "--serial", "--no-progress",
+                 "--out", str(nc), "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "4 points (pack_diameter[2] x t_sin_half_theta[2])" in out
+    assert png.stat().st_size > 10_000
+    with xr.open_dataset(nc, engine="scipy") as ds:
+        assert ds.attrs["base_speed"] == 12.0 and ds.attrs["base_clearance"] == 50e-6
+        assert ds.mean_flange_force.dims == ("pack_diameter", "t_sin_half_theta")
+        assert (ds.impacts.values > 0).all()  # a 50 um clearance: the tape touches (see impactosc.paper)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["sweep", "--grid", "colour=1,2"], "unknown field 'colour'"),
+        (["sweep", "--grid", "speed=4,fast"], "'fast' is not a number"),
+        (["sweep", "--grid", "speed"], "expected field=v1,v2"),
+        (["sweep", "--grid", "speed="], "no values"),
+        (["sweep"], "give a grid"),
+        (["sweep", "--grid", "speed=4,4", "--serial"], "duplicate"),
+        (["sweep", "--grid", "speed=4", "--duration", "-1", "--serial"], "duration"),
+        (["sweep", "--toml", "/nonexistent/grid.toml"], "cannot read"),
+        (["sweep", "--grid", "speed=4", "--duration", "abc"], "invalid float value"),
+        (["paper", "--bogus"], "unrecognized arguments"),
+    ],
+)
+def test_sweep_errors_are_one_line(capsys, argv, message):
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse's own errors
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("impactosc: error:") and message in err and "\n" not in err
+
+
+def test_bad_toml_is_one_line(capsys, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[grid\nspeed = [4")
+    assert main(["sweep", "--toml", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "not valid TOML" in err and "\n" not in err
+
+
+def test_help_everywhere(capsys):
+    for argv in (["--help"], ["sweep", "--help"], ["paper", "--help"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "--grid FIELD=V1,V2" in out and "--quick" in out and "--toml" in out
