@@ -58,7 +58,7 @@ print("impactosc", io.__version__, "| quick mode" if QUICK else "| full mode")
 base = io.TapeDrive(clearance=100e-6)          # paper's drive, 100 um flange clearance
 diameters = np.linspace(base.hub_diameter, base.full_pack_diameter, 4 if QUICK else 8)   # m
 grid = {"pack_diameter": diameters, "speed": [4.0, 12.0]}                                # m/s
-duration = 0.01 if QUICK else 0.25                                                      # s per point
+duration = 0.01 if QUICK else 0.1                                                       # s per point
 
 workdir = Path(tempfile.mkdtemp(prefix="impactosc-sweeps-"))
 store = workdir / "pack-speed"
