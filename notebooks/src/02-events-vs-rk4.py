@@ -273,7 +273,8 @@ plt.show()
 # How much accuracy does each method buy per second of computing? The benchmark
 # `benchmarks/work_precision.py` measures errors against the exact backend versus wall
 # time on four cases (see `benchmarks/README.md`). If its results are in
-# `benchmarks/results/`, they are shown here; otherwise a small version is computed inline.
+# `benchmarks/results/`, they are shown first; then a small version of the comparison on
+# the contact case is computed here, on this machine.
 
 # %%
 results = Path("..") / "benchmarks" / "results"
@@ -285,7 +286,8 @@ if pngs:
     for png in pngs:
         display(Image(filename=str(png), width=800))
 else:
-    print(f"no benchmark figures in {results.resolve()}: computing a small comparison inline")
+    print(f"no benchmark results in {results.resolve()} (run benchmarks/work_precision.py); "
+          "the small comparison below is all there is")
 
 # %%
 def timed(fn, repeats=3):
