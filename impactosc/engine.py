@@ -156,7 +156,10 @@ def _tie_tolerance(osc: Oscillator, x: float, f: float) -> float:
     """Rounding level of f_net at ``x``: a few ulps of the largest term that forms it."""
     pen = abs(x) - 1.0
     spring = abs(x) + (osc.K * pen if pen > 0.0 else 0.0)
-    return 4.0 * _EPS * max(osc.F, spring, abs(f))
+    # The floor keeps a force guard from being the zero polynomial when f_net vanishes
+    # identically (F = 0 at equilibrium): that guard "crossed" everywhere and crawled
+    # through 250000 stick/release pairs in half a time unit.
+    return max(4.0 * _EPS * max(osc.F, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
@@ -242,13 +245,17 @@ class PieceStepper(Protocol):
 
     ``advance`` integrates the smooth vector field of ``mode`` from ``(t, x, v)`` until the
     first armed guard of ``mode`` fires or ``t_end`` is reached, and returns
-    ``(t1, x1, v1, guard, impulse, impulse_sq, forcing_work, steps)``: ``guard`` is the
+    ``(t1, x1, v1, guard, impulse, impulse_sq, forcing_work, steps)``, or raises an
+    ``ArithmeticError``/``RuntimeError`` if it cannot (the run then ends with status -1): ``guard`` is the
     index of the guard that fired or ``NO_GUARD``; the three integrals are over the piece:
     ``int K(|X|-1) dt`` (flange regions only), ``int (K(|X|-1))^2 dt`` and
     ``int V F cos(Omega t + phase) dt``; ``steps`` counts integrator steps.
     """
 
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float): ...
+
+    def evaluate(self, mode: Mode, t0: float, x: float, v: float, times):
+        """``(X, V, impulse since t0)`` at ``times`` inside the piece that starts at ``t0``."""
 
 
 #: Consecutive events at one instant after which the loop declares it is stuck.
@@ -319,13 +326,23 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     ``recorder``. Stops at ``t_end`` (status 0), at ``max_events`` recorded events
     (status 1) or when time stops advancing (status -1, a Zeno-like cascade).
     """
-    t, x, v = 0.0, x0, v0
+    # A velocity below the kinematic guard offset is rest: its turning point would lie
+    # within ~1e-300 of the start, closer than any guard can resolve (v0 = -5e-324 inside a
+    # flange made the exact backend miss it). The stick test then decides the motion.
+    t, x, v = 0.0, x0, (0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0)
     mode = initial_mode(osc, t, x, v)
     recorder.begin(osc, t, x, v, mode)
     same_instant = 0
     advance = stepper.advance
     while True:
-        t1, x1, v1, guard, q, q2, w, steps = advance(mode, t, x, v, t_end)
+        try:
+            t1, x1, v1, guard, q, q2, w, steps = advance(mode, t, x, v, t_end)
+        except (ArithmeticError, RuntimeError) as exc:
+            # An integrator that gives up (step size underflow, non-finite state) ends the
+            # run like scipy's solve_ivp does: status -1, its message, results so far kept.
+            recorder.finish(t, x, v, mode, -1, f"the {stepper_name(stepper)} backend failed after t={t!r}: "
+                            f"{type(exc).__name__}: {exc}")
+            return
         if not (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(t1)):
             recorder.finish(t, x, v, mode, -1, f"integration produced a non-finite state at t={t1!r}")
             return

@@ -10,11 +10,12 @@ __all__ = ["plot_solution", "require_matplotlib"]
 
 
 def require_matplotlib():
-    """Import matplotlib with a non-interactive backend, or fail with an install hint."""
-    try:
-        import matplotlib
+    """Import pyplot, or fail with an install hint.
 
-        matplotlib.use("Agg", force=False)
+    The backend is left alone: headless, matplotlib falls back to Agg by itself, and forcing
+    Agg here turned off inline figures in every later notebook cell.
+    """
+    try:
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise ImportError("plotting needs matplotlib: pip install 'impactosc[plot]'") from exc

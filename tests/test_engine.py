@@ -87,3 +87,30 @@ def test_gates_arm_exactly_the_guards_of_each_mode():
     assert armed(Mode(-1, 1, False)) == {"leave", "accel_zero"}
     assert armed(Mode(0, 0, True)) == {"release_up", "release_down"}
     assert armed(Mode(1, 0, True)) == {"release_up", "release_down"}
+
+
+def test_drive_turns_a_backend_failure_into_status_minus_one():
+    from impactosc.engine import NO_GUARD, drive
+    from impactosc.solution import Solution, _Recorder
+
+    class FlakyStepper:
+        """Reaches a slip end at t = 1 and t = 2 (an ideal free oscillator), then gives up."""
+
+        name = "flaky"
+
+        def __init__(self):
+            self.calls = 0
+
+        def advance(self, mode, t, x, v, t_end):
+            self.calls += 1
+            if self.calls == 3:
+                raise FloatingPointError("step size underflow")
+            return float(self.calls), -x, 1e-17 * mode.motion, SLIP_END, 0.0, 0.0, 0.0, 1
+
+    rec = _Recorder("events", "flaky", None)
+    drive(FlakyStepper(), OSC, 10.0, 0.95, 0.0, rec, 100)
+    sol = Solution(rec, 10.0)
+    assert sol.status == -1 and "flaky backend failed after t=2.0" in sol.message
+    assert "FloatingPointError: step size underflow" in sol.message
+    assert list(sol.events.kind) == ["reversal", "reversal"] and sol.t_final == 2.0
+    assert NO_GUARD == -1

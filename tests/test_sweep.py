@@ -206,7 +206,8 @@ def test_failed_points_are_recorded_not_raised():
 def test_a_crashed_worker_loses_only_its_point(serial, monkeypatch):
     # The task holding the guilty point dies as a whole (as when its process crashes), taking
     # the innocent points of its chunk with it: they are retried, the guilty point is lost alone.
-    monkeypatch.setattr("impactosc.sweep.CHUNKS_PER_WORKER", 1)
+    # The package root exports the function `sweep`, which shadows the module attribute.
+    monkeypatch.setattr(sys.modules["impactosc.sweep"], "CHUNKS_PER_WORKER", 1)
     ex = RecordingExecutor(fail_when=lambda f: BrokenProcessPool("worker died") if f["speed"] == 8.0
                            and f["pack_diameter"] == 0.09 else None)
     ex._max_workers = 1  # so all four points share one chunk
