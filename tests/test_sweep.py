@@ -10,6 +10,7 @@ import concurrent.futures as cf
 import math
 import os
 import sys
+import threading
 from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
@@ -154,7 +155,9 @@ def test_interrupted_sweep_keeps_finished_points(tmp_path, serial):
             if self.tasks == 2:  # Ctrl-C while the third task runs
                 self.tasks += 1
                 fut = cf.Future()
-                fut.set_exception(KeyboardInterrupt())
+                # Delivered (1 s later) after the finished tasks, as a real interrupt would be: done
+                # at submit time, as_completed could yield it first (set order) - a flaky test.
+                threading.Timer(1.0, fut.set_exception, args=(KeyboardInterrupt(),)).start()
                 return fut
             return super().submit(fn, *args, **kwargs)
 
