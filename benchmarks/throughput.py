@@ -30,8 +30,6 @@ import os
 import platform
 import pstats
 import resource
-import signal
-import statistics
 import subprocess
 import sys
 import time
@@ -41,6 +39,9 @@ from pathlib import Path
 import numpy as np
 
 import impactosc as io
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the shared _timing module beside this script
+from _timing import Timeout, timed  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 HUGE_T = 1e12  # runs are cut by max_events
@@ -53,37 +54,6 @@ REGIMES = {
 }
 
 
-class Timeout(Exception):
-    pass
-
-
-def _alarm(signum, frame):
-    raise Timeout
-
-
-def timed(fn, repeats: int, budget: float, timeout: float = 0.0):
-    """Median wall time of up to ``repeats`` calls (fewer once ``budget`` s are spent); a call
-    longer than ``timeout`` s raises :class:`Timeout` (SIGALRM, the backends loop in Python)."""
-    times, out = [], None
-    use_alarm = timeout > 0 and hasattr(signal, "setitimer")
-    old = signal.signal(signal.SIGALRM, _alarm) if use_alarm else None
-    try:
-        while len(times) < repeats:
-            if use_alarm:
-                signal.setitimer(signal.ITIMER_REAL, timeout)
-            t0 = time.perf_counter()
-            try:
-                out = fn()
-            finally:
-                if use_alarm:
-                    signal.setitimer(signal.ITIMER_REAL, 0)
-            times.append(time.perf_counter() - t0)
-            if sum(times) > budget:
-                break
-    finally:
-        if use_alarm:
-            signal.signal(signal.SIGALRM, old)
-    return statistics.median(times), len(times), out
 
 
 def load() -> float:

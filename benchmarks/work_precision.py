@@ -29,8 +29,6 @@ import json
 import math
 import os
 import platform
-import signal
-import statistics
 import sys
 import time
 from dataclasses import dataclass, field
@@ -39,6 +37,9 @@ from pathlib import Path
 import numpy as np
 
 import impactosc as io
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the shared _timing module beside this script
+from _timing import Timeout, timed  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 EPS = 2.0**-52  # heyoka's default tol
@@ -109,40 +110,6 @@ def sweeps(quick: bool, tape: bool):
 
 
 # -- timing ------------------------------------------------------------------------------
-class Timeout(Exception):
-    pass
-
-
-def _alarm(signum, frame):
-    raise Timeout
-
-
-def timed(fn, repeats: int, budget: float, timeout: float):
-    """Median wall time of up to ``repeats`` calls of ``fn`` (fewer when ``budget`` seconds are spent).
-
-    A single call longer than ``timeout`` seconds raises :class:`Timeout` (SIGALRM; the
-    backends loop in Python, so the alarm interrupts them)."""
-    times, out = [], None
-    use_alarm = timeout > 0 and hasattr(signal, "setitimer")
-    old = signal.signal(signal.SIGALRM, _alarm) if use_alarm else None
-    try:
-        while len(times) < repeats:
-            if use_alarm:
-                signal.setitimer(signal.ITIMER_REAL, timeout)
-            t0 = time.perf_counter()
-            try:
-                out = fn()
-            finally:
-                if use_alarm:
-                    signal.setitimer(signal.ITIMER_REAL, 0)
-            times.append(time.perf_counter() - t0)
-            if sum(times) > budget:
-                break
-    finally:
-        if use_alarm:
-            signal.signal(signal.SIGALRM, old)
-    timed.best = min(times)
-    return statistics.median(times), len(times), out
 
 
 # -- comparison with the exact answer ---------------------------------------------------
