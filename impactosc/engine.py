@@ -51,6 +51,7 @@ __all__ = [
     "transition",
     "guard_gates",
     "guard_offsets",
+    "force_guard_offset",
     "pending_guard",
     "drive",
 ]
@@ -225,17 +226,25 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
 KINEMATIC_GUARD_OFFSET = 1e-300
 
 
-def guard_offsets(osc: Oscillator, mode: Mode, x: float) -> tuple[float, ...]:
+def force_guard_offset(osc: Oscillator, x: float) -> float:
+    """Offset of the force guards (release, acceleration zero) at position ``x``.
+
+    These guards sit at a threshold where ``f_net`` is computed with rounding error;
+    offsetting them by the same tolerance as the stick test's tie (:func:`motion_at_rest`)
+    makes the event finder and the stick test agree on what "reaching beta" means, so
+    rounding noise at a tie cannot fire a spurious release. The shift of a genuine crossing
+    is of the order of the rounding of ``f_net``.
+    """
+    return _tie_tolerance(osc, x, 0.0)
+
+
+def guard_offsets(osc: Oscillator, x: float) -> tuple[float, ...]:
     """How far each guard is shifted towards the side it crosses *from* (order of ``GUARD_NAMES``).
 
-    A backend fires guard ``g`` (direction ``d``) at ``g - d * offset = 0``. The force
-    guards (release, acceleration zero) sit at a threshold where ``f_net`` is computed
-    with rounding error; offsetting them by the same tolerance as the stick test's tie
-    (:func:`motion_at_rest`) makes the event finder and the stick test agree on what
-    "reaching beta" means, so rounding noise at a tie cannot fire a spurious release.
-    The shift of a genuine crossing is of the order of the rounding of ``f_net``.
+    A backend fires guard ``g`` (direction ``d``) at ``g - d * offset = 0``: the kinematic
+    guards by :data:`KINEMATIC_GUARD_OFFSET`, the force guards by :func:`force_guard_offset`.
     """
-    tie = _tie_tolerance(osc, x, 0.0)
+    tie = force_guard_offset(osc, x)
     k = KINEMATIC_GUARD_OFFSET
     return (k, k, k, k, tie, tie, tie)
 
@@ -288,8 +297,7 @@ def pending_guard(mode: Mode, x: float) -> int:
 INTEGRITY_SLACK = 1e-9
 
 
-def missed_guard(mode: Mode, guard: int, x: float, v: float, osc: Oscillator | None = None,
-                 t: float | None = None) -> str | None:
+def missed_guard(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float) -> str | None:
     """Name of a guard that must have been crossed unseen in the piece just integrated.
 
     A backstop, not physics: in a slipping mode the velocity keeps the sign of the motion
@@ -299,7 +307,7 @@ def missed_guard(mode: Mode, guard: int, x: float, v: float, osc: Oscillator | N
     """
     r, s, _ = mode
     if s == 0:
-        if guard == NO_GUARD and t is not None:
+        if guard == NO_GUARD:
             f = osc._net_force_scalar(t, x)
             if abs(f) > osc.beta + INTEGRITY_SLACK * (1.0 + abs(f)):
                 return "release_up" if f > 0 else "release_down"
@@ -347,7 +355,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             recorder.finish(t, x, v, mode, -1, f"integration produced a non-finite state at t={t1!r}")
             return
         recorder.piece(mode, t, x, t1, x1, q, q2, w, steps)
-        missed = missed_guard(mode, guard, x1, v1, osc, t1)
+        missed = missed_guard(osc, mode, guard, t1, x1, v1)
         if missed:
             recorder.finish(t1, x1, v1, mode, -1,
                             f"the {stepper_name(stepper)} backend missed a {missed} guard in the piece "

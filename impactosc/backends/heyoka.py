@@ -114,7 +114,7 @@ class _Stepper:
             r, s, _ = mode
             vals = self.mode_pars[mode] = (r, s, r * r, s * s, *guard_gates(mode))
         self.pars[_P_REGION:_P_OFFSETS] = vals
-        self.pars[_P_OFFSETS:] = guard_offsets(self.osc, mode, x)
+        self.pars[_P_OFFSETS:] = guard_offsets(self.osc, x)
 
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
         ta = self.ta

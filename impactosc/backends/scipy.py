@@ -61,8 +61,8 @@ from ..engine import (
     SLIP_END,
     Mode,
     drive,
+    force_guard_offset,
     guard_gates,
-    guard_offsets,
 )
 from ..model import Oscillator
 from ..solution import Solution, _Recorder
@@ -136,13 +136,13 @@ def _guard_functions(osc: Oscillator, mode: Mode):
         ENTER_LOWER: lambda t, y: y[0] + 1.0,
         LEAVE: lambda t, y: r * y[0] - 1.0,
         SLIP_END: lambda t, y: s * y[1],
-        # The force guards carry the engine's offset (engine.guard_offsets): the stick test
+        # The force guards carry the engine's offset (engine.force_guard_offset): the stick test
         # and the event finder then agree on what "reaching beta" means, and a guard on an
         # f_net that vanishes identically (F = 0 at equilibrium) is not the zero function,
         # which "crossed" everywhere and crawled through 250000 stick/release pairs.
-        ACCEL_ZERO: lambda t, y: s * (f_net(t, y[0]) - beta * s) + _force_offset(osc, y[0]),
-        RELEASE_UP: lambda t, y: f_net(t, y[0]) - beta - _force_offset(osc, y[0]),
-        RELEASE_DOWN: lambda t, y: f_net(t, y[0]) + beta + _force_offset(osc, y[0]),
+        ACCEL_ZERO: lambda t, y: s * (f_net(t, y[0]) - beta * s) + force_guard_offset(osc, y[0]),
+        RELEASE_UP: lambda t, y: f_net(t, y[0]) - beta - force_guard_offset(osc, y[0]),
+        RELEASE_DOWN: lambda t, y: f_net(t, y[0]) + beta + force_guard_offset(osc, y[0]),
     }
     gates = guard_gates(mode)
     # Only the armed guards go to scipy: a gated-off guard must not stop the piece.
@@ -151,13 +151,6 @@ def _guard_functions(osc: Oscillator, mode: Mode):
         # s V has a local minimum where s V' rises through 0; below zero it hid a slip end.
         armed.append((_SV_MIN, guards[ACCEL_ZERO], 1))
     return fun, jac, armed
-
-
-def _force_offset(osc: Oscillator, x: float) -> float:
-    return guard_offsets(osc, _ANY_MODE, x)[RELEASE_UP]
-
-
-_ANY_MODE = Mode(0, 0, True)  # the force-guard offset depends on the position only
 
 
 def _started(g, d: int, t0: float):
