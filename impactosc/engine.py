@@ -40,6 +40,7 @@ import math
 from typing import NamedTuple, Protocol
 
 from . import _validation as _v
+from ._chatter import ChatterTracker
 from .model import Oscillator
 
 __all__ = [
@@ -62,7 +63,11 @@ CONTACT_END = "contact_end"
 REVERSAL = "reversal"
 STICK = "stick"
 RELEASE = "release"
-EVENT_KINDS = (CONTACT_START, CONTACT_END, REVERSAL, STICK, RELEASE)
+#: A rigid flange's instantaneous impact ``V -> -e V`` (a contact of zero duration).
+IMPACT = "impact"
+#: Impacts on a rigid flange accumulating in finite time (a Zeno point), resolved by a jump.
+CHATTER = "chatter"
+EVENT_KINDS = (CONTACT_START, CONTACT_END, REVERSAL, STICK, RELEASE, IMPACT, CHATTER)
 
 # Guard indices: the order is the contract between this module and the backends.
 ENTER_UPPER, ENTER_LOWER, LEAVE, SLIP_END, ACCEL_ZERO, RELEASE_UP, RELEASE_DOWN = range(7)
@@ -81,6 +86,9 @@ GUARD_DIRECTIONS = (1, -1, -1, -1, -1, 1, -1)
 
 #: The state has not reached a guard: the piece ended at the requested end time.
 NO_GUARD = -1
+#: Internal guard, never located by a backend: a mass at rest exactly against a rigid
+#: flange (after an impact with ``V -> 0``, or a chatter) is tested against the wall.
+AT_WALL = N_GUARDS
 
 
 class Mode(NamedTuple):
@@ -91,14 +99,22 @@ class Mode(NamedTuple):
     armed: bool = True
 
 
-def guard_gates(mode: Mode) -> tuple[float, ...]:
-    """1.0 for every guard that is armed in ``mode``, 0.0 for the others (order of ``GUARD_NAMES``)."""
-    return _GATES[mode]
+def guard_gates(mode: Mode, rigid: bool = False) -> tuple[float, ...]:
+    """1.0 for every guard that is armed in ``mode``, 0.0 for the others (order of ``GUARD_NAMES``).
+
+    ``rigid`` selects the gates of a rigid flange (:attr:`Oscillator.rigid`): there a flange
+    region is the rest against the wall, which only the release away from it can end.
+    """
+    return _GATES[rigid][mode]
 
 
-def _compute_gates(mode: Mode) -> tuple[float, ...]:
+def _compute_gates(mode: Mode, rigid: bool) -> tuple[float, ...]:
     r, s, armed = mode
     moving = s != 0
+    if rigid and r != 0:
+        # Resting against the wall: the wall takes any push into it; only a pull away
+        # beyond static friction (f_net crossing -r beta_s) ends the rest.
+        return (0.0, 0.0, 0.0, 0.0, 0.0, float(not moving and r < 0), float(not moving and r > 0))
     return (
         float(moving and r == 0),
         float(moving and r == 0),
@@ -111,7 +127,7 @@ def _compute_gates(mode: Mode) -> tuple[float, ...]:
 
 
 _ALL_MODES = [Mode(r, s, a) for r in (-1, 0, 1) for s in (-1, 0, 1) for a in (True, False)]
-_GATES = {m: _compute_gates(m) for m in _ALL_MODES}
+_GATES = {rigid: {m: _compute_gates(m, rigid) for m in _ALL_MODES} for rigid in (False, True)}
 
 
 def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
@@ -123,7 +139,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     module docstring). ``f_net`` includes the flange spring (:meth:`Oscillator.net_force`).
     """
     f = osc._net_force_scalar(t, x)
-    b = osc.beta
+    b = osc.beta_s  # static friction decides sticking and breakaway
     af = abs(f)
     # Within the rounding of f_net of the threshold counts as on it: a release root at
     # tau ~ 1e-87 (beta = 1e-173, f_net = 0) is beyond any event finder (heyoka's gives up).
@@ -136,10 +152,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     # so f_net changes only with the forcing: look at its first derivative, and at the
     # second where the first is rounding noise (a stationary point of the forcing, e.g.
     # sin(pi) = 1.2e-16 in floating point).
-    theta = osc.Omega * t + osc.phase
-    d1 = -osc.F * osc.Omega * math.sin(theta)
-    d2 = -osc.F * osc.Omega * osc.Omega * math.cos(theta)
-    noise = 8.0 * _EPS * osc.F * osc.Omega * (1.0 + abs(theta))
+    d1, d2, noise = osc._forcing_derivatives(t)
     trend = d1 if abs(d1) > noise else d2
     if abs(f) > tie:
         if f * trend > 0.0:
@@ -155,20 +168,22 @@ _EPS = 2.0**-52
 
 def _tie_tolerance(osc: Oscillator, x: float, f: float) -> float:
     """Rounding level of f_net at ``x``: a few ulps of the largest term that forms it."""
-    pen = abs(x) - 1.0
-    spring = abs(x) + (osc.K * pen if pen > 0.0 else 0.0)
+    spring = abs(osc._spring_scalar(x))
     # The floor keeps a force guard from being the zero polynomial when f_net vanishes
     # identically (F = 0 at equilibrium): that guard "crossed" everywhere and crawled
     # through 250000 stick/release pairs in half a time unit.
-    return max(4.0 * _EPS * max(osc.F, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
+    amplitude = sum(F for F, _, _ in osc.terms)
+    return max(4.0 * _EPS * max(amplitude, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
     """Mode at the initial time (not an event).
 
-    A mass starting exactly on a flange boundary belongs to the flange region if it moves
-    into the flange. With ``v == 0`` the stick test of :func:`motion_at_rest` decides the
-    motion, as at any other rest point.
+    A mass starting exactly on a spring flange's boundary belongs to the flange region if it
+    moves into the flange. With ``v == 0`` the stick test of :func:`motion_at_rest` decides
+    the motion, as at any other rest point. With a rigid flange the start is always in the
+    free region: a start on the wall is resolved at once by :func:`pending_guard` (an impact
+    when moving into it, the wall's rest test when at rest).
     """
     if v > 0.0:
         motion, armed = 1, True
@@ -176,7 +191,9 @@ def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
         motion, armed = -1, True
     else:
         motion, armed = motion_at_rest(osc, t, x)
-    if x > 1.0 or (x == 1.0 and motion > 0):
+    if osc.rigid:
+        region = 0
+    elif x > 1.0 or (x == 1.0 and motion > 0):
         region = 1
     elif x < -1.0 or (x == -1.0 and motion < 0):
         region = -1
@@ -191,7 +208,8 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     Returns ``(new_mode, x, v, kind, side)``: the state is snapped onto the guard surface
     (``X = +-1`` at flange crossings, ``V = 0`` at rest points) so the next piece starts
     exactly on it; ``kind`` is the event kind to record (``None`` for internal guards)
-    and ``side`` is +1/-1 for flange events, 0 for friction events.
+    and ``side`` is +1/-1 for flange events, 0 for friction events. ``v`` is the state after
+    the transition: at an :data:`IMPACT` the recorded event keeps the incoming velocity.
     """
     r, s, armed = mode
     if guard == SLIP_END:
@@ -202,10 +220,11 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
             # Degenerate tangency (V and V' vanish together): the mass pauses and goes on.
             return Mode(r, s, False), x, 0.0, None, 0
         return Mode(r, s_new, armed_new), x, 0.0, REVERSAL, 0
-    if guard == ENTER_UPPER:
-        return Mode(1, s, armed), 1.0, v, CONTACT_START, 1
-    if guard == ENTER_LOWER:
-        return Mode(-1, s, armed), -1.0, v, CONTACT_START, -1
+    if guard in (ENTER_UPPER, ENTER_LOWER):
+        side = 1 if guard == ENTER_UPPER else -1
+        if osc.rigid:
+            return _impact(osc, side, v)
+        return Mode(side, s, armed), float(side), v, CONTACT_START, side
     if guard == LEAVE:
         return Mode(0, s, armed), float(r), v, CONTACT_END, r
     if guard == ACCEL_ZERO:
@@ -214,11 +233,43 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
             # velocity is already back at zero, the slip ended here.
             return transition(osc, Mode(r, s, True), SLIP_END, t, x, 0.0)
         return Mode(r, s, True), x, v, None, 0
-    if guard == RELEASE_UP:
-        return Mode(r, 1, False), x, 0.0, RELEASE, 0
-    if guard == RELEASE_DOWN:
-        return Mode(r, -1, False), x, 0.0, RELEASE, 0
-    raise ValueError(f"guard must be one of 0..{N_GUARDS - 1}, got {guard!r}")
+    if guard in (RELEASE_UP, RELEASE_DOWN):
+        s_new = 1 if guard == RELEASE_UP else -1
+        if osc.rigid and r != 0:
+            # Pulled off the rigid wall: the resting contact ends, the mass slides away.
+            return Mode(0, s_new, False), float(r), 0.0, CONTACT_END, r
+        return Mode(r, s_new, False), x, 0.0, RELEASE, 0
+    if guard == AT_WALL:
+        return _rest_at_wall(osc, t, x)
+    raise ValueError(f"guard must be one of 0..{N_GUARDS}, got {guard!r}")
+
+
+def _impact(osc: Oscillator, side: int, v: float):
+    """Newton's impact law ``V -> -e V`` on the rigid flange ``side`` (Shaw & Holmes; Brach).
+
+    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``, or
+    a touch with ``V = 0``) is left at the wall in the free region with motion 0, where
+    :func:`pending_guard` applies the wall's rest test (:data:`AT_WALL`) at once.
+    """
+    v_out = -osc.restitution * v
+    kind = IMPACT if v != 0.0 else None
+    if side * v_out < -KINEMATIC_GUARD_OFFSET:
+        return Mode(0, -side, True), float(side), v_out, kind, side
+    return Mode(0, 0, True), float(side), 0.0, kind, side
+
+
+def _rest_at_wall(osc: Oscillator, t: float, x: float):
+    """A mass at rest exactly against a rigid flange: rest on it, or slide away at once.
+
+    The stick test with the static level decides: pulled away beyond ``beta_s`` the mass
+    leaves (no event: the impact that brought it here was recorded); otherwise, pushed into
+    the wall or held by friction, it rests against the wall (a resting contact starts).
+    """
+    side = 1 if x > 0.0 else -1
+    s_new, armed = motion_at_rest(osc, t, x)
+    if s_new == -side:
+        return Mode(0, s_new, armed), x, 0.0, None, side
+    return Mode(side, 0, True), x, 0.0, CONTACT_START, side
 
 
 #: Offset of the kinematic guards (X -+ 1, V): it only keeps an exactly snapped guard
@@ -254,11 +305,13 @@ class PieceStepper(Protocol):
 
     ``advance`` integrates the smooth vector field of ``mode`` from ``(t, x, v)`` until the
     first armed guard of ``mode`` fires or ``t_end`` is reached, and returns
-    ``(t1, x1, v1, guard, impulse, impulse_sq, forcing_work, steps)``, or raises an
+    ``(t1, x1, v1, guard, impulse, impulse_sq, forcing_work, v_squared, steps)``, or raises an
     ``ArithmeticError``/``RuntimeError`` if it cannot (the run then ends with status -1): ``guard`` is the
-    index of the guard that fired or ``NO_GUARD``; the three integrals are over the piece:
-    ``int K(|X|-1) dt`` (flange regions only), ``int (K(|X|-1))^2 dt`` and
-    ``int V F cos(Omega t + phase) dt``; ``steps`` counts integrator steps.
+    index of the guard that fired or ``NO_GUARD``; the four integrals are over the piece:
+    ``int K d^p dt`` (spring flange regions only), ``int (K d^p)^2 dt``,
+    ``int V forcing(t) dt`` and ``int V^2 dt`` (the damping loss is ``2 zeta`` times it);
+    ``steps`` counts integrator steps. In a stuck piece against a rigid flange the flange
+    force is not the backend's business: it returns zero impulses there.
     """
 
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float): ...
@@ -271,17 +324,20 @@ class PieceStepper(Protocol):
 MAX_EVENTS_AT_ONE_INSTANT = 64
 
 
-def pending_guard(mode: Mode, x: float) -> int:
+def pending_guard(mode: Mode, x: float, rigid: bool = False) -> int:
     """A guard that already holds at the start of a piece, or ``NO_GUARD``.
 
     After a turning point, stick or release exactly on a flange boundary (``|X| = 1`` with
     ``V = 0``), the contact guard of the next piece has a *double* root at its start: no
     event finder sees it cross. Here the new motion direction decides: moving out of the
     free zone means the contact starts now; moving back from the boundary into the free
-    zone means it ends now. Part of the transition rule, applied by :func:`drive`.
+    zone means it ends now. With a rigid flange (``rigid``) a mass at rest on the wall is
+    tested against it (:data:`AT_WALL`). Part of the transition rule, applied by :func:`drive`.
     """
     r, s, _ = mode
     if s == 0:
+        if rigid and r == 0 and abs(x) >= 1.0:
+            return AT_WALL
         return NO_GUARD
     if r == 0:
         if s > 0 and x >= 1.0:
@@ -309,7 +365,9 @@ def missed_guard(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v:
     if s == 0:
         if guard == NO_GUARD:
             f = osc._net_force_scalar(t, x)
-            if abs(f) > osc.beta + INTEGRITY_SLACK * (1.0 + abs(f)):
+            if osc.rigid and r != 0:
+                f = min(r * f, 0.0) * r  # the wall takes any push into it
+            if abs(f) > osc.beta_s + INTEGRITY_SLACK * (1.0 + abs(f)):
                 return "release_up" if f > 0 else "release_down"
         return None
     if guard != SLIP_END and s * v < -INTEGRITY_SLACK:
@@ -330,9 +388,10 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     """The event loop shared by every event-locating backend.
 
     Integrates piece by piece, applies :func:`transition` at every guard (and at once to
-    any :func:`pending_guard` it leaves behind) and streams the results into
-    ``recorder``. Stops at ``t_end`` (status 0), at ``max_events`` recorded events
-    (status 1) or when time stops advancing (status -1, a Zeno-like cascade).
+    any :func:`pending_guard` it leaves behind), resolves chatter on a rigid flange
+    (:mod:`impactosc._chatter`) and streams the results into ``recorder``. Stops at
+    ``t_end`` (status 0), at ``max_events`` recorded events (status 1) or when time stops
+    advancing (status -1, a Zeno-like cascade that is not a resolvable chatter).
     """
     # A velocity below the kinematic guard offset is rest: its turning point would lie
     # within ~1e-300 of the start, closer than any guard can resolve (v0 = -5e-324 inside a
@@ -340,11 +399,14 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     t, x, v = 0.0, x0, (0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0)
     mode = initial_mode(osc, t, x, v)
     recorder.begin(osc, t, x, v, mode)
+    chatter = ChatterTracker(osc) if osc.rigid else None
+    # A start on a boundary (a rigid wall, a spring flange's surface) is resolved at once.
+    mode, x, v, _, _ = _settle(osc, recorder, chatter, mode, pending_guard(mode, x, osc.rigid), t, x, v)
     same_instant = 0
     advance = stepper.advance
     while True:
         try:
-            t1, x1, v1, guard, q, q2, w, steps = advance(mode, t, x, v, t_end)
+            t1, x1, v1, guard, q, q2, w, vv, steps = advance(mode, t, x, v, t_end)
         except (ArithmeticError, RuntimeError) as exc:
             # An integrator that gives up (step size underflow, non-finite state) ends the
             # run like scipy's solve_ivp does: status -1, its message, results so far kept.
@@ -354,7 +416,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
         if not (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(t1)):
             recorder.finish(t, x, v, mode, -1, f"integration produced a non-finite state at t={t1!r}")
             return
-        recorder.piece(mode, t, x, t1, x1, q, q2, w, steps)
+        recorder.piece(mode, t, x, t1, x1, q, q2, w, vv, steps)
         missed = missed_guard(osc, mode, guard, t1, x1, v1)
         if missed:
             recorder.finish(t1, x1, v1, mode, -1,
@@ -365,13 +427,18 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
         if guard == NO_GUARD:
             recorder.finish(t1, x1, v1, mode, 0, "The end time was reached.")
             return
-        recorded = False
-        while guard != NO_GUARD:
-            mode, x1, v1, kind, side = transition(osc, mode, guard, t1, x1, v1)
-            if kind is not None:
-                recorder.event(t1, kind, x1, v1, side)
-                recorded = True
-            guard = pending_guard(mode, x1)
+        mode, x1, v1, recorded, jump = _settle(osc, recorder, chatter, mode, guard, t1, x1, v1)
+        if jump is not None:
+            if jump.t_inf >= t_end:
+                recorder.chatter(jump, None)
+                recorder.finish(t_end, float(jump.side), 0.0, Mode(jump.side, 0, True), 0,
+                                f"The end time was reached inside a chatter on the {_SIDE[jump.side]} flange "
+                                f"(its impacts accumulate at t={jump.t_inf!r}, after the end).")
+                return
+            t1, x1, v1 = jump.t_inf, float(jump.side), 0.0
+            recorder.chatter(jump, t1)
+            mode, x1, v1, _, _ = _settle(osc, recorder, chatter, Mode(0, 0, True), AT_WALL, t1, x1, v1)
+            recorded = True
         same_instant = same_instant + 1 if t1 == t else 0
         t, x, v = t1, x1, v1
         recorder.segment(t, x, v, mode)
@@ -387,6 +454,33 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             return
 
 
+_SIDE = {1: "upper", -1: "lower"}
+
+
+def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float, x: float, v: float):
+    """Apply ``guard`` and every guard it leaves pending at ``t``; record the events.
+
+    Returns ``(mode, x, v, recorded, jump)``: ``jump`` is a :class:`~impactosc._chatter.ChatterJump`
+    when the impacts of a chatter can be resolved from here.
+    """
+    recorded = False
+    jump = None
+    while guard != NO_GUARD:
+        v_before = v
+        mode, x, v, kind, side = transition(osc, mode, guard, t, x, v)
+        if kind is not None:
+            recorder.event(t, kind, x, v_before if kind == IMPACT else v, side)
+            recorded = True
+            if chatter is not None:
+                if kind == IMPACT:
+                    jump = chatter.impact(t, side, abs(v_before))
+                elif kind != REVERSAL:
+                    chatter.interrupt()
+                    jump = None
+        guard = pending_guard(mode, x, osc.rigid)
+    return mode, x, v, recorded, jump
+
+
 def check_run_arguments(osc, t_end, x0, v0, max_events):
     """Validate the arguments common to every backend; returns them normalised."""
     if not isinstance(osc, Oscillator):
@@ -394,5 +488,7 @@ def check_run_arguments(osc, t_end, x0, v0, max_events):
     t_end = _v.positive("t_end", t_end)
     x0 = _v.real("x0", x0)
     v0 = _v.real("v0", v0)
+    if osc.rigid and abs(x0) > 1.0:
+        raise ValueError(f"x0 must satisfy -1 <= x0 <= 1 with a rigid flange (the walls are at |X| = 1), got {x0!r}")
     max_events = _v.integer("max_events", max_events, minimum=1)
     return osc, t_end, x0, v0, max_events

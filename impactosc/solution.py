@@ -19,14 +19,14 @@ from collections.abc import Callable
 import numpy as np
 
 from . import _validation as _v
-from .engine import CONTACT_END, CONTACT_START, EVENT_KINDS, Mode
+from .engine import CHATTER, CONTACT_END, CONTACT_START, EVENT_KINDS, IMPACT, Mode
 from .model import Oscillator
 
 __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE"]
 
 RECORD_OPTIONS = ("full", "events", "stats")
 
-EVENT_DTYPE = np.dtype([("t", "f8"), ("kind", "U13"), ("x", "f8"), ("v", "f8"), ("side", "i1")])
+EVENT_DTYPE = np.dtype([("t", "f8"), ("kind", "U13"), ("x", "f8"), ("v", "f8"), ("side", "i1"), ("count", "i8")])
 IMPACT_DTYPE = np.dtype(
     [
         ("start", "f8"),
@@ -82,12 +82,16 @@ class _Recorder:
         self.max_pen = {1: 0.0, -1: 0.0}
         self.forcing_work = 0.0
         self.slip_path = 0.0
+        self.v_squared = 0.0  # int V^2: the damping loss is 2 zeta times it
+        self.impact_loss = 0.0  # sum (1 - e^2) V^2 / 2 over rigid impacts
+        self.rigid = False
         self.steps = 0
         self.pieces = 0
         self._open: list | None = None  # [start, side, entry_v, peak_pen, impulse, complete]
 
     def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
         self.osc = osc
+        self.rigid = osc.rigid
         self.t0, self.x0, self.v0, self.mode0 = t, x, v, mode
         if mode.region != 0:
             # A run that starts inside a flange: a contact in progress, not an event.
@@ -95,9 +99,18 @@ class _Recorder:
         self.segment(t, x, v, mode)
 
     def piece(self, mode: Mode, t0: float, x0: float, t1: float, x1: float,
-              q: float, q2: float, w: float, steps: int) -> None:
+              q: float, q2: float, w: float, vv: float, steps: int) -> None:
         r = mode.region
-        if r != 0:
+        if r != 0 and self.rigid:
+            # Resting against a rigid wall: the wall's force is the push it takes.
+            q, q2, peak = self.osc.wall_force_integrals(r, t0, t1)
+            self.impulse[r] += q
+            self.impulse_sq[r] += q2
+            self.contact_time[r] += t1 - t0
+            if self._open is not None:
+                self._open[4] += q
+                self._open[3] = max(self._open[3], peak)
+        elif r != 0:
             self.impulse[r] += q
             self.impulse_sq[r] += q2
             self.contact_time[r] += t1 - t0
@@ -113,25 +126,53 @@ class _Recorder:
         if mode.motion != 0:
             self.slip_path += abs(x1 - x0)
         self.forcing_work += w
+        self.v_squared += vv
         self.steps += steps
         self.pieces += 1
 
-    def event(self, t: float, kind: str, x: float, v: float, side: int) -> None:
+    def event(self, t: float, kind: str, x: float, v: float, side: int, count: int = 1) -> None:
         self.counts[kind] += 1
         self.n_events += 1
         if self.keep_events:
-            self.events.append((t, kind, x, v, side))
+            self.events.append((t, kind, x, v, side, count))
         if kind == CONTACT_START:
             self.entries[side] += 1
             self._open = [t, side, v, 0.0, 0.0, True]
         elif kind == CONTACT_END and self._open is not None:
             self._close(t, v)
+        elif kind == IMPACT:
+            # A rigid flange's impact: impulse (1 + e)|V|, kinetic energy (1 - e^2) V^2 / 2 lost.
+            e = self.osc.restitution
+            impulse = (1.0 + e) * abs(v)
+            self.entries[side] += 1
+            self.impulse[side] += impulse
+            self.impact_loss += 0.5 * (1.0 - e * e) * v * v
+            if self.keep_events:
+                self.impacts.append((t, t, side, v, -e * v, 0.0, math.inf, impulse, True))
+
+    def chatter(self, jump, t: float | None) -> None:
+        """Add the resolved remainder of a chatter (:class:`impactosc._chatter.ChatterJump`).
+
+        ``t`` is the accumulation time where the event is recorded, or ``None`` when it lies
+        beyond the end of the run (the totals are still added: their error is below the
+        jump's tolerance).
+        """
+        side = jump.side
+        self.impulse[side] += jump.impulse
+        self.slip_path += jump.path
+        self.impact_loss += jump.loss
+        if t is not None:
+            self.event(t, CHATTER, float(side), 0.0, side, jump.impacts)
 
     def _close(self, t: float, v: float) -> None:
         start, side, v_in, pen, imp, complete = self._open
-        pen = max(pen, 0.0)
+        if self.rigid:
+            peak, pen = pen, 0.0  # a resting contact keeps its peak wall force in the slot
+        else:
+            pen = max(pen, 0.0)
+            peak = self.osc.K * pen**self.osc.exponent
         if self.keep_events:
-            self.impacts.append((start, t, side, v_in, v, pen, self.osc.K * pen, imp, complete))
+            self.impacts.append((start, t, side, v_in, v, pen, peak, imp, complete))
         self._open = None
 
     def segment(self, t: float, x: float, v: float, mode: Mode) -> None:
@@ -185,6 +226,8 @@ class Solution:
         self.n_steps, self.n_pieces = rec.steps, rec.pieces
         self.forcing_work = rec.forcing_work
         self.friction_work = self.oscillator.beta * rec.slip_path
+        self.damping_work = 2.0 * self.oscillator.zeta * rec.v_squared
+        self.impact_loss = rec.impact_loss
         self._entries = dict(rec.entries)
         self._impulse = dict(rec.impulse)
         self._impulse_sq = dict(rec.impulse_sq)
@@ -346,6 +389,33 @@ class Solution:
         seg = self._segments[k[0]]
         cum = float(seg["impulse_upper" if side == 1 else "impulse_lower"])
         return cum + (float(q[0]) if int(seg["region"]) == side else 0.0)
+
+    # -- energy ------------------------------------------------------------------------
+    def energy_balance(self) -> dict[str, float]:
+        """The terms of the energy identity over the run, and its residual.
+
+        ``E(t_final) - E(t0) = W_forcing - beta path - 2 zeta int V^2 - sum (1 - e^2) V_impact^2 / 2``
+        with ``E = V^2/2 + X^2/2 + K d^(p+1)/(p+1)`` (:meth:`Oscillator.energy`). Every term is
+        integrated by the backend (or summed by the engine at impacts), independently of
+        ``E``, so a small ``residual`` checks the run.
+
+        Returns
+        -------
+        dict
+            ``energy_start``, ``energy_end``, ``forcing_work``, ``friction_work`` (kinetic
+            ``beta`` times the slip path), ``damping_work``, ``impact_loss``, ``residual``
+            (left side minus right side) and ``scale`` (the largest term, to judge it by).
+        """
+        osc = self.oscillator
+        e0 = float(osc.energy(self.x0, self.v0))
+        e1 = float(osc.energy(self.x_final, self.v_final))
+        terms = {"energy_start": e0, "energy_end": e1, "forcing_work": self.forcing_work,
+                 "friction_work": self.friction_work, "damping_work": self.damping_work,
+                 "impact_loss": self.impact_loss}
+        terms["residual"] = (e1 - e0) - (self.forcing_work - self.friction_work - self.damping_work
+                                         - self.impact_loss)
+        terms["scale"] = max(abs(v) for v in terms.values())
+        return terms
 
     # -- reports -----------------------------------------------------------------------
     def summary(self) -> str:

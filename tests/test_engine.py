@@ -105,7 +105,7 @@ def test_drive_turns_a_backend_failure_into_status_minus_one():
             self.calls += 1
             if self.calls == 3:
                 raise FloatingPointError("step size underflow")
-            return float(self.calls), -x, 1e-17 * mode.motion, SLIP_END, 0.0, 0.0, 0.0, 1
+            return float(self.calls), -x, 1e-17 * mode.motion, SLIP_END, 0.0, 0.0, 0.0, 0.0, 1
 
     rec = _Recorder("events", "flaky", None)
     drive(FlakyStepper(), OSC, 10.0, 0.95, 0.0, rec, 100)

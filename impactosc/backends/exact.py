@@ -218,18 +218,19 @@ class _SlipPiece:
         # Y'' + w^2 Y = cY + F cos(Omega t + phase), integrated once.
         return (mc.cY * tau + mc.F * icos - (v - self.v0)) / mc.w2
 
-    def int_y2(self, tau: float) -> float:
-        """``int_0^tau Y^2`` by composite Gauss-Legendre (see ``_GL_NODES``)."""
+    def int_squares(self, tau: float) -> tuple[float, float]:
+        """``(int_0^tau Y^2, int_0^tau V^2)`` by composite Gauss-Legendre (see ``_GL_NODES``)."""
         if tau <= 0.0:
-            return 0.0
+            return 0.0, 0.0
         mc = self.mc
         fastest = max(mc.w, mc.Om)
         n = max(1, math.ceil(tau * fastest / math.pi))
         h = tau / n
         left = h * np.arange(n)[:, None]
         nodes = left + 0.5 * h * (_GL_NODES[None, :] + 1.0)
-        y, _ = self.yv(nodes.ravel())
-        return 0.5 * h * float(np.dot(np.tile(_GL_WEIGHTS, n), y * y))
+        y, v = self.yv(nodes.ravel())
+        weights = 0.5 * h * np.tile(_GL_WEIGHTS, n)
+        return float(weights @ (y * y)), float(weights @ (v * v))
 
     def bounds(self, tmax: float, k: int) -> tuple[float, float]:
         """Upper bounds of ``|Y^(k+2)|`` and ``|Y^(k+3)|`` over ``[0, tmax]``.
@@ -375,22 +376,22 @@ class _Stepper:
     def _advance_stuck(self, mode: Mode, t0: float, x: float, t_end: float):
         osc = self.osc
         r = mode.region
-        gates = guard_gates(mode)
+        gates = guard_gates(mode, osc.rigid)
         t1, guard = self._release_time(r, t0, x, t_end, gates)
         tau = t1 - t0
         q = q2 = 0.0
         if r:
             force = osc.K * (r * x - 1.0)  # a mass stuck inside a flange keeps it compressed
             q, q2 = force * tau, force * force * tau
-        return t1, x, 0.0, guard, q, q2, 0.0, 1
+        return t1, x, 0.0, guard, q, q2, 0.0, 0.0, 1
 
     def _release_time(self, r: int, t0: float, x: float, t_end: float, gates) -> tuple[float, int]:
         """First release after ``t0``: ``F cos(Omega t + phase) - spring(x) = +-beta``."""
         osc = self.osc
-        F, Om, phase, beta = osc.F, osc.Omega, osc.phase, osc.beta
+        F, Om, phase, beta = osc.F, osc.Omega, osc.phase, osc.beta_s
         if F == 0.0 or Om == 0.0:
             return t_end, NO_GUARD  # constant force: a stuck mass stays stuck
-        spring = x + osc.K * (x - r) if r else x  # the restoring force of heyoka's f_net
+        spring = osc._spring_scalar(x)  # the restoring force of f_net (no spring for a rigid wall)
         th0 = (Om * t0 + phase) % _TWO_PI
         best_t, best_guard = math.inf, NO_GUARD
         for guard, offset in ((RELEASE_UP, beta), (RELEASE_DOWN, -beta)):
@@ -437,7 +438,7 @@ class _Stepper:
         p = self._slip_piece(mode, t0, x0, v0)
         mc = p.mc
         s, r = mode.motion, mode.region
-        gates = guard_gates(mode)
+        gates = guard_gates(mode, self.osc.rigid)
         T = t_end - t0
 
         # 1. The end guard: s V falling (armed) or s V' falling (after a release).
@@ -496,9 +497,10 @@ class _Stepper:
         # 3. The state and the integrals at the end of the piece.
         x1 = mc.ref + y1
         q = q2 = 0.0
+        y2, vv = p.int_squares(tau1)
         if r:
             q = mc.K * r * p.int_y(tau1, v1)
-            q2 = mc.K * mc.K * p.int_y2(tau1)
+            q2 = mc.K * mc.K * y2
         # Energy balance: int V F cos = Delta E + beta s Delta X, E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
         y0 = p.y0
         dy = y1 - y0
@@ -506,7 +508,7 @@ class _Stepper:
         if r:
             de += 0.5 * mc.K * dy * (y1 + y0)
         work = de + mc.beta * s * dy
-        return t1, x1, v1, guard, q, q2, work, 1
+        return t1, x1, v1, guard, q, q2, work, vv, 1
 
     # -- dense output --------------------------------------------------------------------
     def evaluate(self, mode: Mode, t0: float, x: float, v: float, times: np.ndarray):
@@ -547,6 +549,11 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     Solution
         ``n_steps`` counts pieces: each is one closed-form evaluation.
     """
+    missing = [f for f in osc.unsupported() if f.startswith(("damping", "a power-law", "1 extra", "extra"))
+               or "extra forcing" in f]
+    if missing:
+        raise ValueError(f"the exact backend does not support {', '.join(missing)} yet; "
+                         "use backend='heyoka' or backend='scipy'")
     stepper = _Stepper(osc)
     rec = _Recorder(record, "exact", _Stepper(osc).evaluate)
     drive(stepper, osc, t_end, x0, v0, rec, max_events)

@@ -112,7 +112,7 @@ class _Stepper:
         vals = self.mode_pars.get(mode)
         if vals is None:
             r, s, _ = mode
-            vals = self.mode_pars[mode] = (r, s, r * r, s * s, *guard_gates(mode))
+            vals = self.mode_pars[mode] = (r, s, r * r, s * s, *guard_gates(mode, self.osc.rigid))
         self.pars[_P_REGION:_P_OFFSETS] = vals
         self.pars[_P_OFFSETS:] = guard_offsets(self.osc, x)
 
@@ -127,11 +127,11 @@ class _Stepper:
         if outcome == self.time_limit:
             # heyoka keeps time in double-length arithmetic; its leading part can land an
             # ulp past t_end. The run ends at t_end exactly.
-            return t_end, st[0], st[1], NO_GUARD, st[2], st[3], st[4], res[3]
+            return t_end, st[0], st[1], NO_GUARD, st[2], st[3], st[4], 0.0, res[3]
         code = outcome.value
         if code >= 0 or -code - 1 >= N_GUARDS:
             raise FloatingPointError(f"heyoka stopped with outcome {outcome!r} at t={ta.time!r}")
-        return ta.time, st[0], st[1], -code - 1, st[2], st[3], st[4], res[3]
+        return ta.time, st[0], st[1], -code - 1, st[2], st[3], st[4], 0.0, res[3]
 
     def evaluate(self, mode: Mode, t0: float, x: float, v: float, times: np.ndarray):
         """(X, V, impulse since t0) at ``times`` inside one piece, all guards gated off."""
@@ -155,6 +155,9 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         tol: float = DEFAULT_TOL) -> Solution:
     """Run ``osc`` from ``(x0, v0)`` to ``t_end`` with heyoka. ``tol`` is heyoka's relative and
     absolute tolerance (default: machine epsilon); it must lie in (0, 1)."""
+    missing = osc.unsupported()
+    if missing:
+        raise ValueError(f"the heyoka backend does not support {', '.join(missing)} yet; use backend='scipy'")
     tol = _v.real("tol", tol)
     if not 0.0 < tol < 1.0:
         raise ValueError(f"tol must satisfy 0 < tol < 1, got {tol!r}")

@@ -729,7 +729,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
             cu = traj.cumulative_impulse(1, times)
             cl = traj.cumulative_impulse(-1, times)
             for i, q_up, q_lo in zip(sel, cu, cl, strict=True):
-                t, kind, x, v, side = ev_all[i]
+                t, kind, x, v, side = ev_all[i][:5]
                 reg = side if kind == "contact_start" else 0
                 mot = 1 if v > 0.0 else (-1 if v < 0.0 else 0)
                 rec.segments.append((t, x, v, reg, mot, True, float(q_up), float(q_lo)))

@@ -103,33 +103,44 @@ _SV_MIN = -2
 
 
 def _guard_functions(osc: Oscillator, mode: Mode):
-    """The vector field and the guard functions ``g(t, y)`` of ``mode`` (engine order)."""
-    F, Om, ph, beta, K = osc.F, osc.Omega, osc.phase, osc.beta, osc.K
+    """The vector field and the guard functions ``g(t, y)`` of ``mode`` (engine order).
+
+    The state is ``(X, V, Q, Q2, W[, VV])``: position, velocity, and the integrals of the
+    flange force, of its square, of the forcing power and, with damping only, of ``V^2``
+    (the damping loss; without damping the step-size control stays that of eq. 3).
+    The vector field is the model's own (:meth:`Oscillator.acceleration`): this backend
+    shares no numerics with heyoka, but the same definition of every family member.
+    """
     r, s, _ = mode
-    kr2 = K * r * r  # the flange spring acts only in a flange region
-    s2 = s * s  # stuck: V' = 0 (and V = 0, so X' = 0 too)
-    cos = math.cos
+    accel = osc._accel_scalar
+    region_force = osc._region_force_scalar
+    forcing = osc._forcing_scalar
+    f_net = osc._net_force_scalar
+    beta, beta_s, zeta = osc.beta, osc.beta_s, osc.zeta
+
+    damped = osc.zeta != 0.0
 
     def fun(t, y):
         x, v = y[0], y[1]
-        forcing = F * cos(Om * t + ph)
-        force = kr2 * (r * x - 1.0)  # flange force magnitude K(|X| - 1) in region r
-        return [v, s2 * (forcing - x - kr2 * (x - r) - beta * s), force, force * force, v * forcing]
+        force = region_force(x, r)
+        out = [v if s else 0.0, accel(t, x, v, r, s), force, force * force, v * forcing(t)]
+        if damped:
+            out.append(v * v)
+        return out
 
     def jac(t, y):
-        # Linear in the state; only W' = V F cos(...) has a time-dependent coefficient.
-        forcing = F * cos(Om * t + ph)
-        force = kr2 * (r * y[0] - 1.0)
-        j = np.zeros((5, 5))
-        j[0, 1] = 1.0
-        j[1, 0] = -s2 * (1.0 + kr2)
-        j[2, 0] = kr2 * r
-        j[3, 0] = 2.0 * force * kr2 * r
-        j[4, 1] = forcing
+        x, v = y[0], y[1]
+        j = np.zeros((6, 6) if damped else (5, 5))
+        j[:2, :2] = osc.jacobian(t, x, v, r, s)
+        # d(K d^p)/dX = r K p d^(p-1) in a spring flange region, 0 elsewhere.
+        dforce = -(j[1, 0] + 1.0) * r if (s and r) else 0.0
+        force = region_force(x, r)
+        j[2, 0] = dforce
+        j[3, 0] = 2.0 * force * dforce
+        j[4, 1] = forcing(t)
+        if damped:
+            j[5, 1] = 2.0 * v
         return j
-
-    def f_net(t, x):
-        return F * cos(Om * t + ph) - x - kr2 * (x - r)
 
     guards = {
         ENTER_UPPER: lambda t, y: y[0] - 1.0,
@@ -140,11 +151,12 @@ def _guard_functions(osc: Oscillator, mode: Mode):
         # and the event finder then agree on what "reaching beta" means, and a guard on an
         # f_net that vanishes identically (F = 0 at equilibrium) is not the zero function,
         # which "crossed" everywhere and crawled through 250000 stick/release pairs.
-        ACCEL_ZERO: lambda t, y: s * (f_net(t, y[0]) - beta * s) + force_guard_offset(osc, y[0]),
-        RELEASE_UP: lambda t, y: f_net(t, y[0]) - beta - force_guard_offset(osc, y[0]),
-        RELEASE_DOWN: lambda t, y: f_net(t, y[0]) + beta + force_guard_offset(osc, y[0]),
+        ACCEL_ZERO: lambda t, y: s * accel(t, y[0], y[1], r, s) + force_guard_offset(osc, y[0]),
+        RELEASE_UP: lambda t, y: f_net(t, y[0]) - beta_s - force_guard_offset(osc, y[0]),
+        RELEASE_DOWN: lambda t, y: f_net(t, y[0]) + beta_s + force_guard_offset(osc, y[0]),
     }
-    gates = guard_gates(mode)
+    del beta, zeta
+    gates = guard_gates(mode, osc.rigid)
     # Only the armed guards go to scipy: a gated-off guard must not stop the piece.
     armed = [(i, guards[i], GUARD_DIRECTIONS[i]) for i in range(len(gates)) if gates[i]]
     if s != 0 and gates[SLIP_END]:
@@ -165,6 +177,18 @@ def _started(g, d: int, t0: float):
     return event
 
 
+def _next_forcing_cut(osc: Oscillator, t: float) -> float:
+    """The next time after ``t`` at which a stuck piece is cut (see ``_Stepper.advance``)."""
+    if not osc.harmonics:
+        k = math.floor((osc.Omega * t + osc.phase) / math.pi) + 1
+        t_next = (k * math.pi - osc.phase) / osc.Omega
+        if not t_next > t:  # rounding at an extremum
+            t_next = ((k + 1) * math.pi - osc.phase) / osc.Omega
+        return t_next
+    fastest = max(Om for F, Om, _ in osc.terms if F > 0.0)
+    return t + math.pi / (8.0 * fastest)
+
+
 class _Stepper:
     """Integrates one smooth piece with ``solve_ivp`` (see :class:`engine.PieceStepper`)."""
 
@@ -173,6 +197,10 @@ class _Stepper:
         self.options = {"method": method, "rtol": rtol, "atol": atol}
         self.implicit = method in _IMPLICIT
         self._modes: dict = {}
+
+    def _start(self, x: float, v: float) -> tuple:
+        """The state at a piece start: the integrals restart at zero."""
+        return (x, v, 0.0, 0.0, 0.0, 0.0) if self.osc.zeta else (x, v, 0.0, 0.0, 0.0)
 
     def _mode(self, mode: Mode):
         entry = self._modes.get(mode)
@@ -194,27 +222,25 @@ class _Stepper:
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
         if not t < t_end:
             # An event exactly at t_end: nothing left to integrate.
-            return t, x, v, NO_GUARD, 0.0, 0.0, 0.0, 0
+            return t, x, v, NO_GUARD, 0.0, 0.0, 0.0, 0.0, 0
         fun, jac, armed = self._mode(mode)
         osc = self.osc
-        if mode.motion != 0 or osc.F == 0.0 or osc.Omega == 0.0:
-            return self._advance(mode, fun, jac, armed, t, (x, v, 0.0, 0.0, 0.0), t_end)
-        # Stuck: integrate between extrema of the forcing (Omega t + phase = k pi), where the
-        # release guards are monotonic and cannot cross twice unseen within a step.
-        q = q2 = w = 0.0
+        if mode.motion != 0 or osc.constant_forcing:
+            return self._advance(mode, fun, jac, armed, t, self._start(x, v), t_end)
+        # Stuck: integrate between extrema of the forcing, where the release guards are
+        # monotonic and cannot cross twice unseen within a step. With one harmonic they are
+        # at Omega t + phase = k pi; with several, the pieces are cut at a sixteenth of the
+        # fastest period (a release window narrower than that could still be missed).
+        q = q2 = w = vv = 0.0
         steps = 0
-        y = (x, v, 0.0, 0.0, 0.0)
+        y = self._start(x, v)
         while True:
-            k = math.floor((osc.Omega * t + osc.phase) / math.pi) + 1
-            t_next = (k * math.pi - osc.phase) / osc.Omega
-            if not t_next > t:  # rounding at an extremum
-                t_next = ((k + 1) * math.pi - osc.phase) / osc.Omega
-            t_stop = min(t_next, t_end)
-            t, x1, v1, guard, dq, dq2, dw, n = self._advance(mode, fun, jac, armed, t, y, t_stop)
-            q, q2, w, steps = q + dq, q2 + dq2, w + dw, steps + n
+            t_stop = min(_next_forcing_cut(osc, t), t_end)
+            t, x1, v1, guard, dq, dq2, dw, dvv, n = self._advance(mode, fun, jac, armed, t, y, t_stop)
+            q, q2, w, vv, steps = q + dq, q2 + dq2, w + dw, vv + dvv, steps + n
             if guard != NO_GUARD or t >= t_end:
-                return t, x1, v1, guard, q, q2, w, steps
-            y = (x1, v1, 0.0, 0.0, 0.0)
+                return t, x1, v1, guard, q, q2, w, vv, steps
+            y = self._start(x1, v1)
 
     def _advance(self, mode, fun, jac, armed, t0, y0, t_stop):
         """Solve from ``t0`` to the first armed guard or ``t_stop``, correcting scipy's misses."""
@@ -232,7 +258,7 @@ class _Stepper:
                     # and cannot come back; moving across, the guard fires now.
                     trend = (v0 if v0 != 0.0 else s) * (r if idx == LEAVE else 1)
                     if d * trend > 0:
-                        return t0, x0, v0, idx, 0.0, 0.0, 0.0, 0
+                        return t0, x0, v0, idx, 0.0, 0.0, 0.0, 0.0, 0
                     continue
             watched.append((idx, g, d))
         armed = watched
@@ -254,12 +280,13 @@ class _Stepper:
             fired, t1, extra_steps = missed
             steps += extra_steps
             if not t1 > t0:
-                return t0, y0[0], y0[1], fired, 0.0, 0.0, 0.0, steps
+                return t0, y0[0], y0[1], fired, 0.0, 0.0, 0.0, 0.0, steps
             # Re-integrate to the root so the state there is a step end, not an interpolant.
             sol = self._solve(fun, jac, t0, t1, y0)
             steps += len(sol.t) - 1
         y1 = sol.y[:, -1]
-        return t1, float(y1[0]), float(y1[1]), fired, float(y1[2]), float(y1[3]), float(y1[4]), steps
+        return (t1, float(y1[0]), float(y1[1]), fired, float(y1[2]), float(y1[3]), float(y1[4]),
+                float(y1[5]) if len(y1) > 5 else 0.0, steps)
 
     def _missed(self, sol, armed, events, fired, t0, t_stop, y0, fun, jac):
         """The earliest guard crossing scipy stepped over, as ``(guard, time, steps)``, or None."""
@@ -323,7 +350,7 @@ class _Stepper:
         fun, jac, _ = self._mode(mode)
         order = np.argsort(times[later])
         grid = times[later][order]
-        sol = solve_ivp(fun, (t0, float(grid[-1])), (x, v, 0.0, 0.0, 0.0), t_eval=grid,
+        sol = solve_ivp(fun, (t0, float(grid[-1])), self._start(x, v), t_eval=grid,
                         **self.options, **({"jac": jac} if self.implicit else {}))
         if sol.status == -1 or sol.y.shape[1] != grid.shape[0] or not np.all(np.isfinite(sol.y[:3])):
             raise FloatingPointError(f"scipy could not re-integrate the piece starting at t={t0!r}")
