@@ -379,12 +379,61 @@ def missed_guard(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v:
     return None
 
 
+def guard_value(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float) -> float:
+    """The guard function ``h`` of ``guard`` in ``mode`` at ``(t, x, v)`` (no offset).
+
+    The one numeric definition of the guards (the order of :data:`GUARD_NAMES`); a guard
+    fires where ``h`` crosses zero in :data:`GUARD_DIRECTIONS`. Backends that compile or
+    solve guards in closed form implement the same functions; analyses (saltation
+    matrices, :mod:`impactosc.dynamics`) use this one and :func:`guard_gradient`.
+    """
+    r, s, _ = mode
+    if guard == ENTER_UPPER:
+        return x - 1.0
+    if guard == ENTER_LOWER:
+        return x + 1.0
+    if guard == LEAVE:
+        return r * x - 1.0
+    if guard == SLIP_END:
+        return s * v
+    if guard == ACCEL_ZERO:
+        return s * osc._accel_scalar(t, x, v, r, s)
+    if guard == RELEASE_UP:
+        return osc._net_force_scalar(t, x) - osc.beta_s
+    if guard == RELEASE_DOWN:
+        return osc._net_force_scalar(t, x) + osc.beta_s
+    raise ValueError(f"guard must be one of 0..{N_GUARDS - 1}, got {guard!r}")
+
+
+def guard_gradient(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float):
+    """``((dh/dX, dh/dV), dh/dt)`` of :func:`guard_value`: the normal ``n`` of the saltation matrix.
+
+    The time derivative matters because the forcing makes the force guards move:
+    ``S = I + (f+ - f-) n^T / (n . f- + dh/dt)``.
+    """
+    r, s, _ = mode
+    if guard in (ENTER_UPPER, ENTER_LOWER):
+        return (1.0, 0.0), 0.0
+    if guard == LEAVE:
+        return (float(r), 0.0), 0.0
+    if guard == SLIP_END:
+        return (0.0, float(s)), 0.0
+    rate = float(osc.forcing_rate(t))
+    if guard == ACCEL_ZERO:
+        jac = osc.jacobian(t, x, v, r, s)
+        return (s * jac[1, 0], s * jac[1, 1]), s * rate
+    if guard in (RELEASE_UP, RELEASE_DOWN):
+        # d f_net / dX = d(acceleration)/dX of the slipping vector field in the same region.
+        return (float(osc.jacobian(t, x, 0.0, r, 1)[1, 0]), 0.0), rate
+    raise ValueError(f"guard must be one of 0..{N_GUARDS - 1}, got {guard!r}")
+
+
 def stepper_name(stepper) -> str:
     return getattr(stepper, "name", type(stepper).__module__.rsplit(".", 1)[-1])
 
 
 def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: float,
-          recorder, max_events: int) -> None:
+          recorder, max_events: int, sample_at=()) -> None:
     """The event loop shared by every event-locating backend.
 
     Integrates piece by piece, applies :func:`transition` at every guard (and at once to
@@ -392,6 +441,11 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     (:mod:`impactosc._chatter`) and streams the results into ``recorder``. Stops at
     ``t_end`` (status 0), at ``max_events`` recorded events (status 1) or when time stops
     advancing (status -1, a Zeno-like cascade that is not a resolvable chatter).
+
+    ``sample_at`` (sorted times in ``[0, t_end]``, see :func:`check_sample_times`) are time
+    events: a piece ends exactly there, the state goes to ``recorder.sample`` and the
+    motion goes on in the same mode. A recorder with an ``on_transition`` method is told
+    of every transition (for saltation matrices, :mod:`impactosc.dynamics`).
     """
     # A velocity below the kinematic guard offset is rest: its turning point would lie
     # within ~1e-300 of the start, closer than any guard can resolve (v0 = -5e-324 inside a
@@ -404,9 +458,15 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     mode, x, v, _, _ = _settle(osc, recorder, chatter, mode, pending_guard(mode, x, osc.rigid), t, x, v)
     same_instant = 0
     advance = stepper.advance
+    stops = iter(sample_at)
+    next_stop = next(stops, math.inf)
     while True:
+        while next_stop <= t:  # a sample time reached exactly (at the start, or at an event)
+            recorder.sample(next_stop, x, v, mode)
+            next_stop = next(stops, math.inf)
+        t_target = next_stop if next_stop < t_end else t_end
         try:
-            t1, x1, v1, guard, q, q2, w, vv, steps = advance(mode, t, x, v, t_end)
+            t1, x1, v1, guard, q, q2, w, vv, steps = advance(mode, t, x, v, t_target)
         except (ArithmeticError, RuntimeError) as exc:
             # An integrator that gives up (step size underflow, non-finite state) ends the
             # run like scipy's solve_ivp does: status -1, its message, results so far kept.
@@ -424,7 +484,15 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
                             f"[{t!r}, {t1!r}] (mode {tuple(mode)}); results up to t={t!r} are kept. "
                             "This is a bug: please report it with the parameters.")
             return
+        if guard == NO_GUARD and t_target < t_end:
+            # A sample time: a time event, not a transition. Same mode, same guards armed.
+            t, x, v = t1, x1, v1
+            recorder.segment(t, x, v, mode)
+            continue
         if guard == NO_GUARD:
+            while next_stop <= t1:  # a sample time at t_end itself
+                recorder.sample(next_stop, x1, v1, mode)
+                next_stop = next(stops, math.inf)
             recorder.finish(t1, x1, v1, mode, 0, "The end time was reached.")
             return
         mode, x1, v1, recorded, jump = _settle(osc, recorder, chatter, mode, guard, t1, x1, v1)
@@ -465,9 +533,12 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
     """
     recorded = False
     jump = None
+    hook = getattr(recorder, "on_transition", None)
     while guard != NO_GUARD:
-        v_before = v
+        v_before, x_before, mode_before = v, x, mode
         mode, x, v, kind, side = transition(osc, mode, guard, t, x, v)
+        if hook is not None:
+            hook(t, mode_before, guard, mode, x_before, v_before, x, v, kind)
         if kind is not None:
             recorder.event(t, kind, x, v_before if kind == IMPACT else v, side)
             recorded = True
@@ -479,6 +550,22 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
                     jump = None
         guard = pending_guard(mode, x, osc.rigid)
     return mode, x, v, recorded, jump
+
+
+def check_sample_times(sample_at, t_end: float):
+    """Validate ``sample_at``: finite times in ``[0, t_end]``; returns them sorted (a tuple)."""
+    if sample_at is None:
+        return ()
+    import numpy as np
+
+    try:
+        arr = np.asarray(sample_at, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise TypeError(f"sample_at must be a sequence of times, got {sample_at!r}") from None
+    if arr.size and not (np.all(np.isfinite(arr)) and arr.min() >= 0.0 and arr.max() <= t_end):
+        raise ValueError(f"sample_at must hold finite times within [0, t_end={t_end!r}], "
+                         f"got values in [{float(arr.min())!r}, {float(arr.max())!r}]")
+    return tuple(float(t) for t in np.sort(arr))
 
 
 def check_run_arguments(osc, t_end, x0, v0, max_events):

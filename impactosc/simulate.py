@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from . import _validation as _v
 from .backends import get_backend
-from .engine import check_run_arguments
+from .engine import check_run_arguments, check_sample_times
 from .model import Oscillator
 from .solution import RECORD_OPTIONS, Solution
 
@@ -15,7 +15,7 @@ DEFAULT_MAX_EVENTS = 10_000_000
 
 def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *,
              backend: str = "heyoka", record: str = "full",
-             max_events: int = DEFAULT_MAX_EVENTS, **options) -> Solution:
+             max_events: int = DEFAULT_MAX_EVENTS, sample_at=None, **options) -> Solution:
     """Integrate the impact oscillator event by event from ``(x0, v0)`` at ``Lambda = 0``.
 
     Parameters
@@ -36,6 +36,11 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
         What to keep (see :mod:`impactosc.solution`). Use ``"stats"`` for long runs.
     max_events : int
         Stop with ``status = 1`` after this many recorded events (results are kept).
+    sample_at : sequence of float, optional
+        Times in ``[0, t_end]`` at which the exact state is recorded in
+        :attr:`Solution.samples` (``t, x, v, region, motion``). They are time events of the
+        run, not interpolations: a stroboscopic Poincare section is ``sample_at`` at every
+        forcing period. Not available with ``backend="rk4"``.
     **options
         Backend options: ``tol`` (heyoka); ``method``, ``rtol``, ``atol`` (scipy); ``dt``,
         ``flange`` (rk4).
@@ -47,8 +52,9 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     run = get_backend(backend)
     osc, t_end, x0, v0, max_events = check_run_arguments(osc, t_end, x0, v0, max_events)
     _v.choice("record", record, RECORD_OPTIONS)
+    stops = check_sample_times(sample_at, t_end)
     try:
-        return run(osc, t_end, x0, v0, record=record, max_events=max_events, **options)
+        return run(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=stops, **options)
     except TypeError as exc:
         if "unexpected keyword argument" in str(exc):
             raise TypeError(f"backend {backend!r} does not accept that option: {exc}") from None

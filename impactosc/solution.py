@@ -40,6 +40,7 @@ IMPACT_DTYPE = np.dtype(
         ("complete", "?"),
     ]
 )
+SAMPLE_DTYPE = np.dtype([("t", "f8"), ("x", "f8"), ("v", "f8"), ("region", "i1"), ("motion", "i1")])
 SEGMENT_DTYPE = np.dtype(
     [
         ("t", "f8"),
@@ -88,6 +89,7 @@ class _Recorder:
         self.steps = 0
         self.pieces = 0
         self._open: list | None = None  # [start, side, entry_v, peak_pen, impulse, complete]
+        self.samples: list[tuple] = []  # exact states at the requested sample times
 
     def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
         self.osc = osc
@@ -175,6 +177,10 @@ class _Recorder:
             self.impacts.append((start, t, side, v_in, v, pen, peak, imp, complete))
         self._open = None
 
+    def sample(self, t: float, x: float, v: float, mode: Mode) -> None:
+        """The exact state at a requested sample time (a time event of the run)."""
+        self.samples.append((t, x, v, mode.region, mode.motion))
+
     def segment(self, t: float, x: float, v: float, mode: Mode) -> None:
         if self.keep_segments:
             self.segments.append((t, x, v, mode.region, mode.motion, mode.armed,
@@ -239,6 +245,8 @@ class Solution:
         self._impacts = (np.rec.array(rec.impacts, dtype=IMPACT_DTYPE) if rec.impacts
                          else np.recarray((0,), dtype=IMPACT_DTYPE)) if rec.keep_events else None
         self._segments = np.array(rec.segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
+        self.samples = (np.rec.array(rec.samples, dtype=SAMPLE_DTYPE) if rec.samples
+                        else np.recarray((0,), dtype=SAMPLE_DTYPE))
 
     # -- status ------------------------------------------------------------------------
     @property

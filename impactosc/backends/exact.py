@@ -528,7 +528,8 @@ class _Stepper:
         return xs, vs, qs
 
 
-def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int) -> Solution:
+def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
+        sample_at=()) -> Solution:
     """Run ``osc`` from ``(x0, v0)`` to ``t_end`` with closed-form pieces.
 
     Parameters
@@ -556,5 +557,5 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
                          "use backend='heyoka' or backend='scipy'")
     stepper = _Stepper(osc)
     rec = _Recorder(record, "exact", _Stepper(osc).evaluate)
-    drive(stepper, osc, t_end, x0, v0, rec, max_events)
+    drive(stepper, osc, t_end, x0, v0, rec, max_events, sample_at)
     return Solution(rec, t_end)

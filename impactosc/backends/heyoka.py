@@ -152,7 +152,7 @@ class _Stepper:
 
 
 def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
-        tol: float = DEFAULT_TOL) -> Solution:
+        sample_at=(), tol: float = DEFAULT_TOL) -> Solution:
     """Run ``osc`` from ``(x0, v0)`` to ``t_end`` with heyoka. ``tol`` is heyoka's relative and
     absolute tolerance (default: machine epsilon); it must lie in (0, 1)."""
     missing = osc.unsupported()
@@ -170,7 +170,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         return s.evaluate(mode, t0, x, v, times)
 
     rec = _Recorder(record, "heyoka", evaluator)
-    drive(stepper, osc, t_end, x0, v0, rec, max_events)
+    drive(stepper, osc, t_end, x0, v0, rec, max_events, sample_at)
     return Solution(rec, t_end)
 
 

@@ -597,7 +597,7 @@ class _Trajectory:
 
 
 # -- public entry points -------------------------------------------------------------------
-def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
+def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int, sample_at=(),
         dt: float | None = None, flange: str = "consistent", every: int = 1) -> Solution:
     """Integrate ``osc`` with the paper's fixed-step RK4 scheme (see the module docstring).
 
@@ -635,10 +635,18 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     ------
     ValueError
         For a bad ``dt`` (not finite, <= 0, > ``t_end``, or more than ``MAX_STEPS`` steps),
-        an unknown ``flange`` or a bad ``every``.
+        an unknown ``flange`` or a bad ``every``, ``sample_at`` (no time events), or a
+        member of the model family beyond eq. 3.
     """
     osc, t_end, x0, v0, max_events = check_run_arguments(osc, t_end, x0, v0, max_events)
     _v.choice("record", record, ("full", "events", "stats"))
+    if len(sample_at):
+        raise ValueError("sample_at needs time events, which the rk4 baseline does not locate; "
+                         "use backend='heyoka', 'scipy' or 'exact'")
+    missing = osc.unsupported()
+    if missing:
+        raise ValueError(f"the rk4 baseline does not support {', '.join(missing)}; "
+                         "use backend='heyoka' or 'scipy'")
     jlo = _flange_jump(flange, osc.K)
     dt, n_steps = _check_dt(dt, t_end, osc.K)
     every = _v.integer("every", every, minimum=1)

@@ -360,7 +360,7 @@ class _Stepper:
 
 
 def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
-        method: str = DEFAULT_METHOD, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL) -> Solution:
+        sample_at=(), method: str = DEFAULT_METHOD, rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL) -> Solution:
     """Run ``osc`` from ``(x0, v0)`` to ``t_end`` with :func:`scipy.integrate.solve_ivp`.
 
     Parameters
@@ -402,5 +402,5 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
                          f"got {rtol!r}")
     stepper = _Stepper(osc, method, rtol, atol)
     rec = _Recorder(record, "scipy", stepper.evaluate)
-    drive(stepper, osc, t_end, x0, v0, rec, max_events)
+    drive(stepper, osc, t_end, x0, v0, rec, max_events, sample_at)
     return Solution(rec, t_end)
