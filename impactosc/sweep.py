@@ -93,6 +93,13 @@ _FIELD_ATTRS = {
     "full_pack_diameter": ("m", "full pack diameter"),
     "runout_hub": ("m", "reel run-out at the hub"),
     "runout_full": ("m", "reel run-out at full pack"),
+    "damping_ratio": ("1", "viscous damping ratio zeta"),
+    "static_friction": ("1", "static (breakaway) friction coefficient mu_s"),
+    "flange": ("", "flange law (spring or rigid)"),
+    "flange_exponent": ("1", "exponent p of the flange spring law k0 d^p"),
+    "flange_stiffness": ("N/m^p", "flange stiffness k0 of the spring law"),
+    "restitution": ("1", "coefficient of restitution of a rigid flange"),
+    "runout_harmonics": ("", "run-out harmonics (n, fraction, phase)"),
     "t_sin_half_theta": ("N", "T sin(theta/2), half the roller normal force (eq. 5)"),
 }
 
@@ -730,11 +737,20 @@ def _assemble(plan: dict, results: dict) -> xr.Dataset:
     data["message"] = (dims, message.astype(str), {"long_name": "status message"})
     coords = {k: (k, v, attrs(*_FIELD_ATTRS[k])) for k, v in grid.items()}
     base = plan["base"]
-    ds_attrs = {f"base_{f}": getattr(base, f) for f in _FIELDS}
+    ds_attrs = {f"base_{f}": _attr_value(getattr(base, f)) for f in _FIELDS}
     ds_attrs.update(duration=plan["duration"], duration_units="s", backend=plan["backend"], x0=plan["x0"],
                     v0=plan["v0"], simulate_options=json.dumps(plan["options"], sort_keys=True, default=repr),
                     impactosc_version=_version())
     return xr.Dataset(data, coords=coords, attrs=ds_attrs)
+
+
+def _attr_value(value):
+    """A drive field as a netCDF attribute: ``None`` as ``"None"``, nested tuples as JSON text."""
+    if value is None:
+        return "None"
+    if isinstance(value, tuple):
+        return json.dumps(value)
+    return value
 
 
 def _warn_failures(plan: dict, ds: xr.Dataset) -> None:

@@ -93,6 +93,26 @@ class TapeDrive:
     runout_full : float
         Axial run-out of the reel at full pack in m (> 0). Default 180e-6 (paper, Fig. 6:
         "almost 180 um at the outer diameter").
+    damping_ratio : float
+        Viscous damping ratio ``zeta`` of the lateral tape motion (dimensionless, >= 0).
+        Default 0 (the paper's model). Issue #10's family, like every field below.
+    static_friction : float or None
+        Static (breakaway) friction coefficient ``mu_s >= friction``; ``None`` (default)
+        means equal to ``friction``. It sets ``beta_static = mu_s N / (k L)``.
+    flange : {"spring", "rigid"}
+        The flange law: ``"spring"`` (default) pushes back with ``k0 d^p``; ``"rigid"`` is
+        an instantaneous impact with restitution.
+    flange_exponent : float
+        ``p >= 1`` of the spring law (1: linear, the paper; 1.5: Hertz contact).
+    flange_stiffness : float or None
+        ``k0`` of the spring law in N/m^p (e.g. a Hertz stiffness in N/m^1.5). ``None``
+        (default): ``k0 = stiffness_ratio * k * L^(1 - p)``, i.e. ``K = stiffness_ratio``.
+    restitution : float
+        Newton's coefficient of restitution ``0 <= e <= 1`` of a rigid flange. Default 1.
+    runout_harmonics : sequence of (n, fraction, phase)
+        Higher harmonics of the run-out: harmonic number ``n`` (a positive integer, a
+        multiple of the reel frequency), amplitude as a fraction of the Fig. 6 run-out
+        (>= 0), phase in radians. Default: none (a pure cosine).
 
     Notes
     -----
@@ -144,6 +164,13 @@ class TapeDrive:
     full_pack_diameter: float = _FULL_PACK_DIAMETER
     runout_hub: float = 60e-6
     runout_full: float = 180e-6
+    damping_ratio: float = 0.0
+    static_friction: float | None = None
+    flange: str = "spring"
+    flange_exponent: float = 1.0
+    flange_stiffness: float | None = None
+    restitution: float = 1.0
+    runout_harmonics: tuple = ()
 
     def __post_init__(self) -> None:
         def put(name: str, value) -> None:
@@ -172,6 +199,48 @@ class TapeDrive:
             put("pack_diameter", 0.5 * (self.hub_diameter + self.full_pack_diameter))
         else:
             put("pack_diameter", self._check_diameter("pack_diameter", self.pack_diameter))
+        self._check_family(put)
+
+    def _check_family(self, put) -> None:
+        """Validate the model-family fields (issue #10), naming this class's field names."""
+        put("damping_ratio", _v.nonnegative("damping_ratio", self.damping_ratio))
+        if self.static_friction is not None:
+            mu_s = _v.real("static_friction", self.static_friction)
+            if not mu_s >= self.friction:
+                raise ValueError(f"static_friction must be >= friction={self.friction!r}, got {mu_s!r}")
+            put("static_friction", mu_s)
+        if not isinstance(self.flange, str):
+            raise TypeError(f"flange must be a string, 'spring' or 'rigid'; got {self.flange!r}")
+        _v.choice("flange", self.flange, ("spring", "rigid"))
+        p = _v.real("flange_exponent", self.flange_exponent)
+        if not p >= 1.0:
+            raise ValueError(f"flange_exponent must be >= 1 (flange force k0 d^p with p >= 1), got {p!r}")
+        put("flange_exponent", p)
+        if self.flange_stiffness is not None:
+            put("flange_stiffness", _v.positive("flange_stiffness", self.flange_stiffness))
+        e = _v.real("restitution", self.restitution)
+        if not 0.0 <= e <= 1.0:
+            raise ValueError(f"restitution must satisfy 0 <= e <= 1, got {e!r}")
+        put("restitution", e)
+        if self.flange == "rigid" and (p != 1.0 or self.flange_stiffness is not None):
+            raise ValueError("flange_exponent and flange_stiffness apply to flange='spring' only, got "
+                             f"flange_exponent={p!r}, flange_stiffness={self.flange_stiffness!r} with flange='rigid'")
+        if self.flange == "spring" and e != 1.0:
+            raise ValueError(f"restitution applies to flange='rigid' only, got restitution={e!r} with flange='spring'")
+        harmonics = []
+        if isinstance(self.runout_harmonics, str | bytes) or not hasattr(self.runout_harmonics, "__iter__"):
+            raise TypeError("runout_harmonics must be a sequence of (n, fraction, phase), "
+                            f"got {self.runout_harmonics!r}")
+        for i, term in enumerate(self.runout_harmonics):
+            try:
+                n, frac, ph = term
+            except (TypeError, ValueError):
+                raise ValueError(f"runout_harmonics[{i}] must be a triple (n, fraction, phase), got {term!r}") from None
+            if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
+                raise ValueError(f"runout_harmonics[{i}] harmonic number n must be an integer >= 1, got {n!r}")
+            harmonics.append((int(n), _v.nonnegative(f"runout_harmonics[{i}] fraction", frac),
+                              _v.real(f"runout_harmonics[{i}] phase", ph)))
+        put("runout_harmonics", tuple(harmonics))
 
     def _check_diameter(self, name: str, value) -> float:
         d = _v.positive(name, value)
@@ -302,18 +371,31 @@ class TapeDrive:
 
     @property
     def K(self) -> float:
-        """Flange-to-tape stiffness ratio ``K = k0 / k`` (eq. 3)."""
-        return self.stiffness_ratio
+        """Flange stiffness ratio ``K = k0 L^(p-1) / k`` (eq. 3; ``k0 / k`` for the linear spring)."""
+        if self.flange_stiffness is None:
+            return self.stiffness_ratio
+        return self.flange_stiffness * self.clearance ** (self.flange_exponent - 1.0) / self.stiffness
+
+    @property
+    def beta_static(self) -> float | None:
+        """Nondimensional static friction level ``mu_s N / (k L)`` (``None`` when equal to :attr:`beta`)."""
+        if self.static_friction is None:
+            return None
+        return self.static_friction * self.normal_force / self.force_scale
 
     def oscillator(self, phase: float = 0.0) -> Oscillator:
-        """The nondimensional model ``Oscillator(F, Omega, beta, K, phase)`` of this drive (eq. 3).
+        """The nondimensional model of this drive (eq. 3 and its family, :class:`Oscillator`).
 
         Parameters
         ----------
         phase : float
-            Forcing phase in radians (the reel's angle at ``t = 0``).
+            Forcing phase in radians (the reel's angle at ``t = 0``); the ``n``-th run-out
+            harmonic gets ``n * phase`` plus its own phase.
         """
-        return Oscillator(self.F, self.Omega, self.beta, self.K, phase)
+        harmonics = [(frac * self.F, n * self.Omega, n * phase + ph) for n, frac, ph in self.runout_harmonics]
+        return Oscillator(self.F, self.Omega, self.beta, self.K, phase, zeta=self.damping_ratio,
+                          beta_static=self.beta_static, flange=self.flange, exponent=self.flange_exponent,
+                          restitution=self.restitution, harmonics=harmonics)
 
     # -- scales ------------------------------------------------------------------------
     @property
