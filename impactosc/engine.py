@@ -21,17 +21,33 @@ changed sign, so re-arming there is exact, not a heuristic.
 
 Guards (direction-filtered)
 ---------------------------
-``ENTER_UPPER``  X - 1 rises through 0        free region, slipping
-``ENTER_LOWER``  X + 1 falls through 0        free region, slipping
-``LEAVE``        region*X - 1 falls through 0 flange region, slipping
-``SLIP_END``     motion*V falls through 0     slipping, armed
-``ACCEL_ZERO``   motion*V' falls through 0    slipping, not armed (internal, no event)
-``RELEASE_UP``   f_net - beta rises through 0 stuck
-``RELEASE_DOWN`` f_net + beta falls through 0 stuck
+``ENTER_UPPER``  X - 1 rises through 0          free region, slipping
+``ENTER_LOWER``  X + 1 falls through 0          free region, slipping
+``LEAVE``        region*X - 1 falls through 0   spring flange region, slipping
+``SLIP_END``     motion*V falls through 0       slipping, armed
+``ACCEL_ZERO``   motion*V' falls through 0      slipping, not armed (internal, no event)
+``RELEASE_UP``   f_net - beta_s rises through 0 stuck
+``RELEASE_DOWN`` f_net + beta_s falls through 0 stuck
 
+:func:`guard_value` and :func:`guard_gradient` define them numerically, once.
 Each piece between two guards is monotonic in X (every turning point is a ``SLIP_END``),
 so a flange crossing inside a piece is a simple root: grazing contacts become two simple
 roots on either side of a located turning point instead of one double root.
+
+The model family (issue #10)
+----------------------------
+Damping, the power-law spring and harmonic sums change only the vector field of a mode
+(:meth:`Oscillator.acceleration`); the backends integrate it, the rule here is the same.
+Static friction ``beta_s >= beta`` sets the stick test and the release guards; a release
+always starts disarmed (with ``beta_s > beta`` the acceleration jumps to ``beta_s - beta``
+and the velocity still cannot return to zero before the acceleration changes sign).
+A **rigid flange** has no flange region in motion: ``ENTER_*`` is an impact
+``V -> -e V`` (event ``impact``); a mass that keeps no speed at the wall is tested against
+it (the internal guard :data:`AT_WALL`) and rests on it in the mode ``(side, 0)`` (event
+``contact_start``), whose only armed guard is the release away from the wall (event
+``contact_end``). Impacts that accumulate in finite time (chatter, a Zeno point) are
+followed until a local model predicts the rest, then resolved by a jump to the
+accumulation time (event ``chatter``, :mod:`impactosc._chatter`).
 """
 
 from __future__ import annotations
