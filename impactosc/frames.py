@@ -159,7 +159,11 @@ def _available_memory() -> int | None:
 
 
 def _grid_size(duration: float, dt: float, max_samples: int | None, what: str) -> int:
-    n = math.floor(duration / dt * (1.0 + 1e-12)) + 1
+    steps = duration / dt
+    k = math.floor(steps)
+    if math.ceil(steps) != k and math.isclose(steps, math.ceil(steps), rel_tol=1e-12):
+        k += 1  # t1 is on the grid up to rounding (e.g. 0.3 / 0.1 = 2.9999999999999996)
+    n = k + 1
     if max_samples is None:
         avail = _available_memory()
         limit = FALLBACK_MAX_SAMPLES if avail is None else avail // (2 * BYTES_PER_SAMPLE)
@@ -200,7 +204,7 @@ def sample_grid(sol, dt: float, drive: TapeDrive | None = None, *, t0: float | N
         raise ValueError(f"the window must satisfy {start!r} <= t0 < t1 <= {stop!r} [{u.time_unit}], "
                          f"got t0={lo!r}, t1={hi!r}")
     n = _grid_size(hi - lo, dt, max_samples, f"window of {u.time_unit}")
-    t = lo + dt * np.arange(n)
+    t = np.minimum(lo + dt * np.arange(n), hi)
     lam = np.clip(t / u.time, sol.t0, hi_lam)
     if lo == start:
         lam[0] = sol.t0

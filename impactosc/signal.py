@@ -133,18 +133,24 @@ def highpass(t, x, cutoff: float = CUTOFF_HZ, order: int = 4) -> np.ndarray:
     order : int
         Order of the Butterworth design. The filter runs forward and backward
         (``scipy.signal.sosfiltfilt``): no phase shift, so bursts stay where they happen,
-        twice the order in roll-off, and a gain of 1/2 (-6 dB) at the cutoff.
+        twice the order in roll-off, and a gain of 1/2 (-6 dB) at the cutoff. The ends are
+        padded by an odd reflection of three cutoff periods, which continues a ramp (the
+        run-out near an end) without a step; what remains of the edge transient decays
+        within a few cutoff periods.
     """
     t, x, fs = check_signal(t, x)
     cutoff = _check_frequency("cutoff", cutoff, fs)
     order = _v.integer("order", order)
     sos = _ss.butter(order, cutoff, btype="highpass", fs=fs, output="sos")
-    # sosfiltfilt's default edge padding; it needs more samples than that.
-    padlen = 3 * (2 * len(sos) + 1 - min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum()))
-    if x.size <= padlen:
+    # sosfiltfilt's default edge padding, a few samples; the record must be longer than that.
+    minimum = 3 * (2 * len(sos) + 1 - min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum()))
+    if x.size <= minimum:
         raise ValueError(f"the signal is too short for an order-{order} zero-phase filter: {x.size} samples, "
-                         f"need more than {padlen}")
-    return _ss.sosfiltfilt(sos, x)
+                         f"need more than {minimum}")
+    # Pad by an odd reflection of three cutoff periods: with the default few samples the
+    # filter's start-up transient at each end is as large as the bursts being looked for.
+    padlen = min(x.size - 1, max(minimum, round(3 * fs / cutoff)))
+    return _ss.sosfiltfilt(sos, x, padlen=padlen)
 
 
 def rms_envelope(t, x, window: float = WINDOW_S) -> np.ndarray:
@@ -168,15 +174,18 @@ def rms_envelope(t, x, window: float = WINDOW_S) -> np.ndarray:
 
 # -- spectra --------------------------------------------------------------------------------
 def spectrum(t, x, resolution: float = RESOLUTION_HZ) -> tuple[np.ndarray, np.ndarray]:
-    """Power spectral density of ``x`` by Welch's method (Hann window, half overlap).
+    """Power spectral density of ``x`` by Welch's method (Hann window, 3/4 overlap).
 
     Returns ``(frequencies in Hz, PSD in units of x^2/Hz)``. ``resolution`` (Hz) sets the
     segment length ``fs/resolution`` (at most the record), so the bin width is about
-    ``resolution``; a sine shows as a peak within one bin of its frequency.
+    ``resolution``; a sine shows as a peak within one bin of its frequency. With a hop of
+    a quarter segment the squared Hann windows add up to a constant, so every sample
+    weighs the same in the average and the power of a short burst is not biased by where
+    it falls.
     """
     t, x, fs = check_signal(t, x)
     nper = _nperseg(resolution, fs, x.size)
-    return _ss.welch(x, fs=fs, window="hann", nperseg=nper)
+    return _ss.welch(x, fs=fs, window="hann", nperseg=nper, noverlap=3 * nper // 4)
 
 
 @dataclass(frozen=True)
@@ -231,7 +240,10 @@ def band_power(t, x, band=BAND_HZ, resolution: float = RESOLUTION_HZ) -> float:
 
     The Welch PSD (:func:`spectrum`) summed over the bins in ``band`` times the bin width,
     in units of x^2 (m^2 for LTM in m); its square root is the rms of the band. For a sine
-    of amplitude ``A`` inside the band and away from its edges it is ``A^2/2``.
+    of amplitude ``A`` inside the band and away from its edges it is ``A^2/2``. The band is
+    as sharp as the resolution: a Hann bin collects power from two bins either side, so
+    keep ``resolution`` well below the band's width, and high-pass a record with a strong
+    low-frequency part first (as :func:`analyze` does) or it leaks into the band.
     """
     t, x, fs = check_signal(t, x)
     lo, hi = _check_band(band, fs)
@@ -388,8 +400,9 @@ class LTMAnalysis:
         The record: time (s) and LTM (m).
     fs : float
         Sampling rate (Hz).
-    cutoff, window, band
-        The parameters used: high-pass cutoff (Hz), rms window (s), band (Hz).
+    cutoff, window, band, detrend_cutoff
+        The parameters used: high-pass cutoff (Hz), rms window (s), band (Hz), and the
+        cutoff (Hz) of the high-pass applied before the spectra (0: none).
     highpassed : ndarray
         The LTM high-pass filtered at ``cutoff`` (Fig. 3(b)).
     envelope : ndarray
@@ -413,6 +426,7 @@ class LTMAnalysis:
     cutoff: float
     window: float
     band: tuple[float, float]
+    detrend_cutoff: float
     highpassed: np.ndarray
     envelope: np.ndarray
     spectrogram: Spectrogram
@@ -449,9 +463,25 @@ class LTMAnalysis:
 
         plt = require_matplotlib()
         fmax = min(self.fs / 2, 5 * self.band[1]) if fmax is None else _v.positive("fmax", fmax)
-        ms, um = 1e3, 1e6
         fig, axes = plt.subplots(4, 1, figsize=(9, 10), sharex=True, constrained_layout=True)
-        ax_a, ax_b, ax_c, ax_d = axes
+        self._draw_signals(axes[:3])
+        self._draw_spectrogram(fig, axes[3], fmax)
+        if self.impact_times is not None and self.impact_times.size:
+            for ax in axes:
+                lo, hi = ax.get_ylim()
+                ax.vlines(self.impact_times * 1e3, lo, hi, colors="tab:red", linestyles="--", lw=0.6, alpha=0.6)
+                ax.set_ylim(lo, hi)
+            axes[0].plot([], [], color="tab:red", ls="--", lw=0.6, label="impacts")
+            axes[0].legend(loc="upper right", fontsize=8)
+        fig.suptitle(self.summary() if self.correlation is None else self.correlation.summary(), fontsize=8)
+        if path is not None:
+            fig.savefig(path, dpi=120)
+        return fig
+
+    def _draw_signals(self, axes) -> None:
+        """Panels (a)-(c): the LTM, the high-passed LTM with bursts, the rms envelopes (ms, um)."""
+        ax_a, ax_b, ax_c = axes
+        ms, um = 1e3, 1e6
         ax_a.plot(self.t * ms, self.x * um, lw=0.7, color="k")
         ax_a.set_ylabel("LTM [µm]")
         ax_a.set_title("(a) lateral tape motion", fontsize=9, loc="left")
@@ -469,28 +499,21 @@ class LTMAnalysis:
         ax_c.set_ylabel("rms [µm]")
         ax_c.legend(loc="upper right", fontsize=8)
         ax_c.set_title("(c) rms of the high-passed LTM", fontsize=9, loc="left")
+
+    def _draw_spectrogram(self, fig, ax, fmax: float) -> None:
+        """Panel (d): the spectrogram in dB, 80 dB deep, with the band's edges."""
+        sg = self.spectrogram
         sel = sg.f <= fmax
         level = 10 * np.log10(np.maximum(sg.psd[sel], np.finfo(float).tiny))
         floor = level.max() - 80.0  # an 80 dB range keeps bursts visible above numerical noise
-        mesh = ax_d.pcolormesh(sg.t * ms, sg.f[sel] / 1e3, np.maximum(level, floor), shading="nearest", cmap="Greys")
-        fig.colorbar(mesh, ax=ax_d, label="PSD [dB re 1 m²/Hz]")
+        mesh = ax.pcolormesh(sg.t * 1e3, sg.f[sel] / 1e3, np.maximum(level, floor), shading="nearest", cmap="Greys")
+        fig.colorbar(mesh, ax=ax, label="PSD [dB re 1 m²/Hz]")
         for edge in self.band:
-            ax_d.axhline(edge / 1e3, color="tab:purple", lw=0.8, ls="--")
-        ax_d.set_ylabel("frequency [kHz]")
-        ax_d.set_xlabel("time [ms]")
-        ax_d.set_title("(d) time-frequency analysis of the LTM", fontsize=9, loc="left")
-        if self.impact_times is not None and self.impact_times.size:
-            for ax in axes:
-                lo, hi = ax.get_ylim()
-                ax.vlines(self.impact_times * ms, lo, hi, colors="tab:red", linestyles="--", lw=0.6, alpha=0.6)
-                ax.set_ylim(lo, hi)
-            ax_a.plot([], [], color="tab:red", ls="--", lw=0.6, label="impacts")
-            ax_a.legend(loc="upper right", fontsize=8)
-        title = self.summary() if self.correlation is None else self.correlation.summary()
-        fig.suptitle(title, fontsize=8)
-        if path is not None:
-            fig.savefig(path, dpi=120)
-        return fig
+            ax.axhline(edge / 1e3, color="tab:purple", lw=0.8, ls="--")
+        ax.set_ylabel("frequency [kHz]")
+        ax.set_xlabel("time [ms]")
+        above = f" (above {self.detrend_cutoff:g} Hz)" if self.detrend_cutoff > 0 else ""
+        ax.set_title(f"(d) time-frequency analysis of the LTM{above}", fontsize=9, loc="left")
 
 
 def analyze(t, x, *, cutoff: float = CUTOFF_HZ, order: int = 4, window: float = WINDOW_S, band=BAND_HZ,
@@ -540,7 +563,7 @@ def analyze(t, x, *, cutoff: float = CUTOFF_HZ, order: int = 4, window: float = 
         imp = np.sort(np.asarray(impact_times, dtype=float).ravel())
         tol = window if tolerance is None else tolerance
         corr = correlate_with_impacts(bursts, imp, tol, t=t, envelope=env)
-    return LTMAnalysis(t, x, fs, float(cutoff), float(window), band, hp, env,
+    return LTMAnalysis(t, x, fs, float(cutoff), float(window), band, detrend_cutoff, hp, env,
                        spectrogram(t, detrended, resolution), band_power(t, detrended, band, resolution),
                        bursts, imp, corr)
 
