@@ -26,7 +26,10 @@ This module does the same on any uniformly sampled ``(t, x)`` record in SI units
 
 from __future__ import annotations
 
+import csv
+import itertools
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,12 +87,12 @@ def check_signal(t, x) -> tuple[np.ndarray, np.ndarray, float]:
     back = np.flatnonzero(steps <= 0)
     if back.size:
         i = back[0]
-        raise ValueError(f"t must increase strictly: t[{i + 1}] = {t[i + 1]!r} <= t[{i}] = {t[i]!r}")
-    dt = (t[-1] - t[0]) / (t.size - 1)
+        raise ValueError(f"t must increase strictly: t[{i + 1}] = {float(t[i + 1])!r} <= t[{i}] = {float(t[i])!r}")
+    dt = float(t[-1] - t[0]) / (t.size - 1)
     dev = np.abs(steps - dt)
     worst = int(np.argmax(dev))
     if dev[worst] > UNIFORM_RTOL * dt:
-        raise ValueError(f"t must be uniformly sampled: the step t[{worst + 1}] - t[{worst}] = {steps[worst]!r} "
+        raise ValueError(f"t must be uniformly sampled: the step t[{worst + 1}] - t[{worst}] = {float(steps[worst])!r} "
                          f"differs from the mean step {dt!r} by more than {UNIFORM_RTOL:g} of it; "
                          f"interpolate onto a uniform grid first (e.g. numpy.interp)")
     return t, x, 1.0 / dt
@@ -180,8 +183,8 @@ def spectrum(t, x, resolution: float = RESOLUTION_HZ) -> tuple[np.ndarray, np.nd
     segment length ``fs/resolution`` (at most the record), so the bin width is about
     ``resolution``; a sine shows as a peak within one bin of its frequency. With a hop of
     a quarter segment the squared Hann windows add up to a constant, so every sample
-    weighs the same in the average and the power of a short burst is not biased by where
-    it falls.
+    away from the ends weighs the same in the average and the power of a short burst
+    does not depend on where it falls between segments.
     """
     t, x, fs = check_signal(t, x)
     nper = _nperseg(resolution, fs, x.size)
@@ -573,6 +576,23 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "nm": 1e-9}
 
 
+def _sniff(path, sep: str | None) -> tuple[str, bool]:
+    """Delimiter (``sep`` if given) and whether a header line is present, from the first data lines.
+
+    pandas' fast reader cannot guess either; a header is a first line with no number in it.
+    """
+    with open(path, newline="") as fh:
+        lines = [line for line in itertools.islice(fh, 200) if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise csv.Error("no data lines")
+    if sep is None:
+        sep = csv.Sniffer().sniff("".join(lines[:20]), delimiters=",;\t ").delimiter
+        sep = r"\s+" if sep == " " else sep
+    fields = re.split(sep, lines[0].strip()) if sep == r"\s+" else lines[0].strip().split(sep)
+    numeric = pd.to_numeric(pd.Series(fields), errors="coerce").notna()
+    return sep, not numeric.any()
+
+
 def read_ltm_csv(path, *, time_column=0, x_column=1, time_unit: str = "s", x_unit: str = "m",
                  **read_csv_options) -> tuple[np.ndarray, np.ndarray]:
     """Read a measured LTM record ``(t, x)`` from a CSV file; returns SI arrays (s, m), checked.
@@ -580,8 +600,9 @@ def read_ltm_csv(path, *, time_column=0, x_column=1, time_unit: str = "s", x_uni
     Parameters
     ----------
     path : str or path-like
-        The file. The delimiter is detected (comma, semicolon, tab, spaces); a header line
-        is detected (a first row that is not numeric); lines starting with ``#`` are skipped.
+        The file. The delimiter is detected from the first lines (comma, semicolon, tab,
+        spaces); a header line is detected (a first row that is not numeric); lines
+        starting with ``#`` are skipped.
     time_column, x_column : int or str
         Columns of time and displacement: positions, or names from the header.
     time_unit : {"s", "ms", "us"}
@@ -599,10 +620,15 @@ def read_ltm_csv(path, *, time_column=0, x_column=1, time_unit: str = "s", x_uni
     """
     _v.choice("time_unit", time_unit, tuple(TIME_UNITS))
     _v.choice("x_unit", x_unit, tuple(LENGTH_UNITS))
-    options = {"sep": None, "engine": "python", "comment": "#", "header": None, **read_csv_options}
-    raw = pd.read_csv(path, **options)
-    if options["header"] is None and len(raw) and pd.to_numeric(raw.iloc[0], errors="coerce").isna().all():
-        raw = raw.iloc[1:].set_axis([str(c).strip() for c in raw.iloc[0]], axis=1)
+    options = {"comment": "#", **read_csv_options}
+    try:
+        sep, has_header = _sniff(path, options.pop("sep", options.pop("delimiter", None)))
+        options["sep"] = sep
+        options.setdefault("header", 0 if has_header else None)
+        raw = pd.read_csv(path, **options)
+    except (csv.Error, pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
+        raise ValueError(f"{path}: cannot be read as a table of (time, displacement) columns: {exc}") from None
+    raw.columns = [c.strip() if isinstance(c, str) else c for c in raw.columns]
     columns = []
     for name, col in (("time_column", time_column), ("x_column", x_column)):
         if isinstance(col, str):
