@@ -20,6 +20,7 @@ import numpy as np
 
 from . import _validation as _v
 from .engine import CHATTER, CONTACT_END, CONTACT_START, EVENT_KINDS, IMPACT, Mode
+from .frames import SolutionFramesMixin
 from .model import Oscillator
 
 __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE"]
@@ -194,7 +195,7 @@ class _Recorder:
         self.status, self.message = status, message
 
 
-class Solution:
+class Solution(SolutionFramesMixin):
     """The result of :func:`impactosc.simulate`.
 
     Attributes

@@ -40,93 +40,93 @@ OMEGA_N = 574146.14
 # -- derived quantities --------------------------------------------------------------------
 def test_stiffness_eq4_both_bendings():
     d = TapeDrive()
-    assert d.second_moment == pytest.approx(I_IN, rel=REL)
-    assert d.stiffness == pytest.approx(K_IN, rel=REL)
+    assert d.second_moment == pytest.approx(I_IN, rel=REL, abs=0)
+    assert d.stiffness == pytest.approx(K_IN, rel=REL, abs=0)
     o = d.replace(bending="out-of-plane")
-    assert o.second_moment == pytest.approx(I_OUT, rel=REL)
-    assert o.stiffness == pytest.approx(K_OUT, rel=REL)
+    assert o.second_moment == pytest.approx(I_OUT, rel=REL, abs=0)
+    assert o.stiffness == pytest.approx(K_OUT, rel=REL, abs=0)
     # The two readings differ by (w/h)^2 = (0.0127 / 9e-6)^2 = 1411.11^2 = 1.99124e6
     assert d.stiffness / o.stiffness == pytest.approx((12.7e-3 / 9e-6) ** 2, rel=REL)
 
 
 def test_mass_and_natural_frequency():
     d = TapeDrive()
-    assert d.mass == pytest.approx(MASS, rel=REL)
-    assert d.omega_n == pytest.approx(OMEGA_N, rel=1e-7)
+    assert d.mass == pytest.approx(MASS, rel=REL, abs=0)
+    assert d.omega_n == pytest.approx(OMEGA_N, rel=1e-7, abs=0)
     # f_n = 574146.14 / (2 pi) = 574146.14 / 6.2831853 = 91378.5 Hz (the design's "91 kHz")
-    assert d.natural_frequency_hz == pytest.approx(91378.5, rel=1e-5)
+    assert d.natural_frequency_hz == pytest.approx(91378.5, rel=1e-5, abs=0)
     # out-of-plane: sqrt(0.2592324 / 1.56591e-6) = sqrt(165547.6) = 406.87 rad/s
-    assert d.replace(bending="out-of-plane").omega_n == pytest.approx(406.87, rel=1e-4)
+    assert d.replace(bending="out-of-plane").omega_n == pytest.approx(406.87, rel=1e-4, abs=0)
 
 
 def test_normal_force_eq5():
     # N = 2 T sin(theta/2) = 2 * 1 * sin(30 deg) = 2 * 0.5 = 1.0 N
     d = TapeDrive()
-    assert d.normal_force == pytest.approx(1.0, rel=REL)
-    assert d.t_sin_half_theta == pytest.approx(0.5, rel=REL)
-    assert d.friction_force == pytest.approx(0.2, rel=REL)  # mu N = 0.2 * 1.0
+    assert d.normal_force == pytest.approx(1.0, rel=REL, abs=0)
+    assert d.t_sin_half_theta == pytest.approx(0.5, rel=REL, abs=0)
+    assert d.friction_force == pytest.approx(0.2, rel=REL, abs=0)  # mu N = 0.2 * 1.0
     # T = 2 N, theta = 90 deg: N = 2 * 2 * sin(45 deg) = 4 * 0.70710678 = 2.82842712 N
-    assert d.replace(tension=2.0, wrap_angle=90.0).normal_force == pytest.approx(2.82842712, rel=1e-8)
+    assert d.replace(tension=2.0, wrap_angle=90.0).normal_force == pytest.approx(2.82842712, rel=1e-8, abs=0)
     # theta = 180 deg (half wrap): N = 2 T
-    assert d.replace(tension=1.5, wrap_angle=180.0).normal_force == pytest.approx(3.0, rel=REL)
+    assert d.replace(tension=1.5, wrap_angle=180.0).normal_force == pytest.approx(3.0, rel=REL, abs=0)
 
 
 def test_reel_frequency_eq1():
     # omega_r = 2 V / D ; mid pack D = (44 + 97)/2 = 70.5 mm
     d = TapeDrive()
-    assert d.pack_diameter == pytest.approx(70.5e-3, rel=REL)
+    assert d.pack_diameter == pytest.approx(70.5e-3, rel=REL, abs=0)
     # 2 * 4 / 0.0705 = 113.47518 rad/s
-    assert d.omega_r == pytest.approx(113.47518, rel=1e-7)
+    assert d.omega_r == pytest.approx(113.47518, rel=1e-7, abs=0)
     # 2 * 12 / 0.044 = 545.4545 rad/s (fastest reel: empty pack, 12 m/s)
-    assert d.replace(speed=12.0, pack_diameter=0.044).omega_r == pytest.approx(545.454545, rel=1e-8)
+    assert d.replace(speed=12.0, pack_diameter=0.044).omega_r == pytest.approx(545.454545, rel=1e-8, abs=0)
 
 
 def test_runout_law_fig6():
     d = TapeDrive()
     # Hub: 60 um ; full pack: 180 um ; midpoint: (60 + 180)/2 = 120 um
-    assert d.replace(pack_diameter=44e-3).runout == pytest.approx(60e-6, rel=REL)
-    assert d.replace(pack_diameter=97e-3).runout == pytest.approx(180e-6, rel=REL)
-    assert d.runout == pytest.approx(120e-6, rel=REL)
+    assert d.replace(pack_diameter=44e-3).runout == pytest.approx(60e-6, rel=REL, abs=0)
+    assert d.replace(pack_diameter=97e-3).runout == pytest.approx(180e-6, rel=REL, abs=0)
+    assert d.runout == pytest.approx(120e-6, rel=REL, abs=0)
     # Quarter way, D = 44 + 53/4 = 57.25 mm: 60 + 120/4 = 90 um
-    assert d.runout_at(57.25e-3) == pytest.approx(90e-6, rel=REL)
+    assert d.runout_at(57.25e-3) == pytest.approx(90e-6, rel=REL, abs=0)
     # F_a = runout * k = 120e-6 * 516192.516 = 61.9431 N ; F = F_a / (k L) = runout / L
-    assert d.forcing_amplitude == pytest.approx(61.9431019, rel=1e-8)
-    assert d.replace(pack_diameter=44e-3).F == pytest.approx(0.06, rel=REL)
-    assert d.F == pytest.approx(0.12, rel=REL)
-    assert d.replace(pack_diameter=97e-3).F == pytest.approx(0.18, rel=REL)
+    assert d.forcing_amplitude == pytest.approx(61.9431019, rel=1e-8, abs=0)
+    assert d.replace(pack_diameter=44e-3).F == pytest.approx(0.06, rel=REL, abs=0)
+    assert d.F == pytest.approx(0.12, rel=REL, abs=0)
+    assert d.replace(pack_diameter=97e-3).F == pytest.approx(0.18, rel=REL, abs=0)
 
 
 def test_nondimensional_numbers_of_default_drive():
     d = TapeDrive()
     # F = 120e-6 / 1e-3 = 0.12
-    assert d.F == pytest.approx(0.12, rel=REL)
+    assert d.F == pytest.approx(0.12, rel=REL, abs=0)
     # Omega = omega_r / omega_n = 113.47518 / 574146.14 = 1.976416e-4
-    assert d.Omega == pytest.approx(1.976416e-4, rel=1e-6)
+    assert d.Omega == pytest.approx(1.976416e-4, rel=1e-6, abs=0)
     # beta = mu N / (k L) = 0.2 * 1.0 / (516192.516 * 1e-3) = 0.2 / 516.192516 = 3.874523e-4
-    assert d.beta == pytest.approx(3.874523e-4, rel=1e-6)
+    assert d.beta == pytest.approx(3.874523e-4, rel=1e-6, abs=0)
     # beta is linear in T: 3.87e-4 per newton (in-plane) ...
-    assert d.replace(tension=2.0).beta == pytest.approx(2 * 3.874523e-4, rel=1e-6)
+    assert d.replace(tension=2.0).beta == pytest.approx(2 * 3.874523e-4, rel=1e-6, abs=0)
     # ... and 0.2 / (0.2592324 * 1e-3) = 771.51 per newton out-of-plane (the design's "770 T")
-    assert d.replace(bending="out-of-plane").beta == pytest.approx(771.508, rel=1e-5)
+    assert d.replace(bending="out-of-plane").beta == pytest.approx(771.508, rel=1e-5, abs=0)
     assert d.K == 1e4
     # Scales: k L = 516.192516 N ; L = 1 mm
-    assert d.force_scale == pytest.approx(516.192516, rel=REL)
+    assert d.force_scale == pytest.approx(516.192516, rel=REL, abs=0)
     assert d.length_scale == 1e-3
     # Omega range of the paper's sweep: 4 m/s full pack 2*4/(0.097*574146.14) = 1.4365e-4,
     # 12 m/s at the hub 2*12/(0.044*574146.14) = 9.5003e-4
-    assert d.replace(pack_diameter=97e-3).Omega == pytest.approx(1.43647e-4, rel=1e-5)
-    assert d.replace(speed=12.0, pack_diameter=44e-3).Omega == pytest.approx(9.50027e-4, rel=1e-5)
+    assert d.replace(pack_diameter=97e-3).Omega == pytest.approx(1.43647e-4, rel=1e-5, abs=0)
+    assert d.replace(speed=12.0, pack_diameter=44e-3).Omega == pytest.approx(9.50027e-4, rel=1e-5, abs=0)
 
 
 def test_oscillator_fields():
     d = TapeDrive(speed=8.0, tension=2.0)
     osc = d.oscillator()
     assert isinstance(osc, Oscillator)
-    assert osc.F == pytest.approx(0.12, rel=REL)
+    assert osc.F == pytest.approx(0.12, rel=REL, abs=0)
     # 2 * 8 / 0.0705 / 574146.14 = 3.952833e-4
-    assert osc.Omega == pytest.approx(3.952833e-4, rel=1e-6)
+    assert osc.Omega == pytest.approx(3.952833e-4, rel=1e-6, abs=0)
     # 0.2 * 2 * 2 * 0.5 / 516.192516 = 0.4 / 516.192516 = 7.749045e-4
-    assert osc.beta == pytest.approx(7.749045e-4, rel=1e-6)
+    assert osc.beta == pytest.approx(7.749045e-4, rel=1e-6, abs=0)
     assert osc.K == 1e4
     assert osc.phase == 0.0
     assert d.oscillator(phase=1.25).phase == 1.25
@@ -135,11 +135,11 @@ def test_oscillator_fields():
 def test_time_conversion():
     d = TapeDrive()
     # 1 s = omega_n * 1 s = 574146.14 Lambda ; 20 ms = 11482.92
-    assert d.seconds_to_lambda(1.0) == pytest.approx(OMEGA_N, rel=1e-7)
-    assert d.seconds_to_lambda(0.02) == pytest.approx(11482.92, rel=1e-6)
-    assert d.lambda_to_seconds(d.seconds_to_lambda(0.0123)) == pytest.approx(0.0123, rel=1e-14)
+    assert d.seconds_to_lambda(1.0) == pytest.approx(OMEGA_N, rel=1e-7, abs=0)
+    assert d.seconds_to_lambda(0.02) == pytest.approx(11482.92, rel=1e-6, abs=0)
+    assert d.lambda_to_seconds(d.seconds_to_lambda(0.0123)) == pytest.approx(0.0123, rel=1e-14, abs=0)
     # One natural period 2 pi in Lambda is 1 / f_n = 10.9435 us
-    assert d.lambda_to_seconds(2 * math.pi) == pytest.approx(1.0943e-5, rel=1e-4)
+    assert d.lambda_to_seconds(2 * math.pi) == pytest.approx(1.0943e-5, rel=1e-4, abs=0)
     arr = d.seconds_to_lambda(np.array([0.0, 1e-3]))
     np.testing.assert_allclose(arr, [0.0, 574.14614], rtol=1e-7)
     with pytest.raises(ValueError, match="t_s"):
@@ -164,20 +164,20 @@ def test_replace_revalidates():
         d.replace(pack_diameter=0.2)
     # None means mid pack of the (possibly new) reel: (40 + 100) / 2 = 70 mm
     d3 = d.replace(hub_diameter=0.04, full_pack_diameter=0.1, pack_diameter=None)
-    assert d3.pack_diameter == pytest.approx(0.07, rel=REL)
-    assert d3.runout == pytest.approx(120e-6, rel=REL)
+    assert d3.pack_diameter == pytest.approx(0.07, rel=REL, abs=0)
+    assert d3.runout == pytest.approx(120e-6, rel=REL, abs=0)
 
 
 def test_from_t_sin_half_theta():
     # T sin(theta/2) = 0.1 N at the default 60 deg: T = 0.1 / sin(30 deg) = 0.2 N
     d = TapeDrive.from_t_sin_half_theta(0.1)
     assert d.wrap_angle == 60.0
-    assert d.tension == pytest.approx(0.2, rel=REL)
-    assert d.t_sin_half_theta == pytest.approx(0.1, rel=REL)
+    assert d.tension == pytest.approx(0.2, rel=REL, abs=0)
+    assert d.t_sin_half_theta == pytest.approx(0.1, rel=REL, abs=0)
     # 0.7 N at 90 deg: T = 0.7 / sin(45 deg) = 0.7 / 0.70710678 = 0.98994949 N ; N = 2 * 0.7 = 1.4 N
     d = TapeDrive.from_t_sin_half_theta(0.7, wrap_angle=90.0, speed=12.0)
-    assert d.tension == pytest.approx(0.98994949, rel=1e-8)
-    assert d.normal_force == pytest.approx(1.4, rel=REL)
+    assert d.tension == pytest.approx(0.98994949, rel=1e-8, abs=0)
+    assert d.normal_force == pytest.approx(1.4, rel=REL, abs=0)
     assert d.speed == 12.0
     with pytest.raises(TypeError, match="tension"):
         TapeDrive.from_t_sin_half_theta(0.5, tension=1.0)
@@ -273,7 +273,7 @@ def test_physics_finding_default_drive_never_touches_a_flange_and_creeps():
     releases = ev.t[ev.kind == "release"]
     omega = drive.Omega
     # First stick after the Coulomb decay: Lambda ~ 1071 pi (within 0.5 %).
-    assert sticks[0] == pytest.approx(1071 * math.pi, rel=5e-3)
+    assert sticks[0] == pytest.approx(1071 * math.pi, rel=5e-3, abs=0)
     # Second stick where the forcing speed falls back to its value at the first release.
     assert omega * sticks[1] == pytest.approx(math.pi - omega * releases[0], abs=1e-2)
     assert np.all(np.abs(ev.x) < 1.0)
