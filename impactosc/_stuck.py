@@ -39,6 +39,7 @@ def release_time(osc: Oscillator, region: int, t0: float, x: float, t_end: float
     F, Om, phase, beta = osc.F, osc.Omega, osc.phase, osc.beta
     if F == 0.0 or Om == 0.0:
         return t_end, NO_GUARD
+    x = float(x)  # a NumPy scalar from an integrator would warn where a float gives inf
     spring = x + osc.K * (x - region) if region else x  # the restoring force in f_net
     th0 = (Om * t0 + phase) % _TWO_PI
     best_t, best_guard = math.inf, NO_GUARD
