@@ -455,8 +455,10 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     Integrates piece by piece, applies :func:`transition` at every guard (and at once to
     any :func:`pending_guard` it leaves behind), resolves chatter on a rigid flange
     (:mod:`impactosc._chatter`) and streams the results into ``recorder``. Stops at
-    ``t_end`` (status 0), at ``max_events`` recorded events (status 1) or when time stops
-    advancing (status -1, a Zeno-like cascade that is not a resolvable chatter).
+    ``t_end`` (status 0), at ``max_events`` recorded events or when the stepper sets
+    ``stopped`` (a limit such as a wall time; its ``stop_message`` is the message) (status 1),
+    or when time stops advancing (status -1, a Zeno-like cascade that is not a resolvable
+    chatter).
 
     ``sample_at`` (sorted times in ``[0, t_end]``, see :func:`check_sample_times`) are time
     events: a piece ends exactly there, the state goes to ``recorder.sample`` and the
@@ -493,6 +495,10 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             recorder.finish(t, x, v, mode, -1, f"integration produced a non-finite state at t={t1!r}")
             return
         recorder.piece(mode, t, x, t1, x1, q, q2, w, vv, steps)
+        if getattr(stepper, "stopped", False):
+            # The backend stopped early on a limit the user set (e.g. a wall-time limit).
+            recorder.finish(t1, x1, v1, mode, 1, stepper.stop_message)
+            return
         missed = missed_guard(osc, mode, guard, t1, x1, v1)
         if missed:
             recorder.finish(t1, x1, v1, mode, -1,

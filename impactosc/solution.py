@@ -1,6 +1,8 @@
 """Results of a run: streamed statistics, the event and impact tables, dense output.
 
-What is kept is chosen with ``record``:
+A Solution pickles in every recording mode (process pools, dask, caches); its dense
+output re-integrates with the backend's evaluator, which holds only the model and the
+options. What is kept is chosen with ``record``:
 
 ``"full"``    events, impacts and the start of every smooth piece, so that
               :meth:`Solution.sample` and windowed averages can re-integrate any piece.
@@ -209,7 +211,8 @@ class Solution(SolutionFramesMixin):
     t_final, x_final, v_final : float
         Final time and state.
     status : int
-        0: ``t_end`` was reached; 1: the event limit was reached (results up to
+        0: ``t_end`` was reached; 1: a limit set by the caller was reached,
+        ``max_events`` or the heyoka backend's ``max_wall_time`` (results up to
         ``t_final`` are kept); -1: the integration failed (see ``message``).
     message : str
         Human-readable reason for ``status``.
@@ -311,14 +314,20 @@ class Solution(SolutionFramesMixin):
         return self.oscillator.K * self.max_penetration(side)
 
     def rms_flange_force(self, side: int | None = None) -> float:
-        """Root mean square of the flange force over the whole run, in units of ``k L``."""
+        """Root mean square of the flange force over the whole run, in units of ``k L``.
+
+        NaN for a run of zero duration (one that failed at its start, see ``status``).
+        """
         dur = self.t_final - self.t0
-        return math.sqrt(sum(self._impulse_sq[s] for s in self._sides(side)) / dur) if dur > 0 else 0.0
+        sq = sum(self._impulse_sq[s] for s in self._sides(side))
+        return math.sqrt(sq / dur) if dur > 0 else math.nan
 
     def flange_impulse(self, side: int | None = None, t0: float | None = None,
                        t1: float | None = None) -> float:
         """Integral of the flange force ``K (|X| - 1)+`` over ``[t0, t1]`` (default: the whole run)."""
         sides = self._sides(side)
+        if t0 is None and t1 is None:  # the whole run, also one of zero duration
+            return sum(self._impulse[s] for s in sides)
         t0, t1 = self._window(t0, t1)
         if t0 == self.t0 and t1 == self.t_final:
             return sum(self._impulse[s] for s in sides)
@@ -330,9 +339,14 @@ class Solution(SolutionFramesMixin):
         """Time average of the flange force ``K (|X| - 1)+`` over ``[t0, t1]``, in units of ``k L``.
 
         This is the quantity the paper averages over 1 s (its Fig. 7 and 8). ``side`` is
-        +1 (upper flange), -1 (lower) or None (both). The default window is the whole run.
-        It is computed from the exactly integrated impulse, not from samples.
+        +1 (upper flange), -1 (lower) or None (both). The default window is the whole run;
+        on a run of zero duration (one that failed at its start, see ``status``) the
+        average over it is NaN. It is computed from the exactly integrated impulse, not
+        from samples.
         """
+        self._sides(side)  # a bad side is an error even on an empty run
+        if t0 is None and t1 is None and not self.t_final > self.t0:
+            return math.nan
         lo, hi = self._window(t0, t1)
         return self.flange_impulse(side, lo, hi) / (hi - lo)
 
@@ -349,7 +363,17 @@ class Solution(SolutionFramesMixin):
         return np.searchsorted(self._segments["t"], t, side="right") - 1
 
     def _evaluate(self, t: np.ndarray):
-        """State and piece impulse at times ``t`` (already validated to lie in the run)."""
+        """State and piece impulse at times ``t`` (already validated to lie in the run).
+
+        Each distinct time is evaluated once: repeated times are legitimate input, and the
+        backends re-integrate on strictly increasing grids.
+        """
+        t, where = np.unique(t, return_inverse=True)
+        where = where.reshape(-1)
+        x, v, q, k = self._evaluate_distinct(t)
+        return x[where], v[where], q[where], k[where]
+
+    def _evaluate_distinct(self, t: np.ndarray):
         seg = self._segments
         k = self._segment_index(t)
         x = np.empty_like(t)
@@ -358,14 +382,20 @@ class Solution(SolutionFramesMixin):
         at_start = t == seg["t"][k]
         x[at_start] = seg["x"][k[at_start]]
         v[at_start] = seg["v"][k[at_start]]
-        for j in np.unique(k[~at_start]):
-            sel = (k == j) & ~at_start
+        at_end = t == self.t_final
+        for j in np.unique(k[~at_start & ~at_end]):
+            sel = (k == j) & ~at_start & ~at_end
             s = seg[j]
             mode = Mode(int(s["region"]), int(s["motion"]), bool(s["armed"]))
             xs, vs, qs = self._evaluator(mode, float(s["t"]), float(s["x"]), float(s["v"]), t[sel])
             x[sel], v[sel], q[sel] = xs, vs, qs
-        at_end = t == self.t_final
-        x[at_end], v[at_end] = self.x_final, self.v_final
+        if np.any(at_end & ~at_start):
+            # The run's final state; the impulse of its last piece from the stored totals.
+            last = seg[k[at_end][0]]
+            r = int(last["region"])
+            cum = float(last["impulse_upper" if r == 1 else "impulse_lower"]) if r else 0.0
+            x[at_end & ~at_start], v[at_end & ~at_start] = self.x_final, self.v_final
+            q[at_end & ~at_start] = self._impulse[r] - cum if r else 0.0
         return x, v, q, k
 
     def sample(self, t) -> tuple[np.ndarray, np.ndarray]:
@@ -428,33 +458,50 @@ class Solution(SolutionFramesMixin):
 
     # -- reports -----------------------------------------------------------------------
     def summary(self) -> str:
-        """One line: backend, status, event counts and mean flange force per flange."""
+        """One line: backend, status, event counts and mean flange force per flange.
+
+        A run that did not reach ``t_end`` adds its ``message``.
+        """
         c = self.counts
-        return (f"[{self.backend}] t_final={self.t_final:.6g} status={self.status}: "
+        line = (f"[{self.backend}] t_final={self.t_final:.6g} status={self.status}: "
                 f"{self.contact_entries(1)} upper / {self.contact_entries(-1)} lower contacts, "
                 f"{c['reversal']} reversals, {c['stick']} sticks, {c['release']} releases; "
                 f"mean flange force upper={self.mean_flange_force(1):.6g} "
                 f"lower={self.mean_flange_force(-1):.6g} (units of kL)")
+        return line if self.status == 0 else f"{line}; {self.message}"
 
     def event_table(self, limit: int | None = 20) -> str:
-        """The event list as fixed-width text (the first ``limit`` rows)."""
+        """The event list as fixed-width text (the first ``limit`` rows; None for all)."""
         ev = self.events
         rows = [f"{'t':>14} {'kind':<14} {'x':>12} {'v':>12} {'side':>4}"]
-        for e in ev[:limit]:
-            rows.append(f"{e.t:14.8f} {e.kind:<14} {e.x:12.8f} {e.v:12.8f} {e.side:4d}")
+        for e in ev[:_check_limit(limit)]:
+            rows.append(f"{_cell(e.t, 14, 8)} {e.kind:<14} {_cell(e.x, 12, 8)} {_cell(e.v, 12, 8)} {e.side:4d}")
         if limit is not None and len(ev) > limit:
             rows.append(f"... {len(ev) - limit} more events")
         return "\n".join(rows)
 
     def impact_table(self, limit: int | None = 20) -> str:
-        """The impact list as fixed-width text (the first ``limit`` rows)."""
+        """The impact list as fixed-width text (the first ``limit`` rows; None for all)."""
         im = self.impacts
         rows = [f"{'start':>12} {'end':>12} {'side':>4} {'v_in':>10} {'v_out':>10} "
                 f"{'penetration':>12} {'peak force':>11} {'impulse':>10}"]
-        for i in im[:limit]:
-            rows.append(f"{i.start:12.6f} {i.end:12.6f} {i.side:4d} {i.entry_velocity:10.6f} "
-                        f"{i.exit_velocity:10.6f} {i.peak_penetration:12.4e} {i.peak_force:11.6f} "
-                        f"{i.impulse:10.6f}")
+        for i in im[:_check_limit(limit)]:
+            rows.append(f"{_cell(i.start, 12, 6)} {_cell(i.end, 12, 6)} {i.side:4d} "
+                        f"{_cell(i.entry_velocity, 10, 6)} {_cell(i.exit_velocity, 10, 6)} "
+                        f"{i.peak_penetration:12.4e} {_cell(i.peak_force, 11, 6)} {_cell(i.impulse, 10, 6)}")
         if limit is not None and len(im) > limit:
             rows.append(f"... {len(im) - limit} more impacts")
         return "\n".join(rows)
+
+
+def _check_limit(limit) -> int | None:
+    """``limit`` of the tables: None (all rows) or an integer >= 0."""
+    return None if limit is None else _v.integer("limit", limit, minimum=0)
+
+
+def _cell(value: float, width: int, decimals: int) -> str:
+    """``value`` in fixed point in ``width`` characters, or in scientific notation if it does not fit."""
+    text = f"{value:{width}.{decimals}f}"
+    if len(text) > width:
+        text = f"{value:{width}.{max(width - 8, 0)}e}"
+    return text

@@ -200,6 +200,7 @@ class TapeDrive:
         else:
             put("pack_diameter", self._check_diameter("pack_diameter", self.pack_diameter))
         self._check_family(put)
+        self._check_representable()
 
     def _check_family(self, put) -> None:
         """Validate the model-family fields (issue #10), naming this class's field names."""
@@ -241,6 +242,51 @@ class TapeDrive:
             harmonics.append((int(n), _v.nonnegative(f"runout_harmonics[{i}] fraction", frac),
                               _v.real(f"runout_harmonics[{i}] phase", ph)))
         put("runout_harmonics", tuple(harmonics))
+
+    # Fields that enter the derived numbers, and the derived numbers that must be
+    # representable: finite, and nonzero where the physics cannot make them zero.
+    _NUMERIC_FIELDS = ("speed", "tension", "pack_diameter", "wrap_angle", "width", "thickness", "free_length",
+                       "youngs_modulus", "density", "clearance", "stiffness_ratio", "friction", "hub_diameter",
+                       "full_pack_diameter", "runout_hub", "runout_full")
+
+    def _derived_problem(self) -> str | None:
+        """What goes wrong in double precision on the way to eq. 3, or None."""
+        try:
+            derived = {"stiffness k (eq. 4)": self.stiffness, "mass m": self.mass, "omega_n": self.omega_n,
+                       "force scale k L": self.force_scale, "F": self.F, "Omega": self.Omega,
+                       "beta": self.beta}
+        except (OverflowError, ZeroDivisionError):
+            return "the stiffness k of eq. 4 overflows"
+        for name, value in derived.items():
+            if not math.isfinite(value):
+                return f"{name} = {value!r}"
+            if value == 0.0 and not (name == "beta" and self.friction == 0.0):
+                return f"{name} underflows to 0"
+        return None
+
+    def _check_representable(self) -> None:
+        """Refuse fields so extreme that eq. 3's numbers overflow or underflow, naming them.
+
+        A field is named if putting it back to its default cures the problem.
+        """
+        problem = self._derived_problem()
+        if problem is None:
+            return
+        culprits = []
+        for name in self._NUMERIC_FIELDS:
+            default = TapeDrive.__dataclass_fields__[name].default
+            if default is None:  # pack_diameter: mid pack
+                default = 0.5 * (self.hub_diameter + self.full_pack_diameter)
+            if getattr(self, name) == default:
+                continue
+            trial = object.__new__(TapeDrive)
+            for f in dataclasses.fields(TapeDrive):
+                object.__setattr__(trial, f.name, default if f.name == name else getattr(self, f.name))
+            if trial._derived_problem() is None:
+                culprits.append(f"{name}={getattr(self, name)!r}")
+        which = " or ".join(culprits) if culprits else "the combination of the fields set"
+        raise ValueError(f"TapeDrive: {which} is out of the range double precision can carry to the model "
+                         f"of eq. 3: {problem}")
 
     def _check_diameter(self, name: str, value) -> float:
         d = _v.positive(name, value)

@@ -349,3 +349,19 @@ def test_tape_drive_family_fields_are_validated(kwargs, name):
 
     with pytest.raises(ValueError, match=name):
         TapeDrive(**kwargs)
+
+
+def test_release_under_a_sum_of_harmonics_is_the_first_crossing():
+    # Stuck at X = 0 (f_net = forcing); released where the forcing first reaches +-beta_s.
+    h = math.pi / 2
+    osc = Oscillator(0.3, 1.0, 0.2, 1e4, h, beta_static=0.3, harmonics=[(0.2, 3.0, h), (0.1, 7.0, h)])
+    sol = simulate(osc, 10.0, 0.0, 0.0, backend="scipy", record="events")
+    t_rel, kind = sol.events.t[0], sol.events.kind[0]
+    assert kind == "release"
+    t = np.linspace(0.0, t_rel, 200001)
+    f = osc.forcing(t)
+    assert np.all(np.abs(f[:-1]) < 0.3)  # nothing earlier reaches the threshold
+    assert abs(abs(osc.forcing(t_rel)) - 0.3) <= 1e-14
+    # A forcing whose peaks stay below beta_s never releases, however long the run.
+    calm = Oscillator(0.1, 1.0, 0.2, 1e4, harmonics=[(0.1, 2.0, 0.0)])
+    assert simulate(calm, 1e9, 0.0, 0.0, backend="scipy", record="stats").counts["release"] == 0

@@ -24,7 +24,7 @@ OSC = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
         ({"record": "everything"}, ValueError, "record must be one of"),
         ({"max_events": 0}, ValueError, "max_events must be >= 1"),
         ({"max_events": 2.5}, TypeError, "max_events must be an integer"),
-        ({"tol": 0.0}, ValueError, "tol must satisfy"),
+        ({"tol": 0.0}, ValueError, r"tol must be in \[1e-18, 0.01\]"),
         ({"bogus": 1}, TypeError, "does not accept"),
     ],
 )

@@ -639,6 +639,8 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         member of the model family beyond eq. 3.
     """
     osc, t_end, x0, v0, max_events = check_run_arguments(osc, t_end, x0, v0, max_events)
+    # The kernel counts in int64; a larger limit can never be reached anyway.
+    kernel_max_events = min(max_events, np.iinfo(np.int64).max)
     _v.choice("record", record, ("full", "events", "stats"))
     if len(sample_at):
         raise ValueError("sample_at needs time events, which the rk4 baseline does not locate; "
@@ -673,7 +675,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     impacts: list[tuple] = []
     while True:
         _KERNEL(osc.F, osc.Omega, osc.phase, osc.beta, osc.K, jlo, dt, t_end, n_steps, S, I,
-                ev, imp, keep_events, tr[0], tr[1], tr[2], tr[3], tr[4], every, max_events)
+                ev, imp, keep_events, tr[0], tr[1], tr[2], tr[3], tr[4], every, kernel_max_events)
         for t, kind, x, v, side in ev[:I[_I_NEV]]:
             rec.event(float(t), EVENT_KINDS[int(kind)], float(x), float(v), int(side))
         impacts.extend((r[0], r[1], int(r[2]), r[3], r[4], r[5], r[6], r[7], bool(r[8])) for r in imp[:I[_I_NIMP]])

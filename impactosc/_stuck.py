@@ -1,0 +1,167 @@
+"""A stuck mass in closed form: when it is released, and the integrals while it waits.
+
+While the mass is stuck (``V = 0``, ``|f_net| <= beta_s``) the state is frozen and only the
+forcing moves. The release guards ``f_net -+ beta_s`` (see :mod:`impactosc.engine`) then
+reduce to ``forcing(t) = spring(x) +- beta_s``. With one harmonic that is an arccos: no
+backend needs to step through a stuck phase, however long (``F < beta_s`` keeps the mass
+stuck for ever and costs one evaluation). With a sum of harmonics the first crossing is
+bracketed by the rigorous derivative bounds of the exact backend's root finder, window by
+window; when every frequency is an integer multiple of the lowest, one period without a
+crossing proves there is none. This is model physics shared by every event-locating
+backend (heyoka, scipy and exact call it for every stuck piece).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .engine import GUARD_DIRECTIONS, NO_GUARD, RELEASE_DOWN, RELEASE_UP, Mode, guard_gates
+from .model import Oscillator
+
+__all__ = ["release_time", "advance_stuck", "evaluate_stuck"]
+
+_EPS = 2.0**-52
+_TWO_PI = 2.0 * math.pi
+
+
+def release_time(osc: Oscillator, region: int, t0: float, x: float, t_end: float,
+                 gates) -> tuple[float, int]:
+    """First release after ``t0`` of a mass stuck at ``x`` in ``region``, or ``t_end``.
+
+    Solves ``F cos(Omega t + phase) - spring(x) = +-beta`` for the armed release guards
+    (``gates``, in the order of :data:`impactosc.engine.GUARD_NAMES`), with the crossing
+    direction of :data:`impactosc.engine.GUARD_DIRECTIONS`. A tangency (``|level| = F``)
+    is no crossing; a constant force (``F = 0`` or ``Omega = 0``) never releases.
+
+    Returns
+    -------
+    (t1, guard)
+        The release time and guard, or ``(t_end, NO_GUARD)`` if the mass stays stuck.
+    """
+    if osc.constant_forcing:
+        return t_end, NO_GUARD
+    x = float(x)  # a NumPy scalar from an integrator would warn where a float gives inf
+    # The restoring force in f_net: the spring of the mode's region (none for a rigid wall).
+    spring = x + region * osc._region_force_scalar(x, region)
+    if osc.harmonics:
+        return _release_time_sum(osc, t0, t_end, spring, gates)
+    F, Om, phase, beta = osc.F, osc.Omega, osc.phase, osc.beta_s
+    th0 = (Om * t0 + phase) % _TWO_PI
+    best_t, best_guard = math.inf, NO_GUARD
+    for guard, offset in ((RELEASE_UP, beta), (RELEASE_DOWN, -beta)):
+        if not gates[guard]:
+            continue
+        q = (spring + offset) / F
+        if not -1.0 < q < 1.0:
+            continue  # |q| >= 1: never reached, or only touched (a tangency is no crossing)
+        alpha = math.acos(q)
+        # Rising f_net (up) needs sin(theta) < 0, falling f_net (down) sin(theta) > 0;
+        # GUARD_DIRECTIONS holds exactly these orientations.
+        target = -alpha if GUARD_DIRECTIONS[guard] > 0 else alpha
+        dtheta = (target - th0) % _TWO_PI
+        t1 = _polish(osc, t0 + dtheta / Om, t0, spring + offset)
+        if t1 < best_t:
+            best_t, best_guard = t1, guard
+    if best_t >= t_end:
+        return t_end, NO_GUARD
+    return best_t, best_guard
+
+
+def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, gates) -> tuple[float, int]:
+    """:func:`release_time` for a sum of harmonics: bracketed crossings, window by window."""
+    from .backends.exact import _first_rising, _refine  # the rigorous bracketing root finder
+
+    terms = [(F, Om, ph) for F, Om, ph in osc.terms if F > 0.0]
+    const = sum(F * math.cos(ph) for F, Om, ph in terms if Om == 0.0)
+    waves = [(F, Om, ph) for F, Om, ph in terms if Om > 0.0]
+    amplitude = sum(F for F, _, _ in waves)
+    m2 = sum(F * Om**2 for F, Om, _ in waves)
+    m3 = sum(F * Om**3 for F, Om, _ in waves)
+    slowest = min(Om for _, Om, _ in waves)
+    fastest = max(Om for _, Om, _ in waves)
+    ratios = [Om / slowest for _, Om, _ in waves]
+    periodic = all(abs(r - round(r)) <= 1e-12 * r for r in ratios)
+    horizon = t_end - t0
+    if periodic:  # no crossing within one period of the slowest harmonic: none ever
+        horizon = min(horizon, 2.0 * math.pi / slowest * (1.0 + 1e-12) + 2.0 * math.pi / fastest)
+    window = 2.0 * math.pi / fastest
+    best_t, best_guard = math.inf, NO_GUARD
+    for guard, level in ((RELEASE_UP, spring + osc.beta_s), (RELEASE_DOWN, spring - osc.beta_s)):
+        if not gates[guard] or abs(level - const) >= amplitude:
+            continue  # never reached (a tangency at |level| = amplitude is no crossing)
+        d = GUARD_DIRECTIONS[guard]
+
+        def fun(tau, d=d, level=level):
+            t = t0 + tau
+            f = const - level
+            df = 0.0
+            for F, Om, ph in waves:
+                th = Om * t + ph
+                f += F * math.cos(th)
+                df -= F * Om * math.sin(th)
+            return d * f, d * df
+
+        a = 0.0
+        ha, da = fun(0.0)
+        while a < horizon and t0 + a < best_t:
+            b = min(horizon, a + window)
+            hmin = 4.0 * _EPS * (abs(t0) + b)
+            bracket, (hb, db) = _first_rising(fun, a, ha, da, b, m2, m3, hmin)
+            if bracket is not None:
+                t1 = t0 + _refine(fun, *bracket, t0)
+                if t1 < best_t:
+                    best_t, best_guard = t1, guard
+                break
+            a, ha, da = b, hb, db
+    if best_t >= t_end:
+        return t_end, NO_GUARD
+    return best_t, best_guard
+
+
+def _polish(osc: Oscillator, t: float, t0: float, level: float) -> float:
+    """Newton steps on ``F cos(Omega t + phase) - level`` as the engine evaluates it.
+
+    The arccos is exact in phase, but ``Omega t + phase`` is rounded when the engine and
+    the integrating backends evaluate the forcing; two Newton steps put the release on
+    the root of that rounded function. Steps larger than a phase error can explain (near
+    a tangency, where the root is ill-conditioned anyway) are not taken.
+    """
+    F, Om, phase = osc.F, osc.Omega, osc.phase
+    for _ in range(2):
+        th = Om * t + phase
+        g = F * math.cos(th) - level
+        dg = -F * Om * math.sin(th)
+        if g == 0.0 or dg == 0.0:
+            break
+        step = g / dg
+        if abs(step) * Om > 64.0 * _EPS * (abs(th) + 1.0) or t - step <= t0:
+            break
+        t -= step
+    return t
+
+
+def advance_stuck(osc: Oscillator, mode: Mode, t0: float, x: float, t_end: float):
+    """A stuck piece from ``t0`` to its release or ``t_end``, as :meth:`engine.PieceStepper.advance`.
+
+    Returns ``(t1, x, 0.0, guard, impulse, impulse_sq, 0.0, 0.0, 0)``: a mass stuck inside
+    a spring flange keeps it compressed at a constant force (against a rigid wall the
+    recorder integrates the wall's push), there is no forcing work or damping loss
+    (``V = 0``) and no integrator step.
+    """
+    r = mode.region
+    t1, guard = release_time(osc, r, t0, x, t_end, guard_gates(mode, osc.rigid))
+    tau = t1 - t0
+    force = osc._region_force_scalar(x, r)
+    return t1, x, 0.0, guard, force * tau, force * force * tau, 0.0, 0.0, 0
+
+
+def evaluate_stuck(osc: Oscillator, mode: Mode, t0: float, x: float, times):
+    """``(X, V, impulse since t0)`` at ``times`` inside a stuck piece starting at ``(t0, x)``."""
+    tau = np.asarray(times, dtype=float) - t0
+    r = mode.region
+    xs = np.full(tau.shape, x)
+    vs = np.zeros(tau.shape)
+    qs = osc._region_force_scalar(x, r) * tau
+    return xs, vs, qs
