@@ -12,6 +12,7 @@ from __future__ import annotations
 import atexit
 import json
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -23,6 +24,8 @@ sys.path.insert(0, str(HERE / "_ext"))
 # The checkout's package, also when it is not installed: here and in the notebooks' kernels.
 sys.path.insert(0, str(ROOT))
 os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+
+from numpydoc.xref import DEFAULT_LINKS  # noqa: E402
 
 import impactosc  # noqa: E402
 
@@ -62,13 +65,15 @@ exclude_patterns = [
 nitpicky = True
 # No intersphinx: CI reaches PyPI only, so other projects' inventories cannot be fetched.
 # References to them (and to builtins) stay plain text instead of failing the build.
+# numpydoc would link builtin and numpy type names ("float", "callable") to intersphinx
+# targets such as "python:float", shown as such when they cannot resolve: keep them plain.
+_PLAIN_TYPES = [name for name, link in DEFAULT_LINKS.items() if "python:" in link or "numpy:" in link]
 _EXTERNAL = r"(builtins|numpy|np|scipy|xarray|xr|pandas|pd|dask|distributed|matplotlib|heyoka|hy|numba|tqdm"
 _EXTERNAL += r"|concurrent|collections|typing|pathlib|os|math|numbers|argparse|types|dataclasses)"
 nitpick_ignore_regex = [
     ("py:.*", _EXTERNAL + r"(\..+)?"),
-    # numpydoc links builtin and numpy type names to intersphinx targets ("python:float").
-    ("py:.*", r"(python|numpy):.+"),
-    ("std:(ref|term)", r"(python|numpy):.+"),
+    # Builtin type names in numpydoc sections (see numpydoc_xref_aliases below).
+    ("py:.*", "|".join(re.escape(name) for name in _PLAIN_TYPES)),
 ]
 
 # -- autodoc, autosummary, numpydoc --------------------------------------------------------
@@ -80,7 +85,8 @@ numpydoc_show_class_members = False  # the class template documents the members 
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = True
 # Types named in "Parameters"/"Returns" link to the package's own pages.
-numpydoc_xref_aliases = {name: f"impactosc.{name}" for name in impactosc.__all__}
+numpydoc_xref_aliases = {name: name for name in _PLAIN_TYPES}
+numpydoc_xref_aliases.update({name: f"impactosc.{name}" for name in impactosc.__all__})
 numpydoc_xref_ignore = {"optional", "default", "of", "or", "and", "the", "a", "an", "shape", "with", "each", "per"}
 
 # -- notebooks (myst-nb) -------------------------------------------------------------------
@@ -108,7 +114,9 @@ def _kernel_for_this_interpreter() -> str:
     atexit.register(shutil.rmtree, root, ignore_errors=True)
     spec_dir = root / "kernels" / "python3"
     spec_dir.mkdir(parents=True)
-    spec = {"argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+    # --log-level: the kernel's own start-up notices (not the notebooks' warnings, which are
+    # cell outputs) would otherwise fill the build log.
+    spec = {"argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}", "--log-level=ERROR"],
             "display_name": "impactosc docs kernel", "language": "python",
             "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline"}}
     (spec_dir / "kernel.json").write_text(json.dumps(spec))

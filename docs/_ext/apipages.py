@@ -94,13 +94,43 @@ def _autosummary(names: list[str], toctree: str | None) -> str:
     return "\n".join(lines) + "\n"
 
 
+def documented_at(modname: str, name: str, package: str = PACKAGE) -> tuple[str, str]:
+    """``(page, anchor)`` of ``modname.name`` in the built site (page relative, no suffix).
+
+    A re-exported object is documented once, as ``impactosc.<name>``; a module (a name in
+    ``__all__`` may be one) on its module page; anything else on its own page.
+    """
+    module, top = importlib.import_module(modname), importlib.import_module(package)
+    obj = getattr(module, name)
+    if inspect.ismodule(obj):
+        return f"api/modules/{obj.__name__}", f"module-{obj.__name__}"
+    if modname == package or _reexported(module, name, top):
+        return f"api/generated/{package}.{name}", f"{package}.{name}"
+    return f"api/generated/{modname}.{name}", f"{modname}.{name}"
+
+
+def _members(module: types.ModuleType, names: list[str]) -> str:
+    """Autosummary tables of ``names``: own pages for objects, links for modules."""
+    objects = [n for n in names if not inspect.ismodule(getattr(module, n, None))]
+    modules = [n for n in names if n not in objects]  # relative to the page's current module
+    parts = []
+    if objects:
+        toctree = "." if module.__name__ == PACKAGE else "../generated"
+        parts.append(_autosummary(objects, toctree=toctree))
+    if modules:  # documented on their module pages, in the "Modules" section
+        parts.append(".. rubric:: Modules\n")
+        parts.append(_autosummary(modules, toctree=None))
+    return "\n".join(parts)
+
+
 def package_page(package: str = PACKAGE) -> str:
+    top = importlib.import_module(package)
     parts = [
         _title(f"The ``{package}`` package"),
         f".. automodule:: {package}\n",
         f".. currentmodule:: {package}\n",
         f"Every name in ``{package}.__all__``, importable as ``{package}.<name>``:\n",
-        _autosummary(toplevel_names(package), toctree="."),
+        _members(top, toplevel_names(package)),
     ]
     return "\n".join(parts)
 
@@ -115,12 +145,12 @@ def module_page(modname: str, package: str = PACKAGE) -> str:
     # ``impactosc.simulate`` and ``impactosc.sweep`` are modules *and* the functions the
     # package re-exports under the same dotted name: registering the module as well would
     # be a duplicate object description, so such a module page is not indexed.
-    shadowed = getattr(top, modname.rsplit(".", 1)[-1], module) is not module and modname.count(".") == 1
+    shadowed = modname.count(".") == 1 and not inspect.ismodule(getattr(top, modname.rsplit(".", 1)[-1], module))
     parts.append(f".. automodule:: {modname}" + ("\n   :no-index:\n" if shadowed else "\n"))
     parts.append(f".. currentmodule:: {modname}\n")
     if own:
         parts.append(".. rubric:: Defined here\n")
-        parts.append(_autosummary(own, toctree="../generated"))
+        parts.append(_members(module, own))
     if shared:
         parts.append(f".. rubric:: Re-exported as ``{package}.<name>``\n")
         parts.append(_autosummary([f"~{package}.{n}" for n in shared], toctree=None))
