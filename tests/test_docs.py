@@ -247,3 +247,26 @@ def test_internal_links_resolve(site):
             elif parts.fragment and target.suffix == ".html" and unquote(parts.fragment) not in parse(target).ids:
                 broken.append(f"{rel_page}: {link} (no such anchor)")
     assert not broken, f"{len(broken)} broken internal links:\n" + "\n".join(broken[:50])
+
+
+# -- the build's strictness ----------------------------------------------------------------------
+def _scratch_build(tmp_path: Path, known: list) -> subprocess.CompletedProcess:
+    src = tmp_path / "src"
+    src.mkdir(parents=True)
+    (src / "conf.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(DOCS / '_ext')!r})\n"
+        "extensions = ['sphinx.ext.autodoc', 'knownwarnings']\nnitpicky = True\n"
+        f"known_warnings = {known!r}\n")
+    (src / "index.rst").write_text("Scratch\n=======\n\nSee :func:`no_such_function` and :doc:`no_such_page`.\n")
+    return subprocess.run([sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-q", str(src),
+                           str(tmp_path / "out")], capture_output=True, text=True, timeout=300)
+
+
+def test_a_broken_reference_fails_the_build_and_known_warnings_are_narrow(tmp_path):
+    failed = _scratch_build(tmp_path / "a", [])
+    assert failed.returncode != 0 and "no_such_function" in failed.stderr and "no_such_page" in failed.stderr
+    # An entry drops the one warning it matches, and only that one.
+    still = _scratch_build(tmp_path / "b", [(r"index\.rst:", r"target not found: no_such_function")])
+    assert still.returncode != 0 and "no_such_function" not in still.stderr and "no_such_page" in still.stderr
+    both = _scratch_build(tmp_path / "c", [(r"index\.rst:", "no_such_function"), (r"index\.rst:", "no_such_page")])
+    assert both.returncode == 0, both.stderr
