@@ -1,9 +1,12 @@
-# `make test` and `make demo` each create (or reuse) .venv in this folder and install what they need.
+# `make test`, `make demo` and `make docs` each create (or reuse) .venv in this folder and install what they need.
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
+# -W: a warning (a broken cross-reference, a failing notebook cell) fails the build.
+SPHINXOPTS ?= -W --keep-going
+DOCS_OUT ?= docs/_build
 
-.PHONY: test demo lint bench clean
+.PHONY: test demo docs lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
@@ -12,7 +15,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 lint: $(STAMP)
-	$(PY) -m ruff check impactosc tests benchmarks
+	$(PY) -m ruff check impactosc tests benchmarks docs/conf.py docs/_ext
 
 test: $(STAMP) lint
 	$(PY) -m pytest -q
@@ -20,8 +23,14 @@ test: $(STAMP) lint
 demo: $(STAMP)
 	$(PY) -m impactosc demo
 
+# The whole site from scratch (-E): the notebooks are executed again, in quick mode.
+docs: $(STAMP)
+	$(PY) -m sphinx -b html -E $(SPHINXOPTS) -d $(DOCS_OUT)/doctrees docs $(DOCS_OUT)/html
+	@echo "The site is in $(DOCS_OUT)/html/index.html"
+
 bench: $(STAMP)
 	$(PY) benchmarks/heyoka_speed.py
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis .mypy_cache build dist $(DOCS_OUT) \
+		docs/api/generated docs/api/modules docs/api/cli.rst
