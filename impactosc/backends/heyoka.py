@@ -228,15 +228,11 @@ def integrator(tol: float = DEFAULT_TOL, shape: Shape = EQ3):
     return ta
 
 
-def _integral_reader(shape: Shape):
-    """``state -> (Q, Q2, W, VV)`` for the state layout of ``shape`` (absent integrals are 0)."""
+def _integral_slots(shape: Shape) -> tuple[int, int, int, int]:
+    """Where ``(Q, Q2, W, VV)`` sit in the state list of ``shape``; -1 is a 0.0 appended to it."""
     if shape.flange == "rigid":
-        if shape.damped:
-            return lambda st: (0.0, 0.0, st[2], st[3])
-        return lambda st: (0.0, 0.0, st[2], 0.0)
-    if shape.damped:
-        return lambda st: (st[2], st[3], st[4], st[5])
-    return lambda st: (st[2], st[3], st[4], 0.0)
+        return (-1, -1, 2, 3 if shape.damped else -1)
+    return (2, 3, 4, 5 if shape.damped else -1)
 
 
 class _Stepper:
@@ -266,7 +262,7 @@ class _Stepper:
         for i, term in enumerate(osc.harmonics):
             pars[_P_HARMONICS + 3 * i:_P_HARMONICS + 3 * i + 3] = term
         self.zeros = (0.0,) * (ta.dim - 2)  # the integrals restart at 0 at each piece start
-        self.integrals = _integral_reader(shape)
+        self.slots = _integral_slots(shape)
         self.has_impulse = shape.flange != "rigid"
         self.n_events = N_GUARDS + (shape.flange == "power")
         self.time_limit = hy.taylor_outcome.time_limit
@@ -287,15 +283,17 @@ class _Stepper:
         self.state[:] = (x, v, *self.zeros)
         res = ta.propagate_until(t_end)
         outcome = res[0]
-        st = self.state
+        st = self.state.tolist()  # Python floats: cheaper to read and to compute with than numpy scalars
+        st.append(0.0)  # the value of an integral this shape does not carry
+        q, q2, w, vv = self.slots
         if outcome == self.time_limit:
             # heyoka keeps time in double-length arithmetic; its leading part can land an
             # ulp past t_end. The run ends at t_end exactly.
-            return t_end, st[0], st[1], NO_GUARD, *self.integrals(st), res[3]
+            return t_end, st[0], st[1], NO_GUARD, st[q], st[q2], st[w], st[vv], res[3]
         code = outcome.value
         if code >= 0 or -code - 1 >= self.n_events:
             raise FloatingPointError(f"heyoka stopped with outcome {outcome!r} at t={ta.time!r}")
-        return ta.time, st[0], st[1], -code - 1, *self.integrals(st), res[3]
+        return ta.time, st[0], st[1], -code - 1, st[q], st[q2], st[w], st[vv], res[3]
 
     def _set_layer(self, mode: Mode, x: float, sigma: float | None = None) -> None:
         """Power-law shapes only (see :class:`_LayeredStepper`)."""
