@@ -6,9 +6,9 @@ Layout::
     store/points/<key>.nc      one finished point; <key> hashes its drive and the settings
     store/quarantine/          files that could not be used, kept for inspection
 
-A point file is used only if it reads back completely and both its stored key and the
-key recomputed from its stored drive and the current settings equal its name: a
-truncated, empty, garbage, renamed or swapped file is moved to ``quarantine/`` with a
+A point file is used only if it reads back completely, its stored key equals its name, it
+was computed with the current settings, and its stored drive and settings hash to its
+name: a truncated, empty, garbage, renamed, swapped or foreign file is moved to ``quarantine/`` with a
 warning naming it, and the point is computed again. Every write is atomic (a temporary
 file, then a rename), so an interrupted write never leaves half a point file.
 """
@@ -182,13 +182,17 @@ class Store:
         with xr.open_dataset(path, engine="scipy") as ds:
             stored_key = str(ds.attrs["key"])
             fields = json.loads(ds.attrs["drive"])
+            # Files written before the settings were recorded in them have the drive check only.
+            settings = json.loads(ds.attrs["settings"]) if "settings" in ds.attrs else self.settings
             out = {name: float(ds[name].values) for name in FLOAT_VARS}
             out["status"] = int(ds["status"].values)
             out["message"] = str(ds.attrs["message"])
         if stored_key != key:
             raise _Mismatch(f"it holds point {stored_key}, not {key}")
-        if point_key(fields, self.settings) != key:
-            raise _Mismatch("its drive and this store's settings do not hash to its name")
+        if settings != self.settings:
+            raise _Mismatch(f"it was computed with other settings ({'; '.join(_diff(settings, self.settings))})")
+        if point_key(fields, settings) != key:
+            raise _Mismatch("its drive and settings do not hash to its name")
         return out
 
     def save(self, key: str, fields: dict, result: dict) -> None:
@@ -201,7 +205,8 @@ class Store:
             return
         data = {name: ((), np.float64(result[name])) for name in FLOAT_VARS}
         data["status"] = ((), np.int32(result["status"]))
-        ds = xr.Dataset(data, attrs={"key": key, "message": result["message"], "drive": json.dumps(fields)})
+        ds = xr.Dataset(data, attrs={"key": key, "message": result["message"], "drive": json.dumps(fields),
+                                     "settings": json.dumps(self.settings)})
         try:
             _atomic_write(self.path(key), lambda tmp: ds.to_netcdf(tmp, engine="scipy"))
         except OSError as exc:
