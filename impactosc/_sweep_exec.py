@@ -256,7 +256,7 @@ def execute(runner: Runner, todo: list, args: tuple, on_result, bar) -> None:
     fresh, retry, suspects = deque(todo), deque(), []
     attempts: dict[str, int] = {}
     in_flight: dict = {}
-    sizer = _BatchSizer(runner.n_workers if runner.kind != "serial" else 1)
+    sizer = _BatchSizer(runner.n_workers)
 
     def lost(task):
         runner.recover()
@@ -276,7 +276,9 @@ def execute(runner: Runner, todo: list, args: tuple, on_result, bar) -> None:
                 if retry:
                     task = [retry.popleft()]
                 else:
-                    task = [fresh.popleft() for _ in range(min(sizer.size(len(fresh)), len(fresh)))]
+                    # Serially, nothing amortises a batch: one point per task, each saved at once.
+                    n = 1 if runner.kind == "serial" else min(sizer.size(len(fresh)), len(fresh))
+                    task = [fresh.popleft() for _ in range(n)]
                 try:
                     in_flight[runner.submit(task, args)] = task
                 except Exception:  # noqa: BLE001 - e.g. a broken pool: its points are retried

@@ -137,22 +137,36 @@ def _check_options(backend: str, x0, v0, options: dict) -> tuple[float, float, d
 
 
 def _probe_options(plan: dict) -> None:
-    """Run the base drive briefly here, so that options a backend rejects raise once, now.
+    """Run the first grid point briefly here, so that options a backend rejects raise once, now.
 
     The backends own their option rules (ranges of ``tol``, ``rtol``, ``dt``, ...); rather than
-    repeat them, one run of the base drive up to its first event (``max_events=1``: a
-    fraction of a period, or a closed-form stick) lets the backend itself check them.
+    repeat them, a run of the first point up to its first event (``max_events=1``: a fraction
+    of a period, or a closed-form stick) lets the backend check them. An error is the
+    options' fault, and raised, only if the same run without them goes differently; an
+    error of the drive itself is left for the point to record.
     """
-    base = plan["base"]
-    options = {**plan["options"], "max_events": 1}
-    try:
-        simulate(base.oscillator(), base.seconds_to_lambda(plan["duration"]), plan["x0"], plan["v0"],
-                 backend=plan["backend"], record="stats", **options)
-    except (TypeError, ValueError) as exc:
-        raise type(exc)(f"sweep options {plan['options']} rejected by backend {plan['backend']!r} (a short run "
-                        f"of the base drive raised; nothing was run): {exc}") from None
-    except Exception:  # noqa: BLE001 - not an argument error: each point will record its own outcome
-        pass
+    if not plan["unique"]:
+        return
+    drive = TapeDrive(**next(iter(plan["unique"].values())))
+
+    def run(options):
+        try:
+            simulate(drive.oscillator(), drive.seconds_to_lambda(plan["duration"]), plan["x0"], plan["v0"],
+                     backend=plan["backend"], record="stats", **options, max_events=1)
+        except (TypeError, ValueError) as exc:
+            return exc
+        except Exception:  # noqa: BLE001 - not an argument error: the points will record their own outcome
+            return None
+        return None
+
+    options = {k: v for k, v in plan["options"].items() if k != "max_events"}
+    error = run(options)
+    if error is None or not options:
+        return
+    without = run({})
+    if without is None or (type(without), str(without)) != (type(error), str(error)):
+        raise type(error)(f"sweep options {options} rejected by backend {plan['backend']!r} (a short run of the "
+                          f"first point raised; nothing was run): {error}") from None
 
 
 def _drive_fields(drive: TapeDrive) -> dict:

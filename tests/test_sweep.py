@@ -350,3 +350,16 @@ def test_progress_bar_is_shown_only_when_asked(capsys):
     assert "2/2" in capsys.readouterr().err
     sweep(BASE, grid, duration=1e-4, executor="serial", progress=False)
     assert capsys.readouterr().err == ""
+
+
+def test_an_error_of_the_first_drive_itself_is_recorded_not_raised():
+    # rk4 refuses a run of more than 2e9 steps: the stiff first point (K = 1e6) is refused
+    # with or without the options, so that is its own failure, not the options': the sweep runs.
+    ex = RecordingExecutor()
+    with pytest.warns(RuntimeWarning, match="2 of 2 points failed"):
+        ds = sweep(TapeDrive(), {"stiffness_ratio": [1e6, 1e4]}, duration=1.0, backend="rk4", executor=ex,
+                   progress=False, flange="consistent", max_events=5)
+    assert len(ex.points) == 2
+    stiff = ds.sel(stiffness_ratio=1e6)
+    assert int(stiff["status"]) == STATUS_EXCEPTION and "steps" in stiff["message"].item()
+    assert int(ds["status"].sel(stiffness_ratio=1e4)) == 1  # the event limit: it did run
