@@ -29,6 +29,7 @@ import time
 from collections import deque
 
 from ._sweep_point import STATUS_LOST, failure, run_batch
+from ._sweep_store import interrupt_deferred
 
 #: Target wall time of one task: large enough that the per-task overhead of a process pool
 #: (about a millisecond) is negligible, small enough that an interruption loses little.
@@ -154,12 +155,13 @@ class Runner:
             fut = cf.Future()
             fut.set_result(run_batch(task, *args))  # a KeyboardInterrupt propagates from here
             return fut
-        if self.kind == "dask":
-            return self._executor.submit(run_batch, task, *args, pure=False)
-        fut = self._executor.submit(run_batch, task, *args)
-        if self.kind == "pool":
-            _register_exit_hook()
-        return fut
+        with interrupt_deferred():  # not inside the executor's locks
+            if self.kind == "dask":
+                return self._executor.submit(run_batch, task, *args, pure=False)
+            fut = self._executor.submit(run_batch, task, *args)
+            if self.kind == "pool":
+                _register_exit_hook()
+            return fut
 
     def wait_first(self, futures) -> set:
         """The futures that are done, waiting until at least one is."""

@@ -15,10 +15,13 @@ file, then a rename), so an interrupted write never leaves half a point file.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
+import signal
 import tempfile
+import threading
 import warnings
 from pathlib import Path
 
@@ -49,6 +52,29 @@ def check_store_path(store) -> Path:
     if root.exists() and not root.is_dir():
         raise ValueError(f"store {str(root)!r} exists and is not a directory: give a directory for the store")
     return root
+
+
+@contextlib.contextmanager
+def interrupt_deferred():
+    """Hold back a Ctrl-C (SIGINT) until the block is done, then deliver it.
+
+    xarray's file manager takes a lock while it writes or reads a netCDF file; a
+    KeyboardInterrupt raised inside it can leave the lock held and the process deadlocked
+    on its own cleanup (seen: a sweep that never exited after Ctrl-C). The same holds for
+    the locks of a process pool while a task is submitted. The blocks are short (one small
+    file, one submission), so delaying the interrupt by them costs nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signals are delivered to the main thread only
+        return
+    received = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append((signum, frame)))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if received and callable(previous):
+            previous(*received[0])
 
 
 def _atomic_write(path: Path, write) -> None:
@@ -167,7 +193,8 @@ class Store:
         if not path.exists():
             return None
         try:
-            return self._read_point(path, key)
+            with interrupt_deferred():
+                return self._read_point(path, key)
         except Exception as exc:  # noqa: BLE001 - any damage: the point is recomputed, the file kept aside
             reason = f"{type(exc).__name__}: {exc}" if not isinstance(exc, _Mismatch) else str(exc)
             if not self.read_only:
@@ -208,7 +235,8 @@ class Store:
         ds = xr.Dataset(data, attrs={"key": key, "message": result["message"], "drive": json.dumps(fields),
                                      "settings": json.dumps(self.settings)})
         try:
-            _atomic_write(self.path(key), lambda tmp: ds.to_netcdf(tmp, engine="scipy"))
+            with interrupt_deferred():
+                _atomic_write(self.path(key), lambda tmp: ds.to_netcdf(tmp, engine="scipy"))
         except OSError as exc:
             self.save_error = exc
             warnings.warn(f"store {str(self.root)!r}: cannot save point {key} ({exc}); the sweep goes on, but the "

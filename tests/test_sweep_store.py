@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 import shutil
+import signal
+import threading
+import time
 
 import pytest
 import xarray as xr
@@ -167,3 +170,25 @@ def test_a_failing_save_warns_once_and_the_sweep_keeps_its_results(tmp_path, mon
         ds = sweep(BASE, GRID, store=store, **KW)
     assert len([w for w in rec if "cannot save" in str(w.message)]) == 1
     assert (ds["status"] == 0).all()
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX signals")
+def test_a_ctrl_c_during_a_point_write_is_delivered_after_it(tmp_path, monkeypatch):
+    # An interrupt inside xarray's file manager could leave its lock held: the sweep then
+    # deadlocked on its own cleanup instead of stopping. The write now finishes first.
+    to_netcdf = xr.Dataset.to_netcdf
+
+    def interrupted_write(self, *args, **kwargs):
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)  # Ctrl-C, mid-write
+        time.sleep(0.05)  # Python runs signal handlers here, inside the write
+        return to_netcdf(self, *args, **kwargs)
+
+    store = tmp_path / "st"
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", interrupted_write)
+    with pytest.raises(KeyboardInterrupt):
+        sweep(BASE, GRID, store=store, **KW)
+    monkeypatch.undo()
+    assert len(_points(store)) == 1  # the point being written when Ctrl-C came is whole, and the sweep stopped
+    assert not list((store / "points").glob(".tmp-*"))
+    with pytest.warns(RuntimeWarning, match="2 of 3 points not computed"):
+        assert int((load_sweep(store)["status"] == 0).sum()) == 1
