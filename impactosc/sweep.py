@@ -9,7 +9,7 @@ Points are run on a local process pool by default (loky's: it works from a scrip
 a ``__main__`` guard, standard input, a REPL or a notebook, and its workers, which keep their
 compiled heyoka integrator from sweep to sweep, exit when the calling process dies), or on
 any :class:`concurrent.futures.Executor`, or on a ``dask.distributed`` client. Points are
-sent in batches sized from their measured cost (see :mod:`impactosc._sweep_exec`).
+sent in batches sized from their measured cost (see ``impactosc._sweep_exec``).
 
 Bad arguments raise before anything runs; backend options are checked by one short run of
 the base drive in the calling process. A failed point never stops the sweep: an exception,
@@ -19,7 +19,7 @@ Only a sweep that loses every point it runs raises.
 
 With ``store=`` every finished point is saved as a small netCDF file as soon as it arrives,
 so that an interrupted (Ctrl-C stops at once) or extended sweep only runs what is missing;
-unusable point files are set aside and recomputed (see :mod:`impactosc._sweep_store`).
+unusable point files are set aside and recomputed (see ``impactosc._sweep_store``).
 :func:`load_sweep` reads a store back.
 
 Status codes of the ``status`` variable:

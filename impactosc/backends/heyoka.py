@@ -34,10 +34,10 @@ Taylor polynomial of each step, so event times are located to machine precision,
 grazing contact inside a step is found even though the step ends lie on the same side of
 the flange.
 
-A stuck piece is not integrated: its release is the closed form of :mod:`impactosc._stuck`.
+A stuck piece is not integrated: its release is the closed form of ``impactosc._stuck``.
 Long slipping pieces are propagated in chunks so that ``max_wall_time`` can end them.
 heyoka logs through spdlog on C's ``stdout``; :func:`integrator` points that log at
-``stderr`` (see :func:`_log_to_stderr`) so that its warnings cannot corrupt piped output.
+``stderr`` (see ``_log_to_stderr``) so that its warnings cannot corrupt piped output.
 
 Power-law flange
 ----------------
@@ -317,7 +317,7 @@ class _Stepper:
     wall-time limit can end a long event-free piece: the chunk length in time is learned
     from the steps the last chunk took (seeded from the fastest frequency of the mode). A
     piece shorter than a chunk (the usual case) is a single call. A stuck piece is closed
-    form (:mod:`impactosc._stuck`): with a constant state heyoka's steps are unbounded and
+    form (``impactosc._stuck``): with a constant state heyoka's steps are unbounded and
     the release guards were searched on the Taylor polynomial of ``cos`` over a huge step.
     """
 
