@@ -166,8 +166,12 @@ def _forces(hy, shape: Shape, X, V, p, flange: bool = True):
     return forcing, f_net, force, accel
 
 
-def _build_family(tol: float, shape: Shape, family: int):
-    """The ``taylor_adaptive`` of one mode family of ``shape``."""
+def family_system(shape: Shape, family: int):
+    """``(rhs, events)`` of one mode family of ``shape``: ``events`` are ``(expression, direction)``.
+
+    The guards of :data:`FAMILY_GUARDS` in that order (then, for a power-law flange, the layer
+    event), gated and offset as the module docstring of the heyoka backend says.
+    """
     import heyoka as hy
 
     X, V, *integrals = hy.make_vars(*state_names(shape, family))
@@ -195,29 +199,36 @@ def _build_family(tol: float, shape: Shape, family: int):
         RELEASE_UP: f_net - beta_s,
         RELEASE_DOWN: f_net + beta_s,
     }
-    direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative}
     # Gated: g * h + (1 - g) is the guard h when the gate g is 1 and the constant 1 (no
-    # root) when it is 0. cooldown=0: after a guard fires the engine changes the mode, which
-    # gates that guard off or flips its sign, so there is nothing to re-trigger; an
-    # automatic cooldown could hide a genuine second event shortly after the first.
-    # Each guard is shifted by engine.guard_offsets towards the side it crosses from: the
-    # engine snaps the state onto guard surfaces, and heyoka, seeing a root exactly at
-    # tau = 0 that its direction filter drops, skips the guard's next root if it falls in
-    # the same step (measured: a quick second turning point was lost). The offset is a
-    # separate term so that constant folding cannot absorb it into the 1.0 of X - 1.
+    # root) when it is 0. Each guard is shifted by engine.guard_offsets towards the side it
+    # crosses from: the engine snaps the state onto guard surfaces, and heyoka, seeing a
+    # root exactly at tau = 0 that its direction filter drops, skips the guard's next root
+    # if it falls in the same step (measured: a quick second turning point was lost). The
+    # offset is a separate term so that constant folding cannot absorb it into the 1.0 of X - 1.
     events = []
     for g in FAMILY_GUARDS[family]:
         gate, off, d = gates[g], offsets[g], GUARD_DIRECTIONS[g]
-        events.append(hy.t_event(gate * guard_exprs[g] + (1.0 - gate) - d * off * gate, direction=direction[d],
-                                 cooldown=0.0))
+        events.append((gate * guard_exprs[g] + (1.0 - gate) - d * off * gate, d))
     if shape.flange == "power" and family == FLANGE:
         # d crossing delta in the direction of the motion (r s > 0: deeper). Armed only when
         # that edge lies ahead of the mass, so it never starts on its root (_LayeredStepper).
         gate, q = p[_P_LAYER_GATE], p[_P_LAYER_DIR]
-        events.append(hy.t_event(gate * (q * (r * X - 1.0 - p[_P_LAYER])) + (1.0 - gate),
-                                 direction=hy.event_direction.positive, cooldown=0.0))
+        events.append((gate * (q * (r * X - 1.0 - p[_P_LAYER])) + (1.0 - gate), 1))
+    return rhs, events
+
+
+def _build_family(tol: float, shape: Shape, family: int):
+    """The ``taylor_adaptive`` of one mode family of ``shape``."""
+    import heyoka as hy
+
+    rhs, events = family_system(shape, family)
+    direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative}
+    # cooldown=0: after a guard fires the engine changes the mode, which gates that guard
+    # off or flips its sign, so there is nothing to re-trigger; an automatic cooldown
+    # could hide a genuine second event shortly after the first.
+    t_events = [hy.t_event(expr, direction=direction[d], cooldown=0.0) for expr, d in events]
     # pars are left out: heyoka sizes the vector to the highest index the expressions use.
-    return hy.taylor_adaptive(rhs, [0.0] * len(rhs), t_events=events, tol=tol, compact_mode=False)
+    return hy.taylor_adaptive(rhs, [0.0] * len(rhs), t_events=t_events, tol=tol, compact_mode=False)
 
 
 class Integrators:
