@@ -257,6 +257,10 @@ def profile(osc, n_events: int) -> tuple[str, dict]:
             g = "impactosc/solution.py (recorder)"
         elif file.endswith("backends/heyoka.py"):
             g = "impactosc/backends/heyoka.py (stepper: pars, state, offsets)"
+        elif file.endswith("_stuck.py"):
+            g = "impactosc/_stuck.py (stuck pieces in closed form)"
+        elif file.endswith("model.py"):
+            g = "impactosc/model.py (forces for the stick test and the guards)"
         else:
             g = "other (builtins, numpy views, ...)"
         groups[g] = groups.get(g, 0.0) + tt
