@@ -497,7 +497,7 @@ def plot_onset_chart(ds, *, ax=None, scale: float = 1.0, units: str | None = Non
     if np.isfinite(z).sum() >= 4 and np.nanmax(z) > np.nanmin(z) and min(z.shape) > 1:
         cs = ax.contourf(x, y, z, levels=levels, cmap=cmap)
         lines = ax.contour(x, y, z, levels=cs.levels[::2], colors="k", linewidths=0.6)
-        ax.clabel(lines, fontsize=7, fmt="%.4g")
+        ax.clabel(lines, fontsize=7, fmt="%.5g", inline=True)
     else:
         cs = ax.pcolormesh(x, y, z, cmap=cmap, shading="nearest")
     plt.colorbar(cs, ax=ax, label=f"critical {ds.attrs['parameter']} [{u}]")

@@ -149,7 +149,7 @@ class PeriodicOrbit:
         counts = {}
         if self.events is not None:
             for k in self.events.kind:
-                counts[k] = counts.get(k, 0) + 1
+                counts[str(k)] = counts.get(str(k), 0) + 1
         lines = [f"period-{self.n} orbit (period {self.period:.6g}), status {self.status}: {self.message}",
                  f"  section point X = {self.x:.12g}, V = {self.v:.12g} at t0 = {self.t0:.6g}",
                  f"  Floquet multipliers: {mus} (|mu|max = {self.spectral_radius:.6g}): {self.stability}"
