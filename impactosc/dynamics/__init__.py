@@ -25,18 +25,15 @@ fields and guards (:mod:`impactosc.engine`), so new members of the family need n
 
 from ._common import OSCILLATOR_PARAMETERS, TAPE_PARAMETERS, forcing_period, parameter_names
 from .bifurcation import bifurcation_diagram, load_bifurcation, plot_bifurcation
-from .lyapunov import LyapunovResult, lyapunov_exponent
-from .onset import (
-    ContactOnset,
-    contact_margin,
-    contact_onset,
+from .chart import onset_chart, plot_onset_chart
+from .closed_form import (
     den_hartog_amplitude,
     den_hartog_multipliers,
     den_hartog_onset,
-    onset_chart,
-    plot_onset_chart,
     quasi_static_critical_clearance,
 )
+from .lyapunov import LyapunovResult, lyapunov_exponent
+from .onset import ContactOnset, contact_margin, contact_onset
 from .poincare import Section, detect_period, event_section, stroboscopic_section
 from .saltation import Saltation, saltation_matrix
 from .shooting import PeriodicOrbit, floquet_multipliers, monodromy, periodic_orbit

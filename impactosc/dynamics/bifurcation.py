@@ -226,7 +226,8 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
     order = np.argsort(vals, kind="stable")
     sequences = {"independent": list(range(vals.size)), "forward": [int(i) for i in order],
                  "backward": [int(i) for i in order[::-1]]}
-    manifest = json.loads(json.dumps({"format": _STORE_FORMAT, "base": repr(base), "parameter": parameter,
+    manifest = json.loads(json.dumps({"format": _STORE_FORMAT, "base": repr(base),
+                                      "base_type": type(base).__name__, "parameter": parameter,
                                       "values": vals.tolist(), "continuation": continuation, "x0": x0, "v0": v0,
                                       "settings": settings}, default=repr))
     owned_store = store is None
@@ -301,6 +302,9 @@ def _execute(tasks, root, base, parameter, x0, v0, settings, executor, progress,
         except BaseException:
             for fut in futures:
                 fut.cancel()
+            if owned:  # an interrupt: do not sit out the tasks still running
+                executor.shutdown(wait=False, cancel_futures=True)
+                owned = False
             raise
         finally:
             if owned:
@@ -355,18 +359,21 @@ def _dataset(root: Path, base, parameter: str, vals: np.ndarray, labels: list, m
     return ds
 
 
-def load_bifurcation(store, base=None):
+def load_bifurcation(store):
     """Read a bifurcation store back (finished values only; the rest have status -4)."""
+    from ..model import Oscillator
+    from ..tape import TapeDrive
+
     root = Path(store)
     manifest = json.loads((root / _MANIFEST).read_text())
     labels = {"none": ["independent"], "forward": ["forward"], "backward": ["backward"],
               "both": ["forward", "backward"]}[manifest["continuation"]]
     vals = np.array(manifest["values"], dtype=float)
-    if base is None:
-        from ..model import Oscillator
-
-        base = Oscillator(0.0, 0.0, 0.0, 1.0)  # for the units only: nondimensional
-    return _dataset(root, base, manifest["parameter"], vals, labels, manifest)
+    # a stand-in of the base's type, for the units of the parameter (the manifest keeps its repr)
+    base = TapeDrive() if manifest.get("base_type") == "TapeDrive" else Oscillator(0.0, 0.0, 0.0, 1.0)
+    ds = _dataset(root, base, manifest["parameter"], vals, labels, manifest)
+    ds.attrs["base"] = manifest["base"]
+    return ds
 
 
 def plot_bifurcation(ds, variable: str = "x", *, ax=None, onset=None, onset_label: str = "contact onset",

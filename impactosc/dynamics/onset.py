@@ -19,18 +19,15 @@ Closed forms to check against: the Den Hartog (1931) non-stop steady state of th
 Coulomb oscillator has the amplitude
 ``A = sqrt((F/(1 - Omega^2))^2 - (beta tan(pi/(2 Omega)) / Omega)^2)``, so it reaches the
 flange at ``F_c = |1 - Omega^2| sqrt(1 + (beta tan(pi/(2 Omega)) / Omega)^2)``
-(:func:`den_hartog_amplitude`, :func:`den_hartog_onset`); in the quasi-static limit
+(:mod:`.closed_form`); in the quasi-static limit
 ``Omega -> 0`` the mass creeps at ``F cos - beta`` and touches when ``F - beta = 1``, i.e. the
 tape touches the flange when the run-out exceeds the clearance plus the friction deflection
-``mu N / k`` (:func:`quasi_static_critical_clearance`).
+``mu N / k``.
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import math
-import multiprocessing
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,69 +36,10 @@ from .. import _validation as _v
 from ..engine import CHATTER, CONTACT_START, IMPACT, drive
 from ..simulate import DEFAULT_MAX_EVENTS, simulate
 from ..solution import Solution, _Recorder
-from ._common import (
-    advanced,
-    check_base,
-    check_parameter,
-    check_values,
-    forcing_period,
-    oscillator_of,
-    parameter_attrs,
-    parameter_value,
-    with_parameter,
-)
+from ._common import advanced, check_base, check_parameter, forcing_period, oscillator_of, with_parameter
 from .tangent import check_backend, piece_stepper
 
-__all__ = ["ContactOnset", "contact_margin", "contact_onset", "onset_chart", "plot_onset_chart",
-           "den_hartog_amplitude", "den_hartog_onset", "quasi_static_critical_clearance"]
-
-
-# -- closed forms ------------------------------------------------------------------------
-def den_hartog_amplitude(F: float, Omega: float, beta: float) -> float:
-    """Amplitude of the non-stop steady state of ``X'' + X + beta sgn X' = F cos(Omega t)`` (Den Hartog 1931).
-
-    Two stops per period at ``+-A``. Valid where that motion exists (it does not stick at
-    its stops: ``A Omega^2 > beta``, and the radicand is positive); NaN elsewhere.
-    """
-    G = F / (1.0 - Omega * Omega)
-    q = beta * math.tan(math.pi / (2.0 * Omega)) / Omega
-    rad = G * G - q * q
-    if not rad > 0.0:
-        return math.nan
-    A = math.sqrt(rad)
-    return A if A * Omega * Omega > beta else math.nan
-
-
-def den_hartog_onset(Omega: float, beta: float) -> float:
-    """Forcing amplitude at which the Den Hartog steady state reaches the flange ``|X| = 1``."""
-    q = beta * math.tan(math.pi / (2.0 * Omega)) / Omega
-    return abs(1.0 - Omega * Omega) * math.sqrt(1.0 + q * q)
-
-
-def den_hartog_multipliers(F: float, Omega: float, beta: float) -> np.ndarray:
-    """Floquet multipliers of the Den Hartog orbit, in closed form.
-
-    Over each half period ``tau = pi/Omega`` the free flow is a rotation ``R(tau)``; at each
-    stop the friction force jumps and the saltation matrix is ``diag(1, rho)`` with
-    ``rho = (A Omega^2 - beta) / (A Omega^2 + beta)`` (at the stop ``f_net = A Omega^2``). The
-    monodromy matrix is ``(S R)^2``, so the multipliers are the squares of the eigenvalues
-    of ``S R``: ``det = rho^2`` per period, ``|mu| = rho`` when they are complex.
-    """
-    A = den_hartog_amplitude(F, Omega, beta)
-    tau = math.pi / Omega
-    rho = (A * Omega**2 - beta) / (A * Omega**2 + beta)
-    SR = np.array([[math.cos(tau), math.sin(tau)], [-rho * math.sin(tau), rho * math.cos(tau)]])
-    mu = np.linalg.eigvals(SR) ** 2
-    return mu[np.argsort(-np.abs(mu))]
-
-
-def quasi_static_critical_clearance(drive) -> float:
-    """Critical clearance ``L_c = run-out - mu N / k`` (m) of a tape drive in the quasi-static limit.
-
-    A slowly forced mass with Coulomb friction lags the forcing by the friction deflection
-    ``mu N / k``; the tape edge reaches the flange when the run-out exceeds ``L + mu N/k``.
-    """
-    return drive.runout - drive.friction_force / drive.stiffness
+__all__ = ["ContactOnset", "contact_margin", "contact_onset"]
 
 
 # -- the margin --------------------------------------------------------------------------
@@ -348,27 +286,7 @@ def contact_onset(base, parameter: str, bracket, *, tol: float | None = None, sc
             return ContactOnset(parameter, math.nan, (lo, hi), 0, (m_lo, m), calls[0], 1,
                                 f"no contact onset in [{lo!r}, {hi!r}]: the steady state {where} at all "
                                 f"{grid.size} values tried (margins {m_lo:.3g} ... {m:.3g})")
-        (a, ma, sa), (b, mb, sb) = found
-        fa, fb = ma, mb  # Illinois-weighted values used for the secant
-        kept = 0  # +1: b kept last time, -1: a kept last time
-        width = [b - a]
-        while b - a > tol:
-            free = sa if ma < 0.0 else sb
-            c = (a * fb - b * fa) / (fb - fa)
-            # Bisect when the secant leaves the bracket or the last step did not halve it (a kink
-            # at grazing: the penetration grows far more slowly than the clearance shrinks).
-            if not (a + 0.25 * tol < c < b - 0.25 * tol) or (len(width) > 1 and b - a > 0.5 * width[-2]):
-                c = 0.5 * (a + b)
-            mc, xf, vf, tf = evaluate(c, free if follow else (x0, v0, 0.0))
-            if (mc >= 0.0) == (ma >= 0.0):
-                a, ma, sa, fa = c, mc, (xf, vf, tf), mc
-                fb = 0.5 * fb if kept == 1 else fb
-                kept = 1
-            else:
-                b, mb, sb, fb = c, mc, (xf, vf, tf), mc
-                fa = 0.5 * fa if kept == -1 else fa
-                kept = -1
-            width.append(b - a)
+        (a, ma, _), (b, mb, _) = _refine(found, tol, evaluate, follow, (x0, v0, 0.0))
     except (RuntimeError, ValueError, FloatingPointError) as exc:
         return ContactOnset(parameter, math.nan, (lo, hi), 0, (math.nan, math.nan), calls[0], -1,
                             f"{type(exc).__name__}: {exc}")
@@ -379,134 +297,33 @@ def contact_onset(base, parameter: str, bracket, *, tol: float | None = None, sc
                         f"(bracket width {b - a:.2g}, {calls[0]} steady states)")
 
 
-# -- the chart -----------------------------------------------------------------------------
-def _chart_point(base, parameter, bracket, point: dict, kwargs: dict) -> tuple:
-    """One chart point (module level: pickles for process pools). Never raises."""
-    try:
-        res = contact_onset(_replace(base, point), parameter, bracket, **kwargs)
-    except Exception as exc:  # noqa: BLE001 - a bad point is recorded, not raised
-        return math.nan, -2, f"{type(exc).__name__}: {exc}", 0
-    return res.value, res.status, res.message, res.direction
+def _refine(found, tol: float, evaluate, follow: bool, origin):
+    """Shrink a bracket ``((a, m_a, state_a), (b, m_b, state_b))`` of a margin sign change below ``tol``.
 
-
-def _replace(base, point: dict):
-    for k, v in point.items():
-        base = with_parameter(base, k, v)
-    return base
-
-
-def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, progress: bool = True, **kwargs):
-    """The critical value of ``parameter`` over a 2-D grid of two other parameters: a design chart.
-
-    Parameters
-    ----------
-    base : Oscillator or TapeDrive
-    parameter : str
-        The parameter whose critical value is charted (e.g. ``"clearance"`` of a drive).
-    bracket : (float, float)
-        Search interval of ``parameter`` at every grid point.
-    grid : dict
-        Two other parameters -> 1-D sequences of values (finite: NaN is refused).
-    executor : concurrent.futures.Executor, "serial" or None
-        None: a local process pool (spawn).
-    progress : bool
-        tqdm progress bar.
-    **kwargs
-        Passed to :func:`contact_onset` (``tol``, ``scan``, ``transient_periods``, ...).
-
-    Returns
-    -------
-    xarray.Dataset
-        ``critical`` (the two grid dimensions; units of ``parameter``), ``direction``,
-        ``status`` and ``message`` per point.
+    Regula falsi with the Illinois modification, bisecting whenever a step fails to halve
+    the bracket (at grazing the margin has a kink: the penetration grows far more slowly
+    than the clearance shrinks). Each evaluation starts from the state at the contact-free
+    end when ``follow``, else from ``origin``.
     """
-    import xarray as xr
-    from tqdm.auto import tqdm
-
-    check_base(base)
-    check_parameter(base, parameter)
-    if not isinstance(grid, dict) or len(grid) != 2:
-        raise ValueError(f"grid must be a dict of exactly two parameters -> values, got {grid!r}")
-    axes = {}
-    for key, values in grid.items():
-        check_parameter(base, key)
-        if key == parameter:
-            raise ValueError(f"grid may not contain the charted parameter {parameter!r}")
-        axes[key] = check_values(f"grid[{key!r}]", values)
-    (k1, a1), (k2, a2) = axes.items()
-    # Validate the first point (bad options fail here, once, not at every point).
-    first = _replace(base, {k1: float(a1[0]), k2: float(a2[0])})
-    oscillator_of(with_parameter(first, parameter, float(bracket[0])))
-    points = [(i, j, {k1: float(a1[i]), k2: float(a2[j])}) for i in range(a1.size) for j in range(a2.size)]
-    crit = np.full((a1.size, a2.size), math.nan)
-    direc = np.zeros((a1.size, a2.size), dtype=np.int8)
-    status = np.full((a1.size, a2.size), -4, dtype=np.int32)
-    message = np.full((a1.size, a2.size), "not computed", dtype=object)
-    bar = tqdm(total=len(points), disable=not progress, desc=f"onset of {parameter}", unit="point")
-    owned = executor is None
-    if executor == "serial":
-        results = ((i, j, _chart_point(base, parameter, bracket, p, kwargs)) for i, j, p in points)
-    else:
-        if owned:
-            executor = cf.ProcessPoolExecutor(max_workers=max(1, min(os.cpu_count() or 1, len(points))),
-                                              mp_context=multiprocessing.get_context("spawn"))
-        futs = {executor.submit(_chart_point, base, parameter, bracket, p, kwargs): (i, j) for i, j, p in points}
-
-        def gather():
-            for fut in cf.as_completed(futs):
-                i, j = futs[fut]
-                try:
-                    yield i, j, fut.result()
-                except Exception as exc:  # noqa: BLE001 - a lost task costs its point only
-                    yield i, j, (math.nan, -3, f"task lost ({type(exc).__name__}: {exc})", 0)
-
-        results = gather()
-    try:
-        for i, j, (value, st, msg, d) in results:
-            crit[i, j], status[i, j], message[i, j], direc[i, j] = value, st, msg, d
-            bar.update(1)
-    finally:
-        bar.close()
-        if owned and executor != "serial":
-            executor.shutdown(wait=True, cancel_futures=True)
-    attrs = parameter_attrs(base, parameter)
-    return xr.Dataset(
-        {"critical": ((k1, k2), crit, {**attrs, "long_name": f"critical {attrs['long_name']} (contact onset)"}),
-         "direction": ((k1, k2), direc, {"long_name": f"+1: contact above the critical {parameter}; -1: below"}),
-         "status": ((k1, k2), status, {"long_name": "0 found; 1 no onset in the bracket; -1 run failed; "
-                                                    "-2 exception; -3 task lost"}),
-         "message": ((k1, k2), message.astype(str))},
-        coords={k1: (k1, a1, parameter_attrs(base, k1)), k2: (k2, a2, parameter_attrs(base, k2))},
-        attrs={"parameter": parameter, "bracket": list(map(float, bracket)), "base": repr(base),
-               "base_value": parameter_value(base, parameter)})
-
-
-def plot_onset_chart(ds, *, ax=None, scale: float = 1.0, units: str | None = None, levels: int = 12, cmap="viridis"):
-    """Filled contours of the critical value over the grid, with labelled contour lines.
-
-    ``scale`` multiplies the values (e.g. ``1e6`` with ``units="um"`` for a clearance in m).
-    """
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        _, ax = plt.subplots(figsize=(6, 4.5))
-    k1, k2 = ds["critical"].dims
-    z = ds["critical"].values * scale
-    x, y = ds[k2].values, ds[k1].values
-    u = units if units is not None else ds["critical"].attrs.get("units", "")
-    if np.isfinite(z).sum() >= 4 and np.nanmax(z) > np.nanmin(z) and min(z.shape) > 1:
-        cs = ax.contourf(x, y, z, levels=levels, cmap=cmap)
-        lines = ax.contour(x, y, z, levels=cs.levels[::2], colors="k", linewidths=0.6)
-        ax.clabel(lines, fontsize=7, fmt="%.5g", inline=True)
-    else:
-        cs = ax.pcolormesh(x, y, z, cmap=cmap, shading="nearest")
-    plt.colorbar(cs, ax=ax, label=f"critical {ds.attrs['parameter']} [{u}]")
-    for key, setter in ((k2, ax.set_xlabel), (k1, ax.set_ylabel)):
-        a = ds[key].attrs
-        setter(f"{a.get('long_name', key)} [{a.get('units', '')}]")
-    bad = ds["status"].values != 0
-    if bad.any():
-        yy, xx = np.meshgrid(y, x, indexing="ij")
-        ax.plot(xx[bad], yy[bad], "rx", ms=5, label="no onset found")
-        ax.legend(fontsize=8)
-    return ax
+    (a, ma, sa), (b, mb, sb) = found
+    fa, fb = ma, mb  # Illinois-weighted values used for the secant
+    kept = 0  # +1: b kept last time, -1: a kept last time
+    width = [b - a]
+    while b - a > tol:
+        free = sa if ma < 0.0 else sb
+        c = (a * fb - b * fa) / (fb - fa)
+        # Bisect when the secant leaves the bracket or the last step did not halve it (a kink
+        # at grazing: the penetration grows far more slowly than the clearance shrinks).
+        if not (a + 0.25 * tol < c < b - 0.25 * tol) or (len(width) > 1 and b - a > 0.5 * width[-2]):
+            c = 0.5 * (a + b)
+        mc, xf, vf, tf = evaluate(c, free if follow else origin)
+        if (mc >= 0.0) == (ma >= 0.0):
+            a, ma, sa, fa = c, mc, (xf, vf, tf), mc
+            fb = 0.5 * fb if kept == 1 else fb
+            kept = 1
+        else:
+            b, mb, sb, fb = c, mc, (xf, vf, tf), mc
+            fa = 0.5 * fa if kept == -1 else fa
+            kept = -1
+        width.append(b - a)
+    return (a, ma, sa), (b, mb, sb)
