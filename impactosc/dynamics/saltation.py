@@ -88,7 +88,10 @@ def saltation_matrix(osc: Oscillator, t: float, mode_before: Mode, guard: int, m
     # jump of the vector field across the event, after the reset
     jx, jv = fx1 - r11 * fx0, fv1 - r22 * fv0
     scale_f = max(abs(fx0), abs(fv0), abs(fx1), abs(fv1), 1e-300)
+    into_stick = mode_after[1] == 0 and mode_before[1] != 0
     if abs(jx) <= CONTINUITY * scale_f and abs(jv) <= CONTINUITY * scale_f:
+        if into_stick:  # a stick where the vector field already vanished: V stays 0 all the same
+            return Saltation(t, name, kind, (r11, 0.0, 0.0, 0.0), 0.0, False)
         return Saltation(t, name, kind, (r11, 0.0, 0.0, r22), r11 * r22, False)
     (nx, nv), ht = guard_gradient(osc, mode_before, guard, t, x_before, v_before)
     denom = nx * fx0 + nv * fv0 + ht
@@ -100,7 +103,7 @@ def saltation_matrix(osc: Oscillator, t: float, mode_before: Mode, guard: int, m
     b = jx * nv / denom
     c = jv * nx / denom
     d = r22 + jv * nv / denom
-    if mode_after[1] == 0:
+    if into_stick:
         # Into a stuck mode V is 0 after the event for every nearby trajectory: the V row is
         # exactly zero (the formula gives 1 - a-/a- up to rounding).
         c = d = 0.0
