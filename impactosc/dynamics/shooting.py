@@ -290,13 +290,16 @@ def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, 
     rnorm = float(np.linalg.norm(res))
     history.append(rnorm)
     while True:
-        if rnorm <= tol * max(1.0, float(np.linalg.norm(z))):
-            status, message = 0, f"converged in {it} Newton iterations (residual {rnorm:.3g})"
-            break
+        converged = rnorm <= tol * max(1.0, float(np.linalg.norm(z)))
         if rec.singular is not None:
             s = rec.singular
             status, message = 2, (f"the orbit crosses the {s.guard} guard tangentially at t={s.t:.12g} (grazing): the "
-                                  "map is not differentiable there and Newton cannot proceed; the last iterate is kept")
+                                  "map is not differentiable there, so "
+                                  + ("the multipliers are undefined" if converged else "Newton cannot proceed; the "
+                                     "last iterate is kept"))
+            break
+        if converged:
+            status, message = 0, f"converged in {it} Newton iterations (residual {rnorm:.3g})"
             break
         if it >= max_iter:
             status, message = 1, (f"Newton did not converge in {max_iter} iterations (residual {rnorm:.3g} > "
