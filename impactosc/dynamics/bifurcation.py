@@ -12,8 +12,8 @@ the forcing phase carries over too); ``"backward"`` the same in decreasing order
 runs the two passes concurrently. Where two attractors coexist the passes follow different
 branches: hysteresis shows as two diagrams that differ over an interval.
 
-Execution. The work is module-level functions with plain arguments (:func:`_run_values`,
-:func:`_run_pass`), submitted to any :class:`concurrent.futures.Executor` (default: a local
+Execution. The work is module-level functions with plain arguments (``_run_values``,
+``_run_pass``), submitted to any :class:`concurrent.futures.Executor` (default: a local
 process pool), and every finished value is written at once to a store directory: one small
 ``.npz`` file per value, written atomically (a temporary file renamed into place), so an
 interrupted diagram resumes where it stopped (a pass from its last finished value). The main
@@ -189,7 +189,7 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
     executor : concurrent.futures.Executor, "serial" or None
         Where the work runs. None: a local process pool (spawn) of ``os.cpu_count()``
         workers, shut down at the end. ``"serial"``: in this process.
-    store : path, optional
+    store : str or os.PathLike, optional
         Directory of the resumable store (created if needed). A rerun with the same
         settings loads what is finished and computes the rest.
     progress : bool
@@ -385,7 +385,7 @@ def plot_bifurcation(ds, variable: str = "x", *, ax=None, onset=None, onset_labe
     ds : xarray.Dataset
         From :func:`bifurcation_diagram`.
     variable : {"x", "v"}
-    ax : matplotlib Axes, optional
+    ax : matplotlib.axes.Axes, optional
     onset : float or sequence of float, optional
         Parameter values to mark with a vertical line (e.g. a contact onset).
     """

@@ -199,8 +199,8 @@ def monodromy(osc: Oscillator, x0: float, v0: float, n: int = 1, *, t0: float = 
 
     Returns
     -------
-    (x, v, jacobian, recorder)
-        ``jacobian`` is a 2x2 array; ``recorder`` (:class:`~.tangent.TangentRecorder`)
+    tuple
+        ``(x, v, jacobian, recorder)``: ``jacobian`` is a 2x2 array; ``recorder`` (:class:`~.tangent.TangentRecorder`)
         tells whether a direction collapsed or a guard was crossed tangentially.
     """
     osc = oscillator_of(osc)

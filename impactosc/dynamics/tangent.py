@@ -1,6 +1,6 @@
 """Tangent dynamics of the hybrid flow: the Jacobian of a run, piece by piece and event by event.
 
-:class:`TangentRecorder` is a :class:`~impactosc.solution._Recorder` that the engine's driver
+:class:`TangentRecorder` is a ``impactosc.solution._Recorder`` that the engine's driver
 loop (:func:`impactosc.engine.drive`) feeds like any other: it multiplies the Jacobian of the
 run so far by the state-transition matrix of every smooth piece (:mod:`.flow`) and by the
 saltation matrix of every transition (:mod:`.saltation`), internal ones included. At the end
@@ -153,7 +153,7 @@ def tangent_run(osc: Oscillator, t_end: float, x0: float, v0: float, *, backend:
     """Run ``osc`` from ``(x0, v0)`` at time 0 to ``t_end`` and follow its Jacobian.
 
     ``options`` are the backend's (``tol``, ``rtol``, ...), already validated by
-    :func:`check_backend`. ``on_sample(recorder, t, x, v, jacobian) -> jacobian`` is called
+    ``check_backend``. ``on_sample(recorder, t, x, v, jacobian) -> jacobian`` is called
     at every ``sample_at`` time (sorted, in ``[0, t_end]``): the Lyapunov renormalisation.
 
     Returns
