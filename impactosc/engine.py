@@ -127,7 +127,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     af = abs(f)
     # Within the rounding of f_net of the threshold counts as on it: a release root at
     # tau ~ 1e-87 (beta = 1e-173, f_net = 0) is beyond any event finder (heyoka's gives up).
-    tie = _tie_tolerance(osc, x, f)
+    tie = _tie_tolerance(osc, t, x, f)
     if af < b - tie:
         return 0, True
     if af > b + tie:
@@ -153,14 +153,22 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
 _EPS = 2.0**-52
 
 
-def _tie_tolerance(osc: Oscillator, x: float, f: float) -> float:
-    """Rounding level of f_net at ``x``: a few ulps of the largest term that forms it."""
+def _tie_tolerance(osc: Oscillator, t: float, x: float, f: float) -> float:
+    """Rounding level of f_net at ``(t, x)``: a few ulps of every term that forms it.
+
+    The forcing ``F cos(Omega t + phase)`` is rounded like ``F`` times its phase error, and
+    the phase ``Omega t + phase`` is rounded to an ulp of its largest part: at
+    ``Omega t ~ 200`` that is ~6e-15 F, far above an ulp of ``F`` (a force guard offset by
+    less than it could start a piece on the wrong side of zero, and heyoka then dropped
+    its next root: issue 14). The spring terms and ``f_net`` itself are rounded to an ulp.
+    """
     pen = abs(x) - 1.0
     spring = abs(x) + (osc.K * pen if pen > 0.0 else 0.0)
+    forcing = osc.F * (1.0 + abs(osc.Omega * t) + abs(osc.phase))
     # The floor keeps a force guard from being the zero polynomial when f_net vanishes
     # identically (F = 0 at equilibrium): that guard "crossed" everywhere and crawled
     # through 250000 stick/release pairs in half a time unit.
-    return max(4.0 * _EPS * max(osc.F, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
+    return max(4.0 * _EPS * max(forcing, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
@@ -226,25 +234,28 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
 KINEMATIC_GUARD_OFFSET = 1e-300
 
 
-def force_guard_offset(osc: Oscillator, x: float) -> float:
-    """Offset of the force guards (release, acceleration zero) at position ``x``.
+def force_guard_offset(osc: Oscillator, t: float, x: float) -> float:
+    """Offset of the force guards (release, acceleration zero) at time ``t`` and position ``x``.
 
     These guards sit at a threshold where ``f_net`` is computed with rounding error;
     offsetting them by the same tolerance as the stick test's tie (:func:`motion_at_rest`)
     makes the event finder and the stick test agree on what "reaching beta" means, so
-    rounding noise at a tie cannot fire a spurious release. The shift of a genuine crossing
-    is of the order of the rounding of ``f_net``.
+    rounding noise at a tie cannot fire a spurious release, and a guard that starts on its
+    threshold (the acceleration after a release) starts on its near side however large
+    ``Omega t`` has grown. The shift of a genuine crossing is of the order of the rounding
+    of ``f_net``.
     """
-    return _tie_tolerance(osc, x, 0.0)
+    return _tie_tolerance(osc, t, x, 0.0)
 
 
-def guard_offsets(osc: Oscillator, x: float) -> tuple[float, ...]:
+def guard_offsets(osc: Oscillator, t: float, x: float) -> tuple[float, ...]:
     """How far each guard is shifted towards the side it crosses *from* (order of ``GUARD_NAMES``).
 
     A backend fires guard ``g`` (direction ``d``) at ``g - d * offset = 0``: the kinematic
-    guards by :data:`KINEMATIC_GUARD_OFFSET`, the force guards by :func:`force_guard_offset`.
+    guards by :data:`KINEMATIC_GUARD_OFFSET`, the force guards by :func:`force_guard_offset`
+    at the start ``(t, x)`` of the piece.
     """
-    tie = force_guard_offset(osc, x)
+    tie = force_guard_offset(osc, t, x)
     k = KINEMATIC_GUARD_OFFSET
     return (k, k, k, k, tie, tie, tie)
 

@@ -108,17 +108,17 @@ class _Stepper:
         self.time_limit = hy.taylor_outcome.time_limit
         self.mode_pars = {}
 
-    def _set_mode(self, mode: Mode, x: float) -> None:
+    def _set_mode(self, mode: Mode, t: float, x: float) -> None:
         vals = self.mode_pars.get(mode)
         if vals is None:
             r, s, _ = mode
             vals = self.mode_pars[mode] = (r, s, r * r, s * s, *guard_gates(mode))
         self.pars[_P_REGION:_P_OFFSETS] = vals
-        self.pars[_P_OFFSETS:] = guard_offsets(self.osc, x)
+        self.pars[_P_OFFSETS:] = guard_offsets(self.osc, t, x)
 
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
         ta = self.ta
-        self._set_mode(mode, x)
+        self._set_mode(mode, t, x)
         ta.time = t
         self.state[:] = (x, v, 0.0, 0.0, 0.0)
         res = ta.propagate_until(t_end)
