@@ -282,9 +282,16 @@ class PieceStepper(Protocol):
 MAX_EVENTS_AT_ONE_INSTANT = 64
 
 
-def pending_guard(mode: Mode, x: float) -> int:
-    """A guard that already holds at the start of a piece, or ``NO_GUARD``.
+def pending_guard(osc: Oscillator, mode: Mode, fired: int, t: float, x: float, v: float) -> int:
+    """A guard that already holds at the start of a piece at ``(t, x, v)``, or ``NO_GUARD``.
 
+    ``fired`` is the guard whose transition produced ``mode``. A velocity that already
+    points against the motion (``motion * V < 0``) means the slip ended at this instant: a
+    flange crossing located at a turning point on ``|X| = 1`` lands a rounding error past
+    it, and the new piece, whose ``SLIP_END`` guard starts past zero, would never see it
+    cross (issue 14: a whole period ran with the wrong vector field). The same holds for a
+    flange crossing that lands exactly on the turning point (``V == 0``) when the stick test
+    there disagrees with the motion. The ``SLIP_END`` transition then applies the stick test.
     After a turning point, stick or release exactly on a flange boundary (``|X| = 1`` with
     ``V = 0``), the contact guard of the next piece has a *double* root at its start: no
     event finder sees it cross. Here the new motion direction decides: moving out of the
@@ -294,6 +301,10 @@ def pending_guard(mode: Mode, x: float) -> int:
     r, s, _ = mode
     if s == 0:
         return NO_GUARD
+    if s * v < 0.0:
+        return SLIP_END
+    if v == 0.0 and fired in (ENTER_UPPER, ENTER_LOWER, LEAVE) and motion_at_rest(osc, t, x)[0] != s:
+        return SLIP_END
     if r == 0:
         if s > 0 and x >= 1.0:
             return ENTER_UPPER
@@ -304,31 +315,53 @@ def pending_guard(mode: Mode, x: float) -> int:
     return NO_GUARD
 
 
-#: Slack for the integrity checks of :func:`missed_guard`, far above rounding at event snaps.
-INTEGRITY_SLACK = 1e-9
+#: Rounding allowance of the integrity checks of :func:`missed_guard`, in ulps of the
+#: scale of the quantity checked (far above the rounding of a closed form or of a Taylor
+#: polynomial evaluated at its root, far below any violation that changes the motion).
+INTEGRITY_ULPS = 64.0
 
 
-def missed_guard(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float) -> str | None:
+def missed_guard(osc: Oscillator, mode: Mode, guard: int, t0: float, x0: float, v0: float,
+                 t1: float, x1: float, v1: float) -> str | None:
     """Name of a guard that must have been crossed unseen in the piece just integrated.
 
-    A backstop, not physics: in a slipping mode the velocity keeps the sign of the motion
-    until ``SLIP_END``; the flange region must match ``|X| > 1`` except on the guard that
-    ends the piece; a piece that stays stuck to its end must end with ``|f_net| <= beta``.
-    A violation means a wrong answer would follow, so :func:`drive` stops.
+    A backstop, not physics. At the start ``(t0, x0, v0)`` the engine's snapped state must
+    satisfy the mode exactly: ``motion * V >= 0`` (:func:`pending_guard` sees to it) and the
+    region must match ``|X| >= 1`` to rounding. At the end ``(t1, x1, v1)``: in a slipping
+    mode the velocity keeps the sign of the motion until ``SLIP_END``, and the flange region
+    must match ``|X| > 1`` except on the guard that ends the piece; a piece that stays stuck
+    to its end must end with ``|f_net| <= beta``. The allowances are rounding levels of each
+    quantity (:data:`INTEGRITY_ULPS` ulps of its scale), not absolute slacks: a wrong region
+    or direction is caught however small the motion. A violation means a wrong answer would
+    follow, so :func:`drive` stops.
     """
     r, s, _ = mode
     if s == 0:
         if guard == NO_GUARD:
-            f = osc._net_force_scalar(t, x)
-            if abs(f) > osc.beta + INTEGRITY_SLACK * (1.0 + abs(f)):
+            f = osc._net_force_scalar(t1, x1)
+            if abs(f) > osc.beta + 2.0 * INTEGRITY_ULPS * _tie_tolerance(osc, t1, x1, f):
                 return "release_up" if f > 0 else "release_down"
         return None
-    if guard != SLIP_END and s * v < -INTEGRITY_SLACK:
+    if s * v0 < 0.0:
         return GUARD_NAMES[SLIP_END]
-    if r == 0 and guard not in (ENTER_UPPER, ENTER_LOWER) and abs(x) > 1.0 + INTEGRITY_SLACK:
-        return "enter_upper" if x > 0 else "enter_lower"
-    if r != 0 and guard != LEAVE and r * x < 1.0 - INTEGRITY_SLACK:
-        return GUARD_NAMES[LEAVE]
+    # The region test against |X| = 1 with an allowance of ulps of X (the cheap test first).
+    if r == 0:
+        far = abs(x0) if guard in (ENTER_UPPER, ENTER_LOWER) else max(abs(x0), abs(x1))
+        if far > 1.0 and far - 1.0 > INTEGRITY_ULPS * _EPS * max(abs(x0), abs(x1)):
+            return "enter_upper" if x1 > 0 else "enter_lower"
+    else:
+        near = r * x0 if guard == LEAVE else min(r * x0, r * x1)
+        if near < 1.0 and 1.0 - near > INTEGRITY_ULPS * _EPS * max(1.0, abs(x0), abs(x1)):
+            return GUARD_NAMES[LEAVE]
+    if guard != SLIP_END and s * v1 < 0.0:
+        # V is rounded like the largest velocity the piece can reach from its start: the
+        # start velocity plus the largest acceleration (the piece is monotonic in X, so the
+        # restoring force peaks at an end) over the piece, and over one ulp of t1.
+        w2 = 1.0 + osc.K if r else 1.0
+        accel = osc.F + osc.beta + 1.0 + w2 * max(abs(x0 - r), abs(x1 - r))
+        tol_v = INTEGRITY_ULPS * _EPS * (abs(v0) + accel * (t1 - t0 + abs(t1) * _EPS))
+        if s * v1 < -tol_v:
+            return GUARD_NAMES[SLIP_END]
     return None
 
 
@@ -366,7 +399,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             recorder.finish(t, x, v, mode, -1, f"integration produced a non-finite state at t={t1!r}")
             return
         recorder.piece(mode, t, x, t1, x1, q, q2, w, steps)
-        missed = missed_guard(osc, mode, guard, t1, x1, v1)
+        missed = missed_guard(osc, mode, guard, t, x, v, t1, x1, v1)
         if missed:
             recorder.finish(t1, x1, v1, mode, -1,
                             f"the {stepper_name(stepper)} backend missed a {missed} guard in the piece "
@@ -382,7 +415,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             if kind is not None:
                 recorder.event(t1, kind, x1, v1, side)
                 recorded = True
-            guard = pending_guard(mode, x1)
+            guard = pending_guard(osc, mode, guard, t1, x1, v1)
         same_instant = same_instant + 1 if t1 == t else 0
         t, x, v = t1, x1, v1
         recorder.segment(t, x, v, mode)
