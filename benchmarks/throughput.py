@@ -213,7 +213,7 @@ def split(osc, n_events: int) -> dict:
     n = rec.n_events
     # The fixed cost of one propagate_until call that takes a single tiny step (no event).
     raw = hb.integrator(hb.DEFAULT_TOL)
-    hb._Stepper(raw, osc)._set_mode(Mode(0, 1, True), 0.0)
+    hb._Stepper(raw, osc)._set_mode(Mode(0, 1, True), 0.0, 0.0)
     raw.state[:] = (0.0, 1e-3, 0.0, 0.0, 0.0)
     calls = 2000
     raw.time = 0.0

@@ -167,7 +167,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     af = abs(f)
     # Within the rounding of f_net of the threshold counts as on it: a release root at
     # tau ~ 1e-87 (beta = 1e-173, f_net = 0) is beyond any event finder (heyoka's gives up).
-    tie = _tie_tolerance(osc, x, f)
+    tie = _tie_tolerance(osc, t, x, f)
     if af < b - tie:
         return 0, True
     if af > b + tie:
@@ -190,14 +190,21 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
 _EPS = 2.0**-52
 
 
-def _tie_tolerance(osc: Oscillator, x: float, f: float) -> float:
-    """Rounding level of f_net at ``x``: a few ulps of the largest term that forms it."""
+def _tie_tolerance(osc: Oscillator, t: float, x: float, f: float) -> float:
+    """Rounding level of f_net at ``(t, x)``: a few ulps of every term that forms it.
+
+    Each forcing term ``F_i cos(Omega_i t + phase_i)`` is rounded like ``F_i`` times its phase
+    error, and the phase is rounded to an ulp of its largest part: at ``Omega t ~ 200`` that
+    is ~6e-15 F, far above an ulp of ``F`` (a force guard offset by less than it could start
+    a piece on the wrong side of zero, and heyoka then dropped its next root: issue 14).
+    The spring terms and ``f_net`` itself are rounded to an ulp.
+    """
     spring = abs(osc._spring_scalar(x))
+    forcing = sum(F * (1.0 + abs(Om * t) + abs(ph)) for F, Om, ph in osc.terms)
     # The floor keeps a force guard from being the zero polynomial when f_net vanishes
     # identically (F = 0 at equilibrium): that guard "crossed" everywhere and crawled
     # through 250000 stick/release pairs in half a time unit.
-    amplitude = sum(F for F, _, _ in osc.terms)
-    return max(4.0 * _EPS * max(amplitude, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
+    return max(4.0 * _EPS * max(forcing, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
@@ -301,25 +308,28 @@ def _rest_at_wall(osc: Oscillator, t: float, x: float):
 KINEMATIC_GUARD_OFFSET = 1e-300
 
 
-def force_guard_offset(osc: Oscillator, x: float) -> float:
-    """Offset of the force guards (release, acceleration zero) at position ``x``.
+def force_guard_offset(osc: Oscillator, t: float, x: float) -> float:
+    """Offset of the force guards (release, acceleration zero) at time ``t`` and position ``x``.
 
     These guards sit at a threshold where ``f_net`` is computed with rounding error;
     offsetting them by the same tolerance as the stick test's tie (:func:`motion_at_rest`)
     makes the event finder and the stick test agree on what "reaching beta" means, so
-    rounding noise at a tie cannot fire a spurious release. The shift of a genuine crossing
-    is of the order of the rounding of ``f_net``.
+    rounding noise at a tie cannot fire a spurious release, and a guard that starts on its
+    threshold (the acceleration after a release) starts on its near side however large
+    ``Omega t`` has grown. The shift of a genuine crossing is of the order of the rounding
+    of ``f_net``.
     """
-    return _tie_tolerance(osc, x, 0.0)
+    return _tie_tolerance(osc, t, x, 0.0)
 
 
-def guard_offsets(osc: Oscillator, x: float) -> tuple[float, ...]:
+def guard_offsets(osc: Oscillator, t: float, x: float) -> tuple[float, ...]:
     """How far each guard is shifted towards the side it crosses *from* (order of ``GUARD_NAMES``).
 
     A backend fires guard ``g`` (direction ``d``) at ``g - d * offset = 0``: the kinematic
-    guards by :data:`KINEMATIC_GUARD_OFFSET`, the force guards by :func:`force_guard_offset`.
+    guards by :data:`KINEMATIC_GUARD_OFFSET`, the force guards by :func:`force_guard_offset`
+    at the start ``(t, x)`` of the piece.
     """
-    tie = force_guard_offset(osc, x)
+    tie = force_guard_offset(osc, t, x)
     k = KINEMATIC_GUARD_OFFSET
     return (k, k, k, k, tie, tie, tie)
 
@@ -348,21 +358,32 @@ class PieceStepper(Protocol):
 MAX_EVENTS_AT_ONE_INSTANT = 64
 
 
-def pending_guard(mode: Mode, x: float, rigid: bool = False) -> int:
-    """A guard that already holds at the start of a piece, or ``NO_GUARD``.
+def pending_guard(osc: Oscillator, mode: Mode, fired: int, t: float, x: float, v: float) -> int:
+    """A guard that already holds at the start of a piece at ``(t, x, v)``, or ``NO_GUARD``.
 
+    ``fired`` is the guard whose transition produced ``mode``. A velocity that already
+    points against the motion (``motion * V < 0``) means the slip ended at this instant: a
+    flange crossing located at a turning point on ``|X| = 1`` lands a rounding error past
+    it, and the new piece, whose ``SLIP_END`` guard starts past zero, would never see it
+    cross (issue 14: a whole period ran with the wrong vector field). The same holds for a
+    flange crossing that lands exactly on the turning point (``V == 0``) when the stick test
+    there disagrees with the motion. The ``SLIP_END`` transition then applies the stick test.
     After a turning point, stick or release exactly on a flange boundary (``|X| = 1`` with
     ``V = 0``), the contact guard of the next piece has a *double* root at its start: no
     event finder sees it cross. Here the new motion direction decides: moving out of the
     free zone means the contact starts now; moving back from the boundary into the free
-    zone means it ends now. With a rigid flange (``rigid``) a mass at rest on the wall is
+    zone means it ends now. With a rigid flange a mass at rest on the wall is
     tested against it (:data:`AT_WALL`). Part of the transition rule, applied by :func:`drive`.
     """
     r, s, _ = mode
     if s == 0:
-        if rigid and r == 0 and abs(x) >= 1.0:
+        if osc.rigid and r == 0 and abs(x) >= 1.0:
             return AT_WALL
         return NO_GUARD
+    if s * v < 0.0:
+        return SLIP_END
+    if v == 0.0 and fired in (ENTER_UPPER, ENTER_LOWER, LEAVE) and motion_at_rest(osc, t, x)[0] != s:
+        return SLIP_END
     if r == 0:
         if s > 0 and x >= 1.0:
             return ENTER_UPPER
@@ -373,33 +394,56 @@ def pending_guard(mode: Mode, x: float, rigid: bool = False) -> int:
     return NO_GUARD
 
 
-#: Slack for the integrity checks of :func:`missed_guard`, far above rounding at event snaps.
-INTEGRITY_SLACK = 1e-9
+#: Rounding allowance of the integrity checks of :func:`missed_guard`, in ulps of the
+#: scale of the quantity checked (far above the rounding of a closed form or of a Taylor
+#: polynomial evaluated at its root, far below any violation that changes the motion).
+INTEGRITY_ULPS = 64.0
 
 
-def missed_guard(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float) -> str | None:
+def missed_guard(osc: Oscillator, mode: Mode, guard: int, t0: float, x0: float, v0: float,
+                 t1: float, x1: float, v1: float) -> str | None:
     """Name of a guard that must have been crossed unseen in the piece just integrated.
 
-    A backstop, not physics: in a slipping mode the velocity keeps the sign of the motion
-    until ``SLIP_END``; the flange region must match ``|X| > 1`` except on the guard that
-    ends the piece; a piece that stays stuck to its end must end with ``|f_net| <= beta``.
-    A violation means a wrong answer would follow, so :func:`drive` stops.
+    A backstop, not physics. At the start ``(t0, x0, v0)`` the engine's snapped state must
+    satisfy the mode exactly: ``motion * V >= 0`` (:func:`pending_guard` sees to it) and the
+    region must match ``|X| >= 1`` to rounding. At the end ``(t1, x1, v1)``: in a slipping
+    mode the velocity keeps the sign of the motion until ``SLIP_END``, and the flange region
+    must match ``|X| > 1`` except on the guard that ends the piece; a piece that stays stuck
+    to its end must end with ``|f_net| <= beta``. The allowances are rounding levels of each
+    quantity (:data:`INTEGRITY_ULPS` ulps of its scale), not absolute slacks: a wrong region
+    or direction is caught however small the motion. A violation means a wrong answer would
+    follow, so :func:`drive` stops.
     """
     r, s, _ = mode
     if s == 0:
         if guard == NO_GUARD:
-            f = osc._net_force_scalar(t, x)
+            f = osc._net_force_scalar(t1, x1)
             if osc.rigid and r != 0:
                 f = min(r * f, 0.0) * r  # the wall takes any push into it
-            if abs(f) > osc.beta_s + INTEGRITY_SLACK * (1.0 + abs(f)):
+            if abs(f) > osc.beta_s + 2.0 * INTEGRITY_ULPS * _tie_tolerance(osc, t1, x1, f):
                 return "release_up" if f > 0 else "release_down"
         return None
-    if guard != SLIP_END and s * v < -INTEGRITY_SLACK:
+    if s * v0 < 0.0:
         return GUARD_NAMES[SLIP_END]
-    if r == 0 and guard not in (ENTER_UPPER, ENTER_LOWER) and abs(x) > 1.0 + INTEGRITY_SLACK:
-        return "enter_upper" if x > 0 else "enter_lower"
-    if r != 0 and guard != LEAVE and r * x < 1.0 - INTEGRITY_SLACK:
-        return GUARD_NAMES[LEAVE]
+    # The region test against |X| = 1 with an allowance of ulps of X (the cheap test first).
+    if r == 0:
+        far = abs(x0) if guard in (ENTER_UPPER, ENTER_LOWER) else max(abs(x0), abs(x1))
+        if far > 1.0 and far - 1.0 > INTEGRITY_ULPS * _EPS * max(abs(x0), abs(x1)):
+            return "enter_upper" if x1 > 0 else "enter_lower"
+    else:
+        near = r * x0 if guard == LEAVE else min(r * x0, r * x1)
+        if near < 1.0 and 1.0 - near > INTEGRITY_ULPS * _EPS * max(1.0, abs(x0), abs(x1)):
+            return GUARD_NAMES[LEAVE]
+    if guard != SLIP_END and s * v1 < 0.0:
+        # V is rounded like the largest velocity the piece can reach from its start: the
+        # start velocity plus the largest acceleration (the piece is monotonic in X, so the
+        # restoring force peaks at an end) over the piece, and over one ulp of t1.
+        spring = max(abs(osc._spring_scalar(x0)), abs(osc._spring_scalar(x1)))
+        amplitude = sum(F for F, _, _ in osc.terms)
+        accel = amplitude + osc.beta + 1.0 + spring + 2.0 * osc.zeta * max(abs(v0), abs(v1))
+        tol_v = INTEGRITY_ULPS * _EPS * (abs(v0) + accel * (t1 - t0 + abs(t1) * _EPS))
+        if s * v1 < -tol_v:
+            return GUARD_NAMES[SLIP_END]
     return None
 
 
@@ -481,7 +525,8 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     recorder.begin(osc, t, x, v, mode)
     chatter = ChatterTracker(osc) if osc.rigid else None
     # A start on a boundary (a rigid wall, a spring flange's surface) is resolved at once.
-    mode, x, v, _, _ = _settle(osc, recorder, chatter, mode, pending_guard(mode, x, osc.rigid), t, x, v)
+    mode, x, v, _, _ = _settle(osc, recorder, chatter, mode, pending_guard(osc, mode, NO_GUARD, t, x, v),
+                               t, x, v)
     same_instant = 0
     advance = stepper.advance
     stops = iter(sample_at)
@@ -507,7 +552,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             # The backend stopped early on a limit the user set (e.g. a wall-time limit).
             recorder.finish(t1, x1, v1, mode, 1, stepper.stop_message)
             return
-        missed = missed_guard(osc, mode, guard, t1, x1, v1)
+        missed = missed_guard(osc, mode, guard, t, x, v, t1, x1, v1)
         if missed:
             recorder.finish(t1, x1, v1, mode, -1,
                             f"the {stepper_name(stepper)} backend missed a {missed} guard in the piece "
@@ -578,7 +623,7 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
                 elif kind != REVERSAL:
                     chatter.interrupt()
                     jump = None
-        guard = pending_guard(mode, x, osc.rigid)
+        guard = pending_guard(osc, mode, guard, t, x, v)
     return mode, x, v, recorded, jump
 
 

@@ -20,6 +20,11 @@ With ``tau = t - t0`` and ``theta0 = Omega t0 + phase``::
     Cc = (cos(Omega tau) - cos(w tau)) / (w^2 - Omega^2),
     Ss = (sin(Omega tau) - (Omega/w) sin(w tau)) / (w^2 - Omega^2).
 
+where ``Yp = cY / w^2``, ``Ah = y0 - Yp``, ``Bh = v0 / w``. Where ``|Yp| > |y0|`` (huge
+``beta``: ``Yp ~ -beta s / w^2``) the same motion is evaluated about the start point,
+``Y = y0 - 2 Ah sin^2(w tau / 2) + ...``, so ``Yp`` never cancels against ``Ah`` (see
+:class:`_SlipPiece`); the velocity is ``v0 cos(w tau) - w Ah sin(w tau) + ...`` in both forms.
+
 ``Cc`` and ``Ss`` (the response to the forcing from rest) are evaluated through
 ``sin((w - Omega) tau / 2) / (w - Omega)``, which tends to ``tau / 2``: there is no
 cancellation near resonance and the exact resonance ``w == Omega`` (``Omega = 1`` free,
@@ -49,8 +54,8 @@ leaves the bracket or converges slowly) to one ulp of ``t``.
 
 Integrals
 ---------
-Over a flange piece, ``int K (r X - 1) dt = K r int Y dt`` in closed form (from
-``int Y = (cY tau + F int cos - (V - V0)) / w^2``); ``int (K (r X - 1))^2 dt`` by 16-node
+Over a flange piece, ``int K (r X - 1) dt = K r int Y dt`` in closed form about the start
+point (``y0 tau - Ah (w tau - sin(w tau)) / w + ...``, see ``_SlipPiece.int_y``); ``int (K (r X - 1))^2 dt`` by 16-node
 Gauss-Legendre quadrature on sub-intervals no longer than half the period of the fastest
 frequency ``max(w, Omega)`` (error below 1e-19 relative, see ``_GL_NODES``); the forcing
 work ``int V F cos(Omega t + phase) dt`` from the energy balance
@@ -112,10 +117,15 @@ class _ModeConstants:
         self.dlt = self.w - osc.Omega
 
 
-def _kernel(mc: _ModeConstants, Ah, Bh, c0, s0, tau, sin, cos):
-    """``(Y, V)`` at ``tau`` after the piece start (scalar or array).
+def _kernel(mc: _ModeConstants, y0, v0, Ah, about_start, c0, s0, tau, sin, cos):
+    """``(Y, V, P', Y - y0)`` at ``tau`` after the piece start (scalar or array).
 
-    ``sin`` and ``cos`` are those of :mod:`math` for scalars or of NumPy for arrays.
+    ``Y - y0`` is the displacement as computed, not rounded to the ulps of ``Y``: the
+    energy balance of the forcing work, ``Delta E + beta s (Y - y0)``, cancels ``beta`` sized
+    terms on a short piece with a huge ``beta``. ``P'`` is the velocity of the response to
+    the forcing from rest (``V = v0 cos(w tau) - w Ah sin(w tau) + F P'``). ``about_start``
+    selects the form of ``Y`` (see :class:`_SlipPiece`). ``sin`` and ``cos`` are those of
+    :mod:`math` for scalars or of NumPy for arrays.
     """
     w, Om, F, sig, dlt = mc.w, mc.Om, mc.F, mc.sig, mc.dlt
     sw = sin(w * tau)
@@ -127,9 +137,34 @@ def _kernel(mc: _ModeConstants, Ah, Bh, c0, s0, tau, sin, cos):
     Cc = 2.0 * sin(hs) * sd / sig  # (cos(Om tau) - cos(w tau)) / (w^2 - Om^2)
     D = (t2 + sin(Om * tau)) / sig  # Cc'
     Ss = (sw - t2) / (w * sig)  # (sin(Om tau) - (Om/w) sin(w tau)) / (w^2 - Om^2); Ss' = Om Cc
-    y = mc.Yp + Ah * cw + Bh * sw + F * (c0 * Cc - s0 * Ss)
-    v = w * (Bh * cw - Ah * sw) + F * (c0 * D - s0 * Om * Cc)
-    return y, v
+    dp = c0 * D - s0 * Om * Cc
+    forced = (v0 / w) * sw + F * (c0 * Cc - s0 * Ss)
+    if about_start:  # Y = y0 + Ah (cos - 1) + ..., with cos - 1 = -2 sin^2: no Yp added back
+        hw = sin(0.5 * w * tau)
+        dy = forced - 2.0 * Ah * hw * hw
+        y = y0 + dy
+    else:
+        y = mc.Yp + (forced + Ah * cw)
+        dy = y - y0
+    v = v0 * cw - w * Ah * sw + F * dp
+    return y, v, dp, dy
+
+
+def _x_minus_sin(z):
+    """``z - sin(z)`` without cancellation at small ``z`` (scalar or array)."""
+    arr = isinstance(z, np.ndarray)
+    if not arr and abs(z) >= 1.0:
+        return z - math.sin(z)
+    u = z * z
+    series = 0.0
+    for c in _X_MINUS_SIN_COEFFS:
+        series = c - u * series
+    series = z * u * series
+    return np.where(np.abs(z) < 1.0, series, z - np.sin(z)) if arr else series
+
+
+# z - sin z = z^3/3! - z^5/5! + ...: nine terms reach z^19/19!, below an ulp of z^3/6 for |z| < 1.
+_X_MINUS_SIN_COEFFS = tuple(1.0 / math.factorial(2 * k + 3) for k in reversed(range(9)))
 
 
 class _SlipPiece:
@@ -140,7 +175,8 @@ class _SlipPiece:
     (``Cc'' = D' = cos(w tau) - Omega^2 Cc`` and ``Ss' = Omega Cc``).
     """
 
-    __slots__ = ("mc", "t0", "x0", "v0", "y0", "Ah", "Bh", "c0", "s0", "theta0", "_k", "_hom", "_amp", "_G")
+    __slots__ = ("mc", "t0", "x0", "v0", "y0", "Ah", "Bh", "about_start", "c0", "s0", "theta0", "_k", "_hom",
+                 "_amp", "_G")
 
     def __init__(self, mc: _ModeConstants, phase: float, t0: float, x0: float, v0: float):
         self.mc = mc
@@ -152,6 +188,13 @@ class _SlipPiece:
         self.y0 = x0 - mc.ref
         self.Ah = self.y0 - mc.Yp  # homogeneous amplitudes: Y(0) = y0, V(0) = v0
         self.Bh = v0 / mc.w
+        # Y about its centre, Yp + Ah cos(w tau) + ..., is rounded like max(|Yp|, |Ah|); about
+        # the start point, y0 + Ah (cos(w tau) - 1) + ..., like |y0| + 2 |Ah| sin^2(w tau / 2).
+        # Where the particular solution Yp = cY / w^2 ~ -beta s / w^2 dwarfs y0 the first
+        # cancels Yp against Ah: with beta = 1e8 the position was rounded to 1e-8 while the
+        # mass slid 1e-9 (issue 14). The start-point form is taken there, the centred
+        # form (half the rounding over a long free half-period) elsewhere.
+        self.about_start = abs(mc.Yp) > abs(self.y0)
         w, w2 = mc.w, mc.w2
         # Amplitudes for the derivative bounds (see ``bounds``): homogeneous part, and off
         # resonance the free-oscillation amplitude of the classical form with its rounding.
@@ -183,7 +226,7 @@ class _SlipPiece:
         sw, cw, Cc, D = self._core(tau)
         k = self._k
         w, FC, FSO, O2 = k[0], k[6], k[7], k[8]
-        v = w * (self.Bh * cw - self.Ah * sw) + FC * D - FSO * Cc
+        v = self.v0 * cw - w * self.Ah * sw + FC * D - FSO * Cc
         a2 = -(k[9] * cw + k[10] * sw) + FC * (cw - O2 * Cc) - FSO * D
         return v, a2
 
@@ -199,24 +242,36 @@ class _SlipPiece:
 
     def yv(self, tau):
         """``(Y, V)`` at a scalar ``tau`` or an array of them."""
-        if isinstance(tau, np.ndarray):
-            return _kernel(self.mc, self.Ah, self.Bh, self.c0, self.s0, tau, np.sin, np.cos)
-        return _kernel(self.mc, self.Ah, self.Bh, self.c0, self.s0, tau, math.sin, math.cos)
+        return self._yvp(tau)[:2]
 
-    def int_y(self, tau, v):
-        """``int_0^tau Y`` given ``V(tau) = v`` (closed form, scalar or array)."""
+    def _yvp(self, tau):
+        if isinstance(tau, np.ndarray):
+            return _kernel(self.mc, self.y0, self.v0, self.Ah, self.about_start, self.c0, self.s0, tau, np.sin, np.cos)
+        return _kernel(self.mc, self.y0, self.v0, self.Ah, self.about_start, self.c0, self.s0, tau, math.sin, math.cos)
+
+    def int_y(self, tau, dp):
+        """``int_0^tau Y`` given ``P'(tau) = dp`` (closed form about the start point, scalar or array).
+
+        ``y0 tau + Ah (sin(w tau) - w tau) / w + (v0 / w^2) (1 - cos(w tau)) + F int P``, with
+        ``w^2 int P = int cos(Omega t + phase) - P'`` (the forced response from rest). Each
+        homogeneous term is computed without cancellation, so a short piece with a huge
+        ``beta`` (or ``K``) keeps the relative accuracy of its tiny impulse; the integrated
+        equation of motion ``(cY tau + F int cos - (V - v0)) / w^2`` cancelled ``cY tau``
+        against ``V - v0`` there.
+        """
         mc = self.mc
-        Om = mc.Om
+        Om, w = mc.Om, mc.w
+        arr = isinstance(tau, np.ndarray)
+        sin, cos = (np.sin, np.cos) if arr else (math.sin, math.cos)
         if Om != 0.0:
             half = 0.5 * Om * tau
-            if isinstance(tau, np.ndarray):
-                icos = 2.0 * (self.c0 * np.cos(half) - self.s0 * np.sin(half)) * np.sin(half) / Om
-            else:
-                icos = 2.0 * (self.c0 * math.cos(half) - self.s0 * math.sin(half)) * math.sin(half) / Om
+            icos = 2.0 * (self.c0 * cos(half) - self.s0 * sin(half)) * sin(half) / Om
         else:
             icos = self.c0 * tau
-        # Y'' + w^2 Y = cY + F cos(Omega t + phase), integrated once.
-        return (mc.cY * tau + mc.F * icos - (v - self.v0)) / mc.w2
+        hw = sin(0.5 * w * tau)
+        z_sin = _x_minus_sin(w * tau)
+        hom = self.y0 * tau - self.Ah * z_sin / w + 2.0 * (self.v0 / mc.w2) * hw * hw
+        return hom + mc.F * (icos - dp) / mc.w2
 
     def int_squares(self, tau: float) -> tuple[float, float]:
         """``(int_0^tau Y^2, int_0^tau V^2)`` by composite Gauss-Legendre (see ``_GL_NODES``)."""
@@ -471,7 +526,7 @@ class _Stepper:
             a, ha, da = b, hb, db
         t1 = t_end if guard == NO_GUARD else t0 + tau_end
         tau1 = t1 - t0  # the exact offset of the float t1 the engine will see
-        y1, v1 = p.yv(tau1)
+        y1, v1, dp1, dy = p._yvp(tau1)
 
         # 2. X is monotonic on [0, tau1] (s V >= 0 there), so a flange guard is crossed iff
         #    its values at the two ends differ in sign, and at most one of them is.
@@ -491,7 +546,7 @@ class _Stepper:
                 guard = fg
                 t1 = t0 + tau_f
                 tau1 = t1 - t0
-                y1, v1 = p.yv(tau1)
+                y1, v1, dp1, dy = p._yvp(tau1)
                 break
 
         # 3. The state and the integrals at the end of the piece.
@@ -499,11 +554,11 @@ class _Stepper:
         q = q2 = 0.0
         y2, vv = p.int_squares(tau1)
         if r:
-            q = mc.K * r * p.int_y(tau1, v1)
+            # r Y >= 0 all through a flange piece: a negative integral is rounding.
+            q = max(mc.K * r * p.int_y(tau1, dp1), 0.0)
             q2 = mc.K * mc.K * y2
         # Energy balance: int V F cos = Delta E + beta s Delta X, E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
         y0 = p.y0
-        dy = y1 - y0
         de = 0.5 * (v1 - v0) * (v1 + v0) + 0.5 * dy * (2.0 * mc.ref + y1 + y0)
         if r:
             de += 0.5 * mc.K * dy * (y1 + y0)
@@ -522,9 +577,9 @@ class _Stepper:
             qs = self.osc.K * (r * x - 1.0) * tau if r else np.zeros(tau.shape)
             return xs, vs, qs
         p = self._slip_piece(mode, t0, x, v)
-        ys, vs = p.yv(tau)
+        ys, vs, dps, _ = p._yvp(tau)
         xs = p.mc.ref + ys
-        qs = p.mc.K * r * p.int_y(tau, vs) if r else np.zeros(tau.shape)
+        qs = np.maximum(p.mc.K * r * p.int_y(tau, dps), 0.0) if r else np.zeros(tau.shape)
         return xs, vs, qs
 
 

@@ -359,13 +359,13 @@ class _Stepper:
             self.stopped = True
         return self.stopped
 
-    def _set_mode(self, mode: Mode, x: float) -> None:
+    def _set_mode(self, mode: Mode, t: float, x: float) -> None:
         vals = self.mode_pars.get(mode)
         if vals is None:
             r, s, _ = mode
             vals = self.mode_pars[mode] = (r, s, r * r, s * s, *guard_gates(mode, self.osc.rigid))
         self.pars[_P_REGION:_P_OFFSETS] = vals
-        self.pars[_P_OFFSETS:_P_BETA_S] = guard_offsets(self.osc, x)
+        self.pars[_P_OFFSETS:_P_BETA_S] = guard_offsets(self.osc, t, x)
 
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
         if self.deadline is not None and self._out_of_time():
@@ -374,7 +374,7 @@ class _Stepper:
         if mode.motion == 0:
             return advance_stuck(self.osc, mode, t, x, t_end)
         ta = self.ta
-        self._set_mode(mode, x)
+        self._set_mode(mode, t, x)
         ta.time = t
         self.state[:] = (x, v, *self.zeros)
         which = int(mode.region != 0)
@@ -453,8 +453,8 @@ class _LayeredStepper(_Stepper):
         self.delta = layer_thickness(osc)
         self.sigma_next = None  # sigma forced by a layer event (else decided from d)
 
-    def _set_mode(self, mode: Mode, x: float) -> None:
-        super()._set_mode(mode, x)
+    def _set_mode(self, mode: Mode, t: float, x: float) -> None:
+        super()._set_mode(mode, t, x)
         self._set_layer(mode, x, self.sigma_next)
 
     def _set_layer(self, mode: Mode, x: float, sigma: float | None = None) -> None:

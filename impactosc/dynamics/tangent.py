@@ -119,13 +119,8 @@ def piece_stepper(backend: str, osc: Oscillator, options: dict):
     if backend == "heyoka":
         from ..backends import heyoka as hb
 
-        tol = options.get("tol", hb.DEFAULT_TOL)
-        stepper = hb._Stepper(hb.integrator(tol), osc)
-
-        def evaluator(mode, t0, x, v, times):
-            return hb._Stepper(hb.integrator(tol), osc).evaluate(mode, t0, x, v, times)
-
-        return stepper, evaluator
+        tol = hb.check_tol(options.get("tol", hb.DEFAULT_TOL))
+        return hb._Stepper(hb.integrator(tol, hb.shape_of(osc)), osc), hb._Evaluator(osc, tol)
     if backend == "scipy":
         from ..backends import scipy as sb
 
