@@ -49,8 +49,10 @@ i.e. the integral of the cubic Hermite interpolant built from ``f`` and ``f' = +
 at the samples; a step that crosses a flange contributes only its in-contact part, cut at
 the interpolated crossing), the contact time, the deepest sampled penetration, the
 forcing work ``int V f(Lambda)`` (trapezoid rule), the path length of the sampled ``X``
-(for the friction work) and ``int V^2`` (for the damping loss ``2 zeta int V^2``: RK4's
-own quadrature of ``q' = V^2`` carried along the stages, fourth order). With
+(for the friction work) and, beyond eq. 3, ``int V^2`` (for the damping loss
+``2 zeta int V^2``: RK4's own quadrature of ``q' = V^2`` carried along the stages, fourth
+order). Eq. 3 runs use a kernel compiled without the family terms (see ``_family_args``),
+which keeps their arithmetic and their speed exactly as they were. With
 ``flange="paper"`` the statistics use the force the integrated equation actually applies
 (``K (|X| + 1)`` at the lower flange).
 Peak penetrations are the deepest *sample* of each contact (low by up to
@@ -79,6 +81,7 @@ try:
     _HAVE_NUMBA = True
     _njit = numba.njit(cache=True)
     _njit_parallel = numba.njit(cache=True, parallel=True)
+    _njit_inline = numba.njit(cache=True, inline="always")
     _prange = numba.prange
 except ImportError:  # pragma: no cover - exercised only where numba is absent
     _HAVE_NUMBA = False
@@ -87,6 +90,7 @@ except ImportError:  # pragma: no cover - exercised only where numba is absent
         return f
 
     _njit_parallel = _njit
+    _njit_inline = _njit
     _prange = range
 
 __all__ = ["run", "rk4_batch", "BatchResult", "default_dt", "FLANGE_OPTIONS", "MAX_STEPS"]
@@ -138,23 +142,23 @@ def _accel(x, v, fc, beta, damp, K, p, jlo):
     """Right-hand side ``V'`` of eq. 3 and its family with naive ``sign(V)``.
 
     ``fc`` is the forcing, ``damp = 2 zeta``, ``p`` the flange exponent and ``jlo`` 0 or 2K
-    (paper flange, ``p = 1`` only). The family terms are skipped when absent, so eq. 3 runs
-    do exactly the arithmetic they always did.
+    (paper flange, ``p = 1`` only). ``damp = p = None`` compiles eq. 3 alone (see
+    :func:`_family_args`).
     """
     a = fc - x
     if v > 0.0:
         a -= beta
     elif v < 0.0:
         a += beta
-    if damp != 0.0:
+    if damp is not None:
         a -= damp * v
     if x > 1.0:
-        if p == 1.0:
+        if p is None or p == 1.0:
             a -= K * (x - 1.0)
         else:
             a -= K * (x - 1.0) ** p
     elif x < -1.0:
-        if p == 1.0:
+        if p is None or p == 1.0:
             # consistent: -K (X + 1); as printed in the paper: -K (X - 1) = -K (X + 1) + 2K
             a -= K * (x + 1.0) - jlo
         else:
@@ -163,50 +167,64 @@ def _accel(x, v, fc, beta, damp, K, p, jlo):
 
 
 @_njit
-def _forcing_at(Fs, Oms, phs, t):
-    """The forcing ``sum_i F_i cos(Omega_i t + phase_i)``, evaluated exactly (the fundamental first)."""
-    f = Fs[0] * math.cos(Oms[0] * t + phs[0])
-    for i in range(1, Fs.shape[0]):
-        f += Fs[i] * math.cos(Oms[i] * t + phs[i])
+def _forcing_at(F, Om, phase, harm, t):
+    """The forcing ``F cos(Omega t + phase) + sum_i F_i cos(Omega_i t + phase_i)``, evaluated exactly.
+
+    ``harm`` is None (eq. 3) or the further harmonics as rows ``F_i, Omega_i, phase_i``.
+    """
+    f = F * math.cos(Om * t + phase)
+    if harm is not None:
+        for i in range(harm.shape[1]):
+            f += harm[0, i] * math.cos(harm[1, i] * t + harm[2, i])
     return f
 
 
-@_njit
-def _forcing_step(Fs, Oms, phs, t0, t1, anchor, exact, rc, rs, c, s):
-    """The forcing at ``t0``, ``(t0 + t1) / 2`` and ``t1``; advances ``(c, s)`` to ``t1``.
+@_njit_inline
+def _harmonics_step(harm, t0, t1, anchor, exact, rot, f0, fm, f1):
+    """Add the further harmonics at ``t0``, ``(t0 + t1) / 2`` and ``t1`` to ``f0, fm, f1``.
 
-    ``c[i], s[i]`` hold ``cos, sin(Omega_i t0 + phase_i)``: re-anchored with an exact cos/sin
-    when ``anchor``, then rotated by ``rc, rs`` (half a step, see ``_ANCHOR``); ``exact``
-    evaluates the later two points exactly instead (the shortened last step).
+    ``rot[0, i], rot[1, i]`` hold ``cos, sin(Omega_i t0 + phase_i)``: re-anchored with an
+    exact cos/sin when ``anchor``, then rotated by ``rot[2, i] + 1j rot[3, i]`` (half a step,
+    see ``_ANCHOR``) and left at ``t1``; ``exact`` evaluates the later two points exactly
+    instead (the shortened last step), as the kernel does for the fundamental. Inlined: a
+    call passing arrays would cost reference counting in every step.
     """
-    f0 = fm = f1 = 0.0
     h = t1 - t0
-    for i in range(Fs.shape[0]):
+    for i in range(harm.shape[1]):
+        Fi, Omi, phi = harm[0, i], harm[1, i], harm[2, i]
         if anchor:
-            c[i] = math.cos(Oms[i] * t0 + phs[i])
-            s[i] = math.sin(Oms[i] * t0 + phs[i])
-        c0 = c[i]
-        s0 = s[i]
+            rot[0, i] = math.cos(Omi * t0 + phi)
+            rot[1, i] = math.sin(Omi * t0 + phi)
+        c0 = rot[0, i]
+        s0 = rot[1, i]
         if exact:
-            cm = math.cos(Oms[i] * (t0 + 0.5 * h) + phs[i])
-            c1 = math.cos(Oms[i] * t1 + phs[i])
-            s1 = math.sin(Oms[i] * t1 + phs[i])
+            cm = math.cos(Omi * (t0 + 0.5 * h) + phi)
+            c1 = math.cos(Omi * t1 + phi)
+            s1 = math.sin(Omi * t1 + phi)
         else:
-            cm = c0 * rc[i] - s0 * rs[i]
-            sm = s0 * rc[i] + c0 * rs[i]
-            c1 = cm * rc[i] - sm * rs[i]
-            s1 = sm * rc[i] + cm * rs[i]
-        c[i] = c1
-        s[i] = s1
-        if i == 0:
-            f0 = Fs[0] * c0
-            fm = Fs[0] * cm
-            f1 = Fs[0] * c1
-        else:
-            f0 += Fs[i] * c0
-            fm += Fs[i] * cm
-            f1 += Fs[i] * c1
+            rc = rot[2, i]
+            rs = rot[3, i]
+            cm = c0 * rc - s0 * rs
+            sm = s0 * rc + c0 * rs
+            c1 = cm * rc - sm * rs
+            s1 = sm * rc + cm * rs
+        rot[0, i] = c1
+        rot[1, i] = s1
+        f0 += Fi * c0
+        fm += Fi * cm
+        f1 += Fi * c1
     return f0, fm, f1
+
+
+@_njit
+def _harmonics_rotation(harm, dt):
+    """Scratch for :func:`_harmonics_step`: rows cos, sin (filled at the first anchor) and the
+    half-step rotation ``cos, sin(Omega_i dt / 2)`` of every further harmonic."""
+    rot = np.zeros((4, harm.shape[1]))
+    for i in range(harm.shape[1]):
+        rot[2, i] = math.cos(0.5 * harm[1, i] * dt)
+        rot[3, i] = math.sin(0.5 * harm[1, i] * dt)
+    return rot
 
 
 @_njit
@@ -216,8 +234,9 @@ def _side_quad(pa, pb, da, db, h, K, p, j):
     ``pa, pb`` are the penetrations at the two ends of the step and ``da, db`` their rates
     (``+-V``). The force is ``f = K d^p + j`` while ``d > 0`` (``j`` is its jump at the
     boundary: 0 for the consistent spring, ``2K`` at the lower flange as printed in the
-    paper, where ``p = 1``). A step that crosses the boundary contributes only its in-contact part, cut at
-    the linearly interpolated crossing (the same one the contact events use).
+    paper, where ``p = 1``; ``p = None`` is the linear law). A step that crosses the
+    boundary contributes only its in-contact part, cut at the linearly interpolated
+    crossing (the same one the contact events use).
 
     Returns ``(int f, int f^2, time with p > 0)``. The integrals are the trapezoid rule
     with its endpoint correction ``L^2/12 (g'(a) - g'(b))``, i.e. the integral of the
@@ -243,7 +262,7 @@ def _side_quad(pa, pb, da, db, h, K, p, j):
         da = da + th * (db - da)
     else:
         return 0.0, 0.0, 0.0
-    if p == 1.0:
+    if p is None or p == 1.0:
         fa = K * pa + j
         fb = K * pb + j
         ga = K * da
@@ -260,14 +279,15 @@ def _side_quad(pa, pb, da, db, h, K, p, j):
 
 
 @_njit
-def _kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
+def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
             ev, imp, keep_events, tr_t, tr_x, tr_v, tr_qu, tr_ql, every, max_events):
     """Advance the fixed-step RK4 loop from step ``I[_I_K]`` until the end, the event limit,
     a non-finite state, or (with ``keep_events``) nearly full event/impact buffers.
 
-    ``Fs, Oms, phs`` are the forcing harmonics (the fundamental first), ``damp = 2 zeta``
-    and ``p`` the flange exponent. All state lives in ``S`` (floats) and ``I`` (integers),
-    so a call can resume where the previous one returned; the status is left in
+    ``harm`` holds the further forcing harmonics (rows ``F_i, Omega_i, phase_i``),
+    ``damp = 2 zeta`` and ``p`` is the flange exponent; all three are ``None`` for eq. 3
+    (see :func:`_family_args`). All state lives in ``S`` (floats) and ``I`` (integers), so
+    a call can resume where the previous one returned; the status is left in
     ``I[_I_STATUS]``.
     """
     x = S[_S_X]
@@ -293,15 +313,13 @@ def _kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
     status = _DONE
     t_now = k * dt if k < n_steps else t_end
 
-    # Exact rotation by half a step for the forcing phases (see _ANCHOR).
-    n_terms = Fs.shape[0]
-    rc = np.empty(n_terms)
-    rs = np.empty(n_terms)
-    for i in range(n_terms):
-        rc[i] = math.cos(0.5 * Oms[i] * dt)
-        rs[i] = math.sin(0.5 * Oms[i] * dt)
-    cs = np.zeros(n_terms)  # cos and sin of each phase at the current step's start
-    sn = np.zeros(n_terms)
+    # Exact rotation by half a step for the forcing phase (see _ANCHOR).
+    rc = math.cos(0.5 * Om * dt)
+    rs = math.sin(0.5 * Om * dt)
+    c0 = 0.0
+    s0 = 0.0
+    if harm is not None:
+        rot = _harmonics_rotation(harm, dt)
     first = True  # a resumed call must re-anchor the forcing phase at its first step
     # Local scratch for the (at most three) events of one step.
     e_t = np.empty(3)
@@ -319,8 +337,25 @@ def _kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
         t1 = t_end if last else (k + 1) * dt
         h = t1 - t0
         # Forcing at t0, t0 + h/2, t1.
-        f0, fm, f1 = _forcing_step(Fs, Oms, phs, t0, t1, first or last or k % _ANCHOR == 0, last, rc, rs, cs, sn)
-        first = False
+        anchor = first or last or k % _ANCHOR == 0
+        if anchor:
+            c0 = math.cos(Om * t0 + phase)
+            s0 = math.sin(Om * t0 + phase)
+            first = False
+        if last:
+            cm = math.cos(Om * (t0 + 0.5 * h) + phase)
+            c1 = math.cos(Om * t1 + phase)
+            s1 = math.sin(Om * t1 + phase)
+        else:
+            cm = c0 * rc - s0 * rs
+            sm = s0 * rc + c0 * rs
+            c1 = cm * rc - sm * rs
+            s1 = sm * rc + cm * rs
+        f0 = F * c0
+        fm = F * cm
+        f1 = F * c1
+        if harm is not None:
+            f0, fm, f1 = _harmonics_step(harm, t0, t1, anchor, last, rot, f0, fm, f1)
 
         # Classic RK4 on (X, V).
         hh = 0.5 * h
@@ -383,7 +418,10 @@ def _kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
             xz = x1
 
         # int V^2 over the step: RK4 on q' = V^2 alongside (X, V), i.e. its own stage weights.
-        dvsq = h / 6.0 * (v * v + 2.0 * v2 * v2 + 2.0 * v3 * v3 + v4 * v4)
+        # Only the damping loss needs it (eq. 3 runs skip it: 6% of their step rate).
+        dvsq = 0.0
+        if damp is not None:
+            dvsq = h / 6.0 * (v * v + 2.0 * v2 * v2 + 2.0 * v3 * v3 + v4 * v4)
         # Flange integrals of this step, per side (clipped at the interpolated boundaries).
         dqu, dsqu, dctu = _side_quad(x - 1.0, x1 - 1.0, v, v1, h, K, p, 0.0)
         dql, dsql, dctl = _side_quad(-x - 1.0, -x1 - 1.0, -v, -v1, h, K, p, jlo)
@@ -431,7 +469,10 @@ def _kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
                         imp[nimp, 3] = o_vin
                         imp[nimp, 4] = e_v[j]
                         imp[nimp, 5] = o_pen
-                        imp[nimp, 6] = (K * o_pen + (jlo if side == -1 else 0.0)) if p == 1.0 else K * o_pen**p
+                        if p is None or p == 1.0:
+                            imp[nimp, 6] = K * o_pen + (jlo if side == -1 else 0.0)
+                        else:
+                            imp[nimp, 6] = K * o_pen**p
                         imp[nimp, 7] = o_imp
                         imp[nimp, 8] = o_complete
                         nimp += 1
@@ -457,10 +498,11 @@ def _kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
             th = (t_stop - t0) / h
             x1 = x + th * (x1 - x)
             v1 = v + th * (v1 - v)
-            f1 = _forcing_at(Fs, Oms, phs, t_stop)
+            f1 = _forcing_at(F, Om, phase, harm, t_stop)
             h = t_stop - t0
             t1 = t_stop
-            dvsq = 0.5 * h * (v * v + v1 * v1)
+            if damp is not None:
+                dvsq = 0.5 * h * (v * v + v1 * v1)
             dqu, dsqu, dctu = _side_quad(x - 1.0, x1 - 1.0, v, v1, h, K, p, 0.0)
             dql, dsql, dctl = _side_quad(-x - 1.0, -x1 - 1.0, -v, -v1, h, K, p, jlo)
             status = _EVENT_LIMIT
@@ -492,6 +534,8 @@ def _kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
 
         x = x1
         v = v1
+        c0 = c1
+        s0 = s1
         k += 1
         t_now = t1
         if keep_traj and (stop or last or k % every == 0):
@@ -542,15 +586,24 @@ _NO_EVENT_LIMIT = 2**62
 
 
 @_njit_parallel
-def _batch_kernel(Fs, Oms, phs, beta, damp, K, p, jlo, dt, t_end, n_steps, x0, v0, region,
+def _batch_kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, x0, v0, region,
                   mean_up, mean_lo, n_up, n_lo, pen_up, pen_lo, status):
-    """One :func:`_kernel` run per set (``Fs, Oms, phs``: one row of harmonics per set)."""
+    """One :func:`_kernel` run per set.
+
+    ``harm`` (``harm[i]``: the further harmonics of set ``i``), ``damp`` and ``p`` are
+    arrays, or all ``None`` when every set is eq. 3.
+    """
     empty1 = np.empty(0)
     empty2 = np.empty((0, 9))
-    for i in _prange(Fs.shape[0]):
+    for i in _prange(F.shape[0]):
         S, I = _init_state(x0[i], v0[i], region[i])
-        _kernel(Fs[i], Oms[i], phs[i], beta[i], damp[i], K[i], p[i], jlo[i], dt[i], t_end[i], n_steps[i], S, I,
-                empty2, empty2, False, empty1, empty1, empty1, empty1, empty1, 1, _NO_EVENT_LIMIT)
+        if harm is None or damp is None or p is None:
+            _kernel(F[i], Om[i], phase[i], None, beta[i], None, K[i], None, jlo[i], dt[i], t_end[i], n_steps[i],
+                    S, I, empty2, empty2, False, empty1, empty1, empty1, empty1, empty1, 1, _NO_EVENT_LIMIT)
+        else:
+            _kernel(F[i], Om[i], phase[i], harm[i], beta[i], damp[i], K[i], p[i], jlo[i], dt[i], t_end[i],
+                    n_steps[i], S, I, empty2, empty2, False, empty1, empty1, empty1, empty1, empty1, 1,
+                    _NO_EVENT_LIMIT)
         mean_up[i] = S[_S_QU] / S[_S_T]
         mean_lo[i] = S[_S_QL] / S[_S_T]
         n_up[i] = I[_I_START_UP]
@@ -619,9 +672,26 @@ def _refuse_unsupported(osc: Oscillator, sample_at=()) -> None:
                          "enter; use backend='heyoka' or 'scipy'")
 
 
-def _harmonic_arrays(osc: Oscillator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The kernel's forcing arrays ``F_i, Omega_i, phase_i`` (the fundamental first)."""
-    return tuple(np.array(a, dtype=float) for a in zip(*osc.terms, strict=True))
+def _family_args(harmonics, zeta, exponent):
+    """``(harm, damp, p)`` for the kernels: all ``None`` for eq. 3, else the further harmonics
+    as rows ``F_i, Omega_i, phase_i`` (shape ``(3, n)``, or ``(sets, 3, n)`` in a batch),
+    ``2 zeta`` and ``p``.
+
+    The right-hand side lies on RK4's serial chain of stages: any extra operation there,
+    even a multiplication by zero, costs some 10% of the step rate, and so do the unused
+    harmonics loop and ``int V^2``. ``None`` lets numba prune the family code at compile
+    time, so eq. 3 runs keep their speed and their exact arithmetic; the one family variant
+    compiles on first use (and is cached like the other).
+    """
+    zeta = np.asarray(zeta, dtype=float)
+    exponent = np.asarray(exponent, dtype=float)
+    harm = np.ascontiguousarray(harmonics, dtype=float)
+    if harm.shape[-1] == 0 and not np.any(zeta != 0.0) and not np.any(exponent != 1.0):
+        return None, None, None
+    damp = 2.0 * zeta
+    if damp.ndim == 0:
+        return harm, float(damp), float(exponent)
+    return harm, damp, exponent
 
 
 # -- dense output -------------------------------------------------------------------------
@@ -773,9 +843,9 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     rec = _Recorder(record, "rk4", None)
     rec.begin(osc, 0.0, x0, v0, mode0)
     impacts: list[tuple] = []
-    Fs, Oms, phs = _harmonic_arrays(osc)
+    harm, damp, p = _family_args(np.array(osc.harmonics, dtype=float).reshape(-1, 3).T, osc.zeta, osc.exponent)
     while True:
-        _KERNEL(Fs, Oms, phs, osc.beta, 2.0 * osc.zeta, osc.K, osc.exponent, jlo, dt, t_end, n_steps, S, I,
+        _KERNEL(osc.F, osc.Omega, osc.phase, harm, osc.beta, damp, osc.K, p, jlo, dt, t_end, n_steps, S, I,
                 ev, imp, keep_events, tr[0], tr[1], tr[2], tr[3], tr[4], every, max_events)
         for t, kind, x, v, side in ev[:I[_I_NEV]]:
             rec.event(float(t), EVENT_KINDS[int(kind)], float(x), float(v), int(side))
@@ -923,10 +993,6 @@ def rk4_batch(F, Omega, beta, K, phase=0.0, t_end=400.0, x0=0.95, v0=0.0, dt=Non
     if flange == "paper" and np.any(exponent != 1.0):
         _flange_jump(flange, 1.0, float(exponent[exponent != 1.0][0]))  # raises, naming the exponent
     n = F.shape[0]
-    # One row of harmonics per set, the fundamental first (rows of C arrays: contiguous).
-    Fs = np.stack([F, *extra[0::3]], axis=1)
-    Oms = np.stack([Om, *extra[1::3]], axis=1)
-    phs = np.stack([phase, *extra[2::3]], axis=1)
     dt = dt.copy()
     n_steps = np.empty(n, dtype=np.int64)
     region = np.empty(n, dtype=np.int64)
@@ -944,7 +1010,10 @@ def rk4_batch(F, Omega, beta, K, phase=0.0, t_end=400.0, x0=0.95, v0=0.0, dt=Non
     out_n = [np.empty(n, dtype=np.int64) for _ in range(2)]
     out_p = [np.empty(n) for _ in range(2)]
     status = np.empty(n, dtype=np.int64)
-    _BATCH_KERNEL(Fs, Oms, phs, beta, 2.0 * zeta, K, exponent, jlo, dt, t_end, n_steps, x0, v0, region,
+    # harm[i] = rows F_i, Omega_i, phase_i of the further harmonics of set i.
+    harm = np.array(extra, dtype=float).reshape(len(terms), 3, n).transpose(2, 1, 0) if terms else np.empty((n, 3, 0))
+    harm, damp, p = _family_args(harm, zeta, exponent)
+    _BATCH_KERNEL(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, x0, v0, region,
                   out_f[0], out_f[1], out_n[0], out_n[1], out_p[0], out_p[1], status)
     return BatchResult(*(a.reshape(shape) for a in (*out_f, *out_n, *out_p, status)))
 
