@@ -16,9 +16,9 @@
 # | run-out harmonics | `harmonics=[(F_i, Omega_i, phase_i), ...]` | the forcing is a sum of harmonics |
 #
 # `Oscillator(F, Omega, beta, K)` with no keyword is still exactly eq. 3, and the keywords
-# combine freely. `TapeDrive` has the same family in SI units (`damping_ratio`,
-# `static_friction`, `flange`, `flange_exponent`, `flange_stiffness`, `restitution`,
-# `runout_harmonics`).
+# combine freely (`exponent` goes with the spring flange, `restitution` with the rigid
+# one). `TapeDrive` has the same family in SI units (`damping_ratio`, `static_friction`,
+# `flange`, `flange_exponent`, `flange_stiffness`, `restitution`, `runout_harmonics`).
 #
 # This notebook shows one picture per member and checks one number of each against its
 # closed form, derived here so that the notebook stands alone (the test suite holds every
@@ -364,8 +364,8 @@ plt.show()
 # (`exponent=1.5`; `TapeDrive(flange_exponent=1.5, flange_stiffness=k0)` takes `k0` in
 # N/m^1.5). With the same `K`, the Hertz law is softer below `d = 1`, so a contact goes
 # deeper, lasts longer and peaks at a lower force. It is also nonlinear: its duration
-# shrinks with the impact speed (as `v^(-1/5)`), while the linear spring's stays
-# `pi / sqrt(1 + K)`.
+# shrinks with the impact speed (about as `v^(-1/5)`), while the linear spring's stays
+# close to `pi / sqrt(1 + K)` whatever the speed.
 #
 # The check: a free mass (`F = beta = zeta = 0`) leaves `X = 0` at speed `v0 = 1.5` and
 # hits the upper flange at speed `sqrt(v0^2 - 1)`. Energy `v0^2 / 2` is conserved, so
@@ -499,7 +499,8 @@ fundamental = replace(osc, harmonics=())
 x_fund, _ = steady_state(fundamental, lam)
 print(f"1 mm clearance: {sol_wide.summary()}")
 print(f"  largest |x_sim - x_closed form| = {np.max(np.abs(x_sim - x_ss)) * L * 1e6:.1e} um over {turns} reel turns; "
-      f"amplitude {np.max(np.abs(x_ss)) * L * 1e6:.1f} um (fundamental alone {np.max(np.abs(x_fund)) * L * 1e6:.1f} um)")
+      f"amplitude {np.max(np.abs(x_ss)) * L * 1e6:.1f} um "
+      f"(fundamental alone {np.max(np.abs(x_fund)) * L * 1e6:.1f} um)")
 print(f"200 um clearance: {sol_tight.contact_entries(1)} upper / {sol_tight.contact_entries(-1)} lower contacts, "
       f"mean flange force {sol_tight.mean_flange_force() * tight.force_scale * 1e6:.3g} uN, "
       f"peak {sol_tight.max_flange_force() * tight.force_scale * 1e3:.3g} mN")
