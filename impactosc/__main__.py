@@ -1,13 +1,18 @@
 """Command line: ``impactosc demo | simulate | sweep | paper`` (also ``python -m impactosc``).
 
-Errors are reported as one line (``impactosc: error: ...``) with exit status 2.
+Errors are reported as one line (``impactosc: error: ...``) with exit status 2; output
+paths are checked before anything is computed. Exit status 1: the run finished but failed
+(a simulation's status, a sweep's failed points); 130: interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 DRIVE_OPTIONS = {
     # option: (TapeDrive field, type, help)
@@ -22,6 +27,50 @@ DRIVE_OPTIONS = {
     "bending": ("bending", str, "bending reading of eq. 4: in-plane or out-of-plane"),
 }
 OSC_OPTIONS = ("F", "Omega", "beta", "K", "phase")
+
+
+def _nonnegative_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {n}")
+    return n
+
+
+def _probe_writable(option: str, path: str, directory: Path) -> None:
+    try:
+        with tempfile.TemporaryFile(dir=directory):
+            pass
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot write in {str(directory)!r} ({exc.strerror or exc})") from None
+
+
+def check_output_file(option: str, path: str) -> None:
+    """Fail now, not after the computing, if ``path`` cannot be written as a file."""
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{option} {path}: is a directory; give a file name")
+    parent = p.parent
+    if not parent.is_dir():
+        raise ValueError(f"{option} {path}: directory {str(parent)!r} does not exist")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise ValueError(f"{option} {path}: the file is not writable")
+    _probe_writable(option, path, parent)
+
+
+def check_output_dir(option: str, path: str) -> None:
+    """Fail now if ``path`` is not a directory that exists or can be created, and written in."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"{option} {path}: exists and is not a directory")
+    existing = p
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ValueError(f"{option} {path}: {str(existing)!r} is not a directory")
+    _probe_writable(option, path, existing)
 
 
 def _demo(args) -> int:
@@ -89,6 +138,8 @@ def _simulate(args) -> int:
         t_end = drive.seconds_to_lambda(duration)
         scale, unit = 1e3 / drive.omega_n, "time t [ms]"
         header = drive.describe() + f"\n  duration {duration:g} s = {t_end:.6g} time units"
+    if args.plot:
+        check_output_file("--plot", args.plot)
     record = "full" if args.plot else args.record
     sol = io.simulate(osc, t_end, args.x0, args.v0, backend=args.backend, record=record, **options)
     print(header)
@@ -167,10 +218,16 @@ def _sweep(args) -> int:
     base_fields.update({field: getattr(args, opt.replace("-", "_")) for opt, (field, _, _) in DRIVE_OPTIONS.items()
                         if getattr(args, opt.replace("-", "_")) is not None})
     base = io.TapeDrive(**base_fields)
+    # Fail before the sweep runs, not after it.
+    if args.out:
+        check_output_file("--out", args.out)
     if args.plot:
         from impactosc.plotting import require_matplotlib
 
-        require_matplotlib()  # fail before the sweep runs, not after
+        require_matplotlib()
+        check_output_file("--plot", args.plot)
+    if args.store:
+        check_output_dir("--store", args.store)
     options = {}
     if args.tol is not None:
         options["tol"] = args.tol
@@ -245,6 +302,8 @@ def _plot_sweep(ds, dims: list, path: str) -> None:
 def _paper(args) -> int:
     from impactosc.paper import reproduce
 
+    check_output_dir("--out", args.out)
+
     s = reproduce(args.out, quick=args.quick, executor="serial" if args.serial else None,
                   progress=not args.no_progress)
     ed, cost = s["event_driven"], s["rk4_default_step"]
@@ -295,7 +354,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--record", default="events", help="full, events (default) or stats")
     sim.add_argument("--tol", type=float, help="heyoka tolerance")
     sim.add_argument("--dt", type=float, help="rk4 step")
-    sim.add_argument("--events", type=int, default=20, help="rows of the event and impact tables (default 20)")
+    sim.add_argument("--events", type=_nonnegative_int, default=20,
+                     help="rows of the event and impact tables (default 20)")
     sim.add_argument("--plot", metavar="PNG", help="write a figure of X(t), flange force and phase portrait")
     sw = sub.add_parser("sweep", help="run a grid of tape drives in parallel; table, netCDF and figure",
                         description="The outer product of a grid of TapeDrive fields (SI units), run in parallel "
@@ -318,7 +378,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--store", metavar="DIR", help="resumable per-point store (rerun to continue or extend)")
     sw.add_argument("--plot", metavar="PNG", help="mean flange force vs the first swept field, a line per value of "
                                                   "the others")
-    sw.add_argument("--rows", type=int, default=30, help="rows of the printed table (default 30)")
+    sw.add_argument("--rows", type=_nonnegative_int, default=30, help="rows of the printed table (default 30)")
     sw.add_argument("--serial", action="store_true", help="run in this process instead of a process pool")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -339,9 +399,16 @@ def main(argv=None) -> int:
     handlers = {"demo": _demo, "simulate": _simulate, "sweep": _sweep, "paper": _paper}
     try:
         return handlers[args.command](args)
-    except (ValueError, TypeError, ImportError) as exc:
+    except (ValueError, TypeError, ImportError, OSError) as exc:
         print(f"impactosc: error: {exc}", file=sys.stderr)
         return 2
+    except RuntimeError as exc:  # a sweep that lost every point: the run itself failed
+        print(f"impactosc: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        kept = " (the points finished so far are in --store)" if getattr(args, "store", None) else ""
+        print(f"impactosc: interrupted{kept}", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

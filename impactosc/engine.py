@@ -47,7 +47,7 @@ it (the internal guard :data:`AT_WALL`) and rests on it in the mode ``(side, 0)`
 ``contact_start``), whose only armed guard is the release away from the wall (event
 ``contact_end``). Impacts that accumulate in finite time (chatter, a Zeno point) are
 followed until a local model predicts the rest, then resolved by a jump to the
-accumulation time (event ``chatter``, :mod:`impactosc._chatter`).
+accumulation time (event ``chatter``, ``impactosc._chatter``).
 """
 
 from __future__ import annotations
@@ -61,6 +61,14 @@ from .model import Oscillator
 
 __all__ = [
     "Mode",
+    "IMPACT",
+    "CHATTER",
+    "AT_WALL",
+    "GUARD_DIRECTIONS",
+    "KINEMATIC_GUARD_OFFSET",
+    "guard_value",
+    "guard_gradient",
+    "check_sample_times",
     "EVENT_KINDS",
     "GUARD_NAMES",
     "initial_mode",
@@ -454,7 +462,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
 
     Integrates piece by piece, applies :func:`transition` at every guard (and at once to
     any :func:`pending_guard` it leaves behind), resolves chatter on a rigid flange
-    (:mod:`impactosc._chatter`) and streams the results into ``recorder``. Stops at
+    (``impactosc._chatter``) and streams the results into ``recorder``. Stops at
     ``t_end`` (status 0), at ``max_events`` recorded events or when the stepper sets
     ``stopped`` (a limit such as a wall time; its ``stop_message`` is the message) (status 1),
     or when time stops advancing (status -1, a Zeno-like cascade that is not a resolvable
@@ -550,7 +558,7 @@ _SIDE = {1: "upper", -1: "lower"}
 def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float, x: float, v: float):
     """Apply ``guard`` and every guard it leaves pending at ``t``; record the events.
 
-    Returns ``(mode, x, v, recorded, jump)``: ``jump`` is a :class:`~impactosc._chatter.ChatterJump`
+    Returns ``(mode, x, v, recorded, jump)``: ``jump`` is a ``impactosc._chatter.ChatterJump``
     when the impacts of a chatter can be resolved from here.
     """
     recorded = False

@@ -98,8 +98,9 @@ class Oscillator:
         ``p >= 1`` of the spring law (1: linear, the default; 1.5: Hertz contact).
     restitution : float, keyword-only
         Newton's coefficient of restitution ``0 <= e <= 1`` of a rigid flange (default 1).
-    harmonics : sequence of (F_i, Omega_i, phase_i), keyword-only
-        Further harmonics added to the forcing, e.g. higher harmonics of the run-out.
+    harmonics : sequence of tuple, keyword-only
+        Further harmonics ``(F_i, Omega_i, phase_i)`` added to the forcing, e.g. higher
+        harmonics of the run-out.
 
     Raises
     ------
@@ -162,7 +163,7 @@ class Oscillator:
     def from_harmonics(cls, harmonics, beta: float, K: float, **family) -> Oscillator:
         """An oscillator forced by ``sum_i F_i cos(Omega_i Lambda + phase_i)``.
 
-        The first triple becomes ``(F, Omega, phase)``, the rest :attr:`harmonics`.
+        The first triple becomes ``(F, Omega, phase)``, the rest ``harmonics``.
 
         Raises
         ------

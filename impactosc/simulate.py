@@ -10,12 +10,12 @@ from .engine import check_run_arguments, check_sample_times
 from .model import Oscillator
 from .solution import RECORD_OPTIONS, Solution
 
-__all__ = ["simulate", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE"]
+__all__ = ["simulate", "check_magnitudes", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE"]
 
 DEFAULT_MAX_EVENTS = 10_000_000
 
 #: Largest value the run's worst-case integral of the squared flange force may reach
-#: (see :func:`check_magnitudes`): double precision overflows at 1.8e308, and the
+#: (see :func:`impactosc.simulate.check_magnitudes`): double precision overflows at 1.8e308, and the
 #: backends square and sum these quantities again internally.
 MAX_MAGNITUDE = 1e300
 
@@ -65,7 +65,7 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     TypeError, ValueError
         For a bad argument or option; the message names it. Also when ``x0``, ``v0``,
         ``F * t_end`` or ``K`` are so large that the run's integrals could overflow double
-        precision (see :func:`check_magnitudes`).
+        precision (see :func:`impactosc.simulate.check_magnitudes`).
     KeyboardInterrupt
         Ctrl-C stops a run within milliseconds (measured on event-free and event-dense
         runs of every backend); the exception propagates, no partial result is returned,

@@ -156,7 +156,7 @@ class _Recorder:
                 self.impacts.append((t, t, side, v, -e * v, 0.0, math.inf, impulse, True))
 
     def chatter(self, jump, t: float | None) -> None:
-        """Add the resolved remainder of a chatter (:class:`impactosc._chatter.ChatterJump`).
+        """Add the resolved remainder of a chatter (``impactosc._chatter.ChatterJump``).
 
         ``t`` is the accumulation time where the event is recorded, or ``None`` when it lies
         beyond the end of the run (the totals are still added: their error is below the
@@ -214,11 +214,17 @@ class Solution(SolutionFramesMixin):
         0: ``t_end`` was reached; 1: a limit set by the caller was reached,
         ``max_events`` or the heyoka backend's ``max_wall_time`` (results up to
         ``t_final`` are kept); -1: the integration failed (see ``message``).
+    samples : numpy.recarray
+        The exact states at the times asked for with ``simulate(..., sample_at=...)``:
+        fields ``t, x, v, region, motion`` (time events of the run, not interpolations).
     message : str
         Human-readable reason for ``status``.
     counts : dict
         Number of events of each kind (``contact_start``, ``contact_end``, ``reversal``,
-        ``stick``, ``release``), counted in every recording mode.
+        ``stick``, ``release``, and with a rigid flange ``impact`` and ``chatter``), counted
+        in every recording mode.
+    forcing_work, friction_work, damping_work, impact_loss : float
+        The terms of the energy identity over the run (see :meth:`energy_balance`).
     record : str
         What was kept: ``"full"``, ``"events"`` or ``"stats"``.
     """

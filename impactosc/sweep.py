@@ -5,19 +5,22 @@
 tension, its Fig. 8 is ``T sin(theta/2)``) and returns the results in SI units, one
 dimension per swept field.
 
-Points are run on a local process pool by default, or on any
-:class:`concurrent.futures.Executor`, or on a ``dask.distributed`` client. The points are
-submitted in chunks, because each worker process compiles the heyoka integrator once and
-then reuses it; chunks are filled round-robin so that slow and fast corners of the grid are
-spread over all chunks.
+Points are run on a local process pool by default (loky's: it works from a script without
+a ``__main__`` guard, standard input, a REPL or a notebook, and its workers, which keep their
+compiled heyoka integrator from sweep to sweep, exit when the calling process dies), or on
+any :class:`concurrent.futures.Executor`, or on a ``dask.distributed`` client. Points are
+sent in batches sized from their measured cost (see ``impactosc._sweep_exec``).
 
-A failed point never stops the sweep: an exception, a run that did not reach the end
-(``status != 0``), or even a worker process that crashed costs that point only. It gets NaN
-results, its status and message, and a warning names it.
+Bad arguments raise before anything runs; backend options are checked by one short run of
+the base drive in the calling process. A failed point never stops the sweep: an exception,
+a run that did not reach the end (``status != 0``), or even a worker process that crashed
+costs that point only. It gets NaN results, its status and message, and a warning names it.
+Only a sweep that loses every point it runs raises.
 
-With ``store=`` every finished point is saved as a small netCDF file, so that an
-interrupted or extended sweep only runs what is missing; :func:`load_sweep` reads a store
-back.
+With ``store=`` every finished point is saved as a small netCDF file as soon as it arrives,
+so that an interrupted (Ctrl-C stops at once) or extended sweep only runs what is missing;
+unusable point files are set aside and recomputed (see ``impactosc._sweep_store``).
+:func:`load_sweep` reads a store back.
 
 Status codes of the ``status`` variable:
 
@@ -33,42 +36,25 @@ Status codes of the ``status`` variable:
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
-import hashlib
 import inspect
 import itertools
 import json
-import math
-import multiprocessing
-import os
-import tempfile
 import warnings
 from collections.abc import Mapping
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from . import _validation as _v
+from ._sweep_exec import Runner, check_executor, execute
+from ._sweep_point import FLOAT_VARS, STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, failure
+from ._sweep_store import Store, check_store_path, point_key
 from .backends import get_backend
 from .simulate import simulate
 from .tape import BENDING_OPTIONS, TapeDrive
 
 __all__ = ["sweep", "load_sweep", "load", "SWEEP_KEYS", "STATUS_EXCEPTION", "STATUS_LOST", "STATUS_NOT_COMPUTED"]
-
-STATUS_EXCEPTION = -2
-STATUS_LOST = -3
-STATUS_NOT_COMPUTED = -4
-
-#: Chunks submitted per worker. heyoka compiles its integrator once per worker process, so
-#: fewer, larger tasks amortise that; a few chunks per worker still balance the load and
-#: bound what an interruption loses (a chunk's points are saved when the chunk returns).
-CHUNKS_PER_WORKER = 4
-
-_STORE_FORMAT = 1
-_MANIFEST = "manifest.json"
-_POINTS_DIR = "points"
 
 _FIELDS = tuple(f.name for f in dataclasses.fields(TapeDrive))
 #: The keys a grid may use: every TapeDrive field, and ``t_sin_half_theta`` (Fig. 8).
@@ -103,94 +89,8 @@ _FIELD_ATTRS = {
     "t_sin_half_theta": ("N", "T sin(theta/2), half the roller normal force (eq. 5)"),
 }
 
-# The result variables: name -> (units, long name). Counts are float64 so that a failed
-# point can hold NaN; ``status`` (int32) and ``message`` (str) are added separately.
-_RESULTS = {
-    "mean_flange_force": ("N", "mean flange force, both flanges"),
-    "mean_flange_force_upper": ("N", "mean flange force, upper flange"),
-    "mean_flange_force_lower": ("N", "mean flange force, lower flange"),
-    "rms_flange_force": ("N", "rms flange force, both flanges"),
-    "rms_flange_force_upper": ("N", "rms flange force, upper flange"),
-    "rms_flange_force_lower": ("N", "rms flange force, lower flange"),
-    "impacts": ("1", "number of flange contacts, both flanges"),
-    "impacts_upper": ("1", "number of flange contacts, upper flange"),
-    "impacts_lower": ("1", "number of flange contacts, lower flange"),
-    "impact_rate": ("1/s", "flange contacts per second, both flanges"),
-    "sticks": ("1", "number of stick events"),
-    "releases": ("1", "number of release events"),
-    "reversals": ("1", "number of friction reversals (slip direction changes)"),
-    "max_penetration": ("um", "deepest penetration into a flange"),
-    "peak_flange_force": ("N", "peak flange force"),
-    "contact_fraction": ("1", "fraction of the time in flange contact"),
-}
-# Inputs of the point, defined whenever the drive is: kept even when the run failed.
-_PARAMETERS = {
-    "F": ("1", "nondimensional forcing amplitude F = F_a/(kL) (eq. 3)"),
-    "Omega": ("1", "nondimensional forcing frequency omega_r/omega_n (eq. 3)"),
-    "beta": ("1", "nondimensional friction level mu N/(kL) (eq. 3)"),
-    "K": ("1", "flange to tape stiffness ratio (eq. 3)"),
-    "simulated_time": ("s", "time actually simulated"),
-}
-_FLOAT_VARS = {**_RESULTS, **_PARAMETERS}
 _STATUS_DOC = ("0 ok; 1 event limit reached; -1 integration failed; -2 exception (see message); "
                "-3 task lost (worker crashed); -4 not computed")
-
-
-# ---------------------------------------------------------------------------------------
-# The worker: module level and plain arguments, so that it pickles under spawn and dask.
-# ---------------------------------------------------------------------------------------
-def _run_chunk(points: list, duration: float, backend: str, x0: float, v0: float, options: dict) -> list:
-    """Run the points ``[(key, drive_fields), ...]``; return ``[(key, result_dict), ...]``.
-
-    Every exception of a point is caught here, so a bad point costs only itself; what
-    escapes this function (a crash of the process) is handled by the caller.
-    """
-    return [(key, _run_point(fields, duration, backend, x0, v0, options)) for key, fields in points]
-
-
-def _run_point(fields: dict, duration: float, backend: str, x0: float, v0: float, options: dict) -> dict:
-    out = dict.fromkeys(_FLOAT_VARS, math.nan)
-    try:
-        drive = TapeDrive(**fields)
-        out.update(F=drive.F, Omega=drive.Omega, beta=drive.beta, K=drive.K)
-        sol = simulate(drive.oscillator(), drive.seconds_to_lambda(duration), x0, v0,
-                       backend=backend, record="stats", **options)
-    except Exception as exc:  # noqa: BLE001 - any failure of one point is recorded, not raised
-        out.update(status=STATUS_EXCEPTION, message=f"{type(exc).__name__}: {exc}")
-        return out
-    out.update(status=int(sol.status), message=str(sol.message))
-    dur = sol.t_final - sol.t0
-    out["simulated_time"] = drive.lambda_to_seconds(dur)
-    if sol.status != 0:
-        # A partial run's averages are over a different window than the other points': not comparable.
-        return out
-    fs = drive.force_scale
-    impacts = {s: sol.contact_entries(s) for s in (None, 1, -1)}
-    out.update(
-        mean_flange_force=sol.mean_flange_force() * fs,
-        mean_flange_force_upper=sol.mean_flange_force(1) * fs,
-        mean_flange_force_lower=sol.mean_flange_force(-1) * fs,
-        rms_flange_force=sol.rms_flange_force() * fs,
-        rms_flange_force_upper=sol.rms_flange_force(1) * fs,
-        rms_flange_force_lower=sol.rms_flange_force(-1) * fs,
-        impacts=float(impacts[None]),
-        impacts_upper=float(impacts[1]),
-        impacts_lower=float(impacts[-1]),
-        impact_rate=impacts[None] / out["simulated_time"],
-        sticks=float(sol.counts["stick"]),
-        releases=float(sol.counts["release"]),
-        reversals=float(sol.counts["reversal"]),
-        max_penetration=sol.max_penetration() * drive.clearance * 1e6,
-        peak_flange_force=sol.max_flange_force() * fs,
-        contact_fraction=sol.contact_time() / dur if dur > 0 else math.nan,
-    )
-    return out
-
-
-def _failure(status: int, message: str) -> dict:
-    out = dict.fromkeys(_FLOAT_VARS, math.nan)
-    out.update(status=status, message=message)
-    return out
 
 
 # ---------------------------------------------------------------------------------------
@@ -243,6 +143,39 @@ def _check_options(backend: str, x0, v0, options: dict) -> tuple[float, float, d
     return x0, v0, dict(options)
 
 
+def _probe_options(plan: dict) -> None:
+    """Run the first grid point briefly here, so that options a backend rejects raise once, now.
+
+    The backends own their option rules (ranges of ``tol``, ``rtol``, ``dt``, ...); rather than
+    repeat them, a run of the first point up to its first event (``max_events=1``: a fraction
+    of a period, or a closed-form stick) lets the backend check them. An error is the
+    options' fault, and raised, only if the same run without them goes differently; an
+    error of the drive itself is left for the point to record.
+    """
+    if not plan["unique"]:
+        return
+    drive = TapeDrive(**next(iter(plan["unique"].values())))
+
+    def run(options):
+        try:
+            simulate(drive.oscillator(), drive.seconds_to_lambda(plan["duration"]), plan["x0"], plan["v0"],
+                     backend=plan["backend"], record="stats", **options, max_events=1)
+        except (TypeError, ValueError) as exc:
+            return exc
+        except Exception:  # noqa: BLE001 - not an argument error: the points will record their own outcome
+            return None
+        return None
+
+    options = {k: v for k, v in plan["options"].items() if k != "max_events"}
+    error = run(options)
+    if error is None or not options:
+        return
+    without = run({})
+    if without is None or (type(without), str(without)) != (type(error), str(error)):
+        raise type(error)(f"sweep options {options} rejected by backend {plan['backend']!r} (a short run of the "
+                          f"first point raised; nothing was run): {error}") from None
+
+
 def _drive_fields(drive: TapeDrive) -> dict:
     return {f: getattr(drive, f) for f in _FIELDS}
 
@@ -257,264 +190,10 @@ def _resolve(base: TapeDrive, point: dict) -> TapeDrive:
     return base.replace(**point)
 
 
-def _point_key(fields: dict, settings_: dict) -> str:
-    # A point is identified by its resolved drive, not by its grid index: a grid that is
-    # extended, reordered or re-parametrised (tension <-> t_sin_half_theta) still finds it.
-    text = json.dumps({"drive": fields, "settings": settings_}, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:24]
-
-
 def _settings(base: TapeDrive, duration: float, backend: str, x0: float, v0: float, options: dict) -> dict:
     """Everything besides the grid that determines the results (JSON-normal form)."""
     return json.loads(json.dumps({"base": _drive_fields(base), "duration": duration, "backend": backend,
                                   "x0": x0, "v0": v0, "options": options}, sort_keys=True, default=repr))
-
-
-def _point_label(point: dict) -> str:
-    return "(" + ", ".join(f"{k}={v!r}" for k, v in point.items()) + ")"
-
-
-# ---------------------------------------------------------------------------------------
-# Executors: one small interface over serial, process pools, any Executor and dask
-# ---------------------------------------------------------------------------------------
-def _check_executor(executor) -> None:
-    # Before the store is touched; the executor itself is only started if something is left to run.
-    if executor is None or (isinstance(executor, str) and executor in ("serial", "dask")):
-        return
-    if isinstance(executor, str):
-        raise ValueError(f"executor must be None, 'serial', 'dask', a concurrent.futures.Executor or a "
-                         f"dask.distributed.Client, got {executor!r}")
-    if not callable(getattr(executor, "submit", None)):
-        raise TypeError(f"executor must have a submit() method (concurrent.futures.Executor or "
-                        f"dask.distributed.Client), got {type(executor).__name__}")
-
-
-class _LazyFuture:
-    """A future of the serial runner: runs on ``result()`` so that points are saved one by one."""
-
-    def __init__(self, fn, args):
-        self._fn, self._args, self._done, self._value = fn, args, False, None
-
-    def result(self):
-        if not self._done:
-            self._value, self._done = self._fn(*self._args), True
-        return self._value
-
-
-class _Runner:
-    """Submits chunks to one kind of executor: "serial", "pool" (owned), "dask" or any "executor".
-
-    ``owned`` executors (the default pool, a dask cluster started for ``executor="dask"``)
-    are shut down at the end; a user's executor is left running.
-    """
-
-    def __init__(self, executor, n_points: int):
-        self.owned = False
-        self.kind = "executor"
-        self._executor = executor
-        self.n_workers = 1
-        if executor is None:
-            self.kind, self.owned = "pool", True
-            self.n_workers = max(1, min(os.cpu_count() or 1, n_points))
-            self._executor = self._new_pool()
-        elif isinstance(executor, str) and executor == "serial":
-            self.kind = "serial"
-        elif isinstance(executor, str) and executor == "dask":
-            self.kind = "dask"
-            self._executor, self.owned = _dask_client()
-        elif _is_dask_client(executor):
-            self.kind = "dask"
-        if self.kind == "dask":
-            self.n_workers = max(1, sum(self._executor.nthreads().values()))
-        elif self.kind == "executor":
-            self.n_workers = getattr(executor, "_max_workers", None) or os.cpu_count() or 1
-
-    def _new_pool(self):
-        # spawn: a forked child would inherit the parent's heyoka/LLVM threads and locks.
-        return cf.ProcessPoolExecutor(max_workers=self.n_workers, mp_context=multiprocessing.get_context("spawn"))
-
-    def submit(self, *args):
-        if self.kind == "serial":
-            return _LazyFuture(_run_chunk, args)
-        if self.kind == "dask":
-            return self._executor.submit(_run_chunk, *args, pure=False)
-        return self._executor.submit(_run_chunk, *args)
-
-    def as_completed(self, futures):
-        if self.kind == "serial":
-            return iter(futures)
-        if self.kind == "dask":
-            import distributed
-
-            return distributed.as_completed(list(futures))
-        return cf.as_completed(futures)
-
-    def recover(self) -> None:
-        """After lost tasks: replace a broken pool that we own (a user's executor is theirs to fix)."""
-        if self.kind == "pool" and getattr(self._executor, "_broken", False):
-            self._executor.shutdown(wait=False, cancel_futures=True)
-            self._executor = self._new_pool()
-
-    def cancel(self, futures) -> None:
-        for fut in futures:
-            cancel = getattr(fut, "cancel", None)
-            if cancel is not None:
-                cancel()
-
-    def close(self, wait: bool = True) -> None:
-        if not self.owned:
-            return
-        if self.kind == "pool":
-            # wait=False after an interrupt: do not sit out the chunks still running.
-            self._executor.shutdown(wait=wait, cancel_futures=True)
-        elif self.kind == "dask":
-            cluster = self._executor.cluster
-            self._executor.close()
-            if cluster is not None:
-                cluster.close()
-
-
-def _is_dask_client(obj) -> bool:
-    try:
-        import distributed
-    except ImportError:
-        return False
-    return isinstance(obj, distributed.Client)
-
-
-def _dask_client():
-    try:
-        import distributed
-    except ImportError:
-        raise ImportError("executor='dask' needs dask.distributed: pip install impactosc[dask]") from None
-    try:
-        return distributed.get_client(), False  # a client the user already started: theirs to close
-    except ValueError:
-        n = os.cpu_count() or 1
-        return distributed.Client(n_workers=n, threads_per_worker=1, processes=True), True
-
-
-def _execute(runner: _Runner, todo: list, args: tuple, on_result, bar) -> None:
-    """Run ``todo = [(key, fields), ...]`` and call ``on_result(key, result)`` for each point.
-
-    A task that raises as a whole (its worker process died, dask gave up on it, the pool
-    broke) does not say which of its points was guilty: its points are retried one per task,
-    then, if lost again, one at a time, so that only a point that crashes its worker alone
-    is recorded as lost.
-    """
-    n_chunks = min(len(todo), CHUNKS_PER_WORKER * runner.n_workers)
-    # Round-robin: neighbouring grid points cost about the same, so each chunk gets a mix.
-    rounds = [[todo[i::n_chunks] for i in range(n_chunks)] if todo else []]
-    for attempt in range(3):
-        tasks, lost = rounds[-1], []
-        if attempt < 2:
-            futures = {}
-            for task in tasks:
-                try:
-                    futures[runner.submit(task, *args)] = task
-                except Exception as exc:  # noqa: BLE001 - e.g. a broken user pool: record, go on
-                    lost.append((task, exc))
-            try:
-                for fut in runner.as_completed(futures):
-                    _collect(fut, futures[fut], on_result, bar, lost)
-            except BaseException:
-                runner.cancel(futures)
-                raise
-        else:
-            # Last round: one point at a time, so a crash is the crashing point's alone.
-            for task in tasks:
-                try:
-                    fut = runner.submit(task, *args)
-                except Exception as exc:  # noqa: BLE001
-                    lost.append((task, exc))
-                    continue
-                _collect(fut, task, on_result, bar, lost)
-                runner.recover()
-        if not lost:
-            return
-        runner.recover()
-        if attempt == 2:
-            break
-        rounds.append([[p] for task, _ in lost for p in task])
-    for task, exc in lost:
-        for key, _ in task:
-            on_result(key, _failure(STATUS_LOST, f"task lost ({type(exc).__name__}: {exc})"))
-            bar.update(1)
-
-
-def _collect(fut, task, on_result, bar, lost) -> None:
-    try:
-        results = fut.result()
-    except Exception as exc:  # noqa: BLE001 - the whole task failed: retried by the caller
-        lost.append((task, exc))
-        return
-    for key, result in results:
-        on_result(key, result)
-    bar.update(len(results))
-
-
-# ---------------------------------------------------------------------------------------
-# Store: a directory with a manifest and one netCDF file per finished point
-# ---------------------------------------------------------------------------------------
-def _atomic_write(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)  # readers never see half a file; an interrupted write leaves a .tmp-*
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def _open_store(store, settings_: dict, grid: dict) -> Path:
-    root = Path(store)
-    manifest_path = root / _MANIFEST
-    if manifest_path.exists():
-        old = json.loads(manifest_path.read_text())
-        if old.get("format") != _STORE_FORMAT:
-            raise ValueError(f"store {str(root)!r} has format {old.get('format')!r}, expected {_STORE_FORMAT}")
-        diffs = _diff(old["settings"], settings_)
-        if diffs:
-            raise ValueError(f"store {str(root)!r} was made with different settings; its points would not be "
-                             f"comparable with this sweep's ({'; '.join(diffs)}). Use a new store, or delete this "
-                             f"one to start over. Only the grid may change between runs into one store.")
-    (root / _POINTS_DIR).mkdir(parents=True, exist_ok=True)
-    manifest = {"format": _STORE_FORMAT, "settings": settings_,
-                "grid": {k: v.tolist() for k, v in grid.items()}, "impactosc_version": _version()}
-    _atomic_write(manifest_path, lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=1)))
-    return root
-
-
-def _diff(old: dict, new: dict, prefix: str = "") -> list[str]:
-    out = []
-    for k in sorted(set(old) | set(new)):
-        a, b = old.get(k, "<absent>"), new.get(k, "<absent>")
-        if isinstance(a, dict) and isinstance(b, dict):
-            out += _diff(a, b, f"{prefix}{k}.")
-        elif a != b:
-            out.append(f"{prefix}{k}: stored {a!r}, now {b!r}")
-    return out
-
-
-def _point_path(root: Path, key: str) -> Path:
-    return root / _POINTS_DIR / f"{key}.nc"
-
-
-def _save_point(root: Path, key: str, fields: dict, result: dict) -> None:
-    data = {name: ((), np.float64(result[name])) for name in _FLOAT_VARS}
-    data["status"] = ((), np.int32(result["status"]))
-    ds = xr.Dataset(data, attrs={"key": key, "message": result["message"], "drive": json.dumps(fields)})
-    _atomic_write(_point_path(root, key), lambda tmp: ds.to_netcdf(tmp, engine="scipy"))
-
-
-def _load_point(path: Path) -> dict:
-    with xr.open_dataset(path, engine="scipy") as ds:
-        out = {name: float(ds[name].values) for name in _FLOAT_VARS}
-        out["status"] = int(ds["status"].values)
-        out["message"] = str(ds.attrs["message"])
-    return out
 
 
 def _version() -> str:
@@ -522,6 +201,10 @@ def _version() -> str:
     from . import __version__
 
     return __version__
+
+
+def _point_label(point: dict) -> str:
+    return "(" + ", ".join(f"{k}={v!r}" for k, v in point.items()) + ")"
 
 
 # ---------------------------------------------------------------------------------------
@@ -551,18 +234,21 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
     backend : str
         Backend of :func:`impactosc.simulate` (default ``"heyoka"``).
     executor : None, "serial", "dask", concurrent.futures.Executor or dask.distributed.Client
-        Where the points run. ``None`` (default): a local pool of ``os.cpu_count()``
-        processes (spawned; in a script, call ``sweep`` under ``if __name__ == "__main__":``).
-        ``"serial"``: in this process, for debugging. ``"dask"``: the current
-        ``dask.distributed`` client, or a new local cluster (needs ``impactosc[dask]``).
-        Anything with ``submit(fn, *args)`` returning futures: used as is, and not shut down.
+        Where the points run. ``None`` (default): a local pool of one process per CPU
+        (loky's), kept for the next sweep; it needs no ``if __name__ == "__main__":`` guard
+        and works from standard input, a REPL or a notebook. ``"serial"``: in this process,
+        for debugging. ``"dask"``: the current ``dask.distributed`` client, or a new local
+        cluster (needs ``impactosc[dask]``). Anything with ``submit(fn, *args)`` returning
+        futures: used as is, and not shut down.
     progress : bool
         Show a tqdm progress bar over the points.
     store : str or path-like, optional
-        Directory in which every finished point is saved (one netCDF file each, next to a
-        ``manifest.json`` of the settings). A rerun with the same settings loads the saved
-        points and runs only the missing ones, so an interrupted sweep resumes and an
-        extended grid runs only its new points. Read it back with :func:`load_sweep`.
+        Directory in which every finished point is saved as it arrives (one netCDF file
+        each, next to a ``manifest.json`` of the settings). A rerun with the same settings
+        loads the saved points and runs only the missing ones, so an interrupted sweep
+        resumes and an extended grid runs only its new points. A point file that cannot be
+        used (truncated, garbage, or holding another point) is moved to ``quarantine/``
+        with a warning and computed again. Read a store back with :func:`load_sweep`.
         Points lost with a crashed worker are not saved (they are retried by a rerun).
     x0, v0 : float
         Initial state ``X = x/L``, ``V`` (nondimensional, as in :func:`impactosc.simulate`).
@@ -590,16 +276,23 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
     TypeError, ValueError
         For a bad argument, before anything runs: an unknown grid key (the message lists
         the valid ones), an empty, non-1-D or duplicated list of values, a non-finite value,
-        ``duration <= 0``, an unknown backend or option, or a ``store`` made with other
-        settings (the message lists the differences).
+        ``duration <= 0``, an unknown backend, an option or option value the backend
+        rejects (``tol=0``, ...), a closed dask Client, a ``store`` that is a file or was
+        made with other settings (the message lists the differences).
     ImportError
         ``executor="dask"`` without dask installed.
+    RuntimeError
+        Every point that had to run was lost (status -3: its task failed as a whole,
+        e.g. the workers could not start or kept crashing).
+    KeyboardInterrupt
+        Passed on at once after an interrupt: the tasks in flight are cancelled, the
+        default pool's workers are killed, and every point finished before is in ``store``.
 
     Warns
     -----
     RuntimeWarning
         When points failed (``status != 0``): they hold NaN results and their status and
-        message; the warning names them. The sweep itself always completes.
+        message; the warning names them. When point files of ``store`` were unusable.
 
     Examples
     --------
@@ -610,36 +303,41 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
     >>> ds.mean_flange_force.sel(speed=4.0)                              # doctest: +SKIP
     """
     plan = _plan(base, grid, duration, backend, x0, v0, simulate_options)
-    _check_executor(executor)
-    root = _open_store(store, plan["settings"], plan["grid"]) if store is not None else None
+    check_executor(executor)
+    if store is not None:
+        check_store_path(store)
+    _probe_options(plan)
+    st = Store.create(store, plan["settings"], plan["grid"], _version()) if store is not None else None
 
     results: dict[str, dict] = dict(plan["invalid"])
     todo = []
     for key, fields in plan["unique"].items():
-        if root is not None and _point_path(root, key).exists():
-            results[key] = _load_point(_point_path(root, key))
-        else:
+        stored = st.load(key) if st is not None else None
+        if stored is None:
             todo.append((key, fields))
+        else:
+            results[key] = stored
+    if st is not None:
+        st.warn_unusable(stacklevel=2)
 
     def on_result(key: str, result: dict) -> None:
         results[key] = result
-        if root is not None and result["status"] != STATUS_LOST:
-            _save_point(root, key, plan["unique"][key], result)
+        if st is not None and result["status"] != STATUS_LOST:
+            st.save(key, plan["unique"][key], result)
 
     if todo:
         from tqdm.auto import tqdm
 
-        runner = _Runner(executor, len(todo))
         n_total = len(plan["unique"])
         args = (plan["duration"], backend, plan["x0"], plan["v0"], plan["options"])
-        try:
-            with tqdm(total=n_total, initial=n_total - len(todo), disable=not progress, desc="sweep",
-                      unit="point") as bar:
-                _execute(runner, todo, args, on_result, bar)
-        except BaseException:
-            runner.close(wait=False)
-            raise
-        runner.close()
+        with tqdm(total=n_total, initial=n_total - len(todo), disable=not progress, desc="sweep",
+                  unit="point") as bar:
+            execute(Runner(executor), todo, args, on_result, bar)
+        lost = [results[key]["message"] for key, _ in todo if results[key]["status"] == STATUS_LOST]
+        if len(lost) == len(todo):
+            raise RuntimeError(f"sweep: all {len(todo)} points run were lost: their tasks failed as a whole (the "
+                               f"worker processes crashed, were killed or could not start; or the executor is "
+                               f"broken). First: {lost[0]}")
 
     ds = _assemble(plan, results)
     _warn_failures(plan, ds)
@@ -649,8 +347,10 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
 def load_sweep(store) -> xr.Dataset:
     """Read a sweep store written by :func:`sweep` back as the Dataset of its latest grid.
 
-    Nothing is simulated: points not yet computed (an interrupted sweep) have
-    ``status = -4`` and NaN results, and a warning says how many.
+    Nothing is simulated and nothing on disk changes: points not yet computed (an
+    interrupted sweep) have ``status = -4`` and NaN results, and a warning says how many;
+    an unusable point file (truncated, garbage, or holding another point) counts as not
+    computed, and a warning names it.
 
     Parameters
     ----------
@@ -661,24 +361,32 @@ def load_sweep(store) -> xr.Dataset:
     -------
     xarray.Dataset
         As returned by :func:`sweep`.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``store`` has no ``manifest.json``.
+    ValueError
+        The manifest is unreadable or incomplete (the message names the file).
     """
-    root = Path(store)
-    manifest_path = root / _MANIFEST
-    if not manifest_path.exists():
-        raise FileNotFoundError(f"{str(root)!r} is not a sweep store: it has no {_MANIFEST}")
-    manifest = json.loads(manifest_path.read_text())
-    s = manifest["settings"]
-    plan = _plan(TapeDrive(**s["base"]), manifest["grid"], s["duration"], s["backend"], s["x0"], s["v0"],
-                 s["options"])
+    st, manifest = Store.read(store)
+    try:
+        s = manifest["settings"]
+        plan = _plan(TapeDrive(**s["base"]), manifest["grid"], s["duration"], s["backend"], s["x0"], s["v0"],
+                     s["options"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"store manifest {str(st.root / 'manifest.json')!r} does not describe a valid sweep "
+                         f"({type(exc).__name__}: {exc})") from None
     results = dict(plan["invalid"])
     for key in plan["unique"]:
-        path = _point_path(root, key)
-        results[key] = (_load_point(path) if path.exists()
-                        else _failure(STATUS_NOT_COMPUTED, "not computed yet: rerun sweep() with this store"))
+        stored = st.load(key)
+        results[key] = stored if stored is not None else failure(
+            STATUS_NOT_COMPUTED, "not computed yet: rerun sweep() with this store")
+    st.warn_unusable(stacklevel=2)
     ds = _assemble(plan, results)
     missing = int((ds["status"] == STATUS_NOT_COMPUTED).sum())
     if missing:
-        warnings.warn(f"store {str(root)!r} is incomplete: {missing} of {ds['status'].size} points not computed",
+        warnings.warn(f"store {str(st.root)!r} is incomplete: {missing} of {ds['status'].size} points not computed",
                       RuntimeWarning, stacklevel=2)
     return ds
 
@@ -705,9 +413,9 @@ def _plan(base, grid, duration, backend, x0, v0, options) -> dict:
         except (TypeError, ValueError) as exc:
             # An invalid drive is known here already: recorded without a task (and without a store file).
             key = "invalid:" + _point_label(point)
-            invalid[key] = _failure(STATUS_EXCEPTION, f"{type(exc).__name__}: {exc}")
+            invalid[key] = failure(STATUS_EXCEPTION, f"{type(exc).__name__}: {exc}")
         else:
-            key = _point_key(fields, settings_)
+            key = point_key(fields, settings_)
             unique[key] = fields
         points.append((point, key))
     return {"grid": grid, "points": points, "unique": unique, "invalid": invalid, "settings": settings_,
@@ -718,13 +426,13 @@ def _assemble(plan: dict, results: dict) -> xr.Dataset:
     grid = plan["grid"]
     dims = list(grid)
     shape = tuple(v.size for v in grid.values())
-    floats = {name: np.full(shape, np.nan) for name in _FLOAT_VARS}
+    floats = {name: np.full(shape, np.nan) for name in FLOAT_VARS}
     status = np.full(shape, STATUS_NOT_COMPUTED, dtype=np.int32)
     message = np.full(shape, "", dtype=object)
     for flat, (_, key) in enumerate(plan["points"]):
         idx = np.unravel_index(flat, shape) if shape else ()
         res = results[key]
-        for name in _FLOAT_VARS:
+        for name in FLOAT_VARS:
             floats[name][idx] = res[name]
         status[idx] = res["status"]
         message[idx] = res["message"]
@@ -732,7 +440,7 @@ def _assemble(plan: dict, results: dict) -> xr.Dataset:
     def attrs(units, long_name):
         return {"units": units, "long_name": long_name}
 
-    data = {name: (dims, floats[name], attrs(*_FLOAT_VARS[name])) for name in _FLOAT_VARS}
+    data = {name: (dims, floats[name], attrs(*FLOAT_VARS[name])) for name in FLOAT_VARS}
     data["status"] = (dims, status, {"long_name": "run status", "flag_meanings": _STATUS_DOC})
     data["message"] = (dims, message.astype(str), {"long_name": "status message"})
     coords = {k: (k, v, attrs(*_FIELD_ATTRS[k])) for k, v in grid.items()}

@@ -109,8 +109,8 @@ class TapeDrive:
         (default): ``k0 = stiffness_ratio * k * L^(1 - p)``, i.e. ``K = stiffness_ratio``.
     restitution : float
         Newton's coefficient of restitution ``0 <= e <= 1`` of a rigid flange. Default 1.
-    runout_harmonics : sequence of (n, fraction, phase)
-        Higher harmonics of the run-out: harmonic number ``n`` (a positive integer, a
+    runout_harmonics : sequence of tuple
+        Higher harmonics of the run-out, ``(n, fraction, phase)``: harmonic number ``n`` (a positive integer, a
         multiple of the reel frequency), amplitude as a fraction of the Fig. 6 run-out
         (>= 0), phase in radians. Default: none (a pure cosine).
 

@@ -1,5 +1,8 @@
 """The command line: output, plots, and one-line errors."""
 
+import os
+import re
+
 import pytest
 
 from impactosc.__main__ import main
@@ -116,3 +119,89 @@ def test_help_everywhere(capsys):
         assert exc.value.code == 0
     out = capsys.readouterr().out
     assert "--grid FIELD=V1,V2" in out and "--quick" in out and "--toml" in out
+
+
+# -- output paths are checked before anything runs (issue #14 item 11) ----------------------
+@pytest.fixture()
+def no_sweep(monkeypatch):
+    """Fails the test if a sweep or the paper reproduction starts."""
+    import impactosc
+    import impactosc.paper
+
+    def boom(*args, **kwargs):
+        raise AssertionError("the computation started although an output path was unusable")
+
+    monkeypatch.setattr(impactosc, "sweep", boom)
+    monkeypatch.setattr(impactosc.paper, "reproduce", boom)
+
+
+def _unwritable_dir():
+    # Creating files in /proc fails even for root (for whom permission bits do not apply).
+    return "/proc" if os.path.isdir("/proc/self") else None
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("out-missing-dir", "directory '/nonexistent' does not exist"),
+        ("out-is-dir", "is a directory"),
+        ("plot-missing-dir", "directory '/nonexistent' does not exist"),
+        ("plot-is-dir", "is a directory"),
+        ("store-is-file", "exists and is not a directory"),
+        ("out-unwritable", "cannot write in '/proc'"),
+        ("paper-out-unwritable", "cannot write in '/proc'"),
+        ("paper-out-is-file", "exists and is not a directory"),
+        ("simulate-plot-missing-dir", "directory '/nonexistent' does not exist"),
+    ],
+)
+def test_unusable_output_paths_are_one_line_errors_before_running(capsys, tmp_path, no_sweep, case, message):
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    sweep = ["sweep", "--grid", "speed=4", "--duration", "1e-5", "--no-progress"]
+    if "unwritable" in case and _unwritable_dir() is None:
+        pytest.skip("needs /proc for a directory nobody can write in")
+    argv = {
+        "out-missing-dir": sweep + ["--out", "/nonexistent/x.nc"],
+        "out-is-dir": sweep + ["--out", str(tmp_path)],
+        "plot-missing-dir": sweep + ["--plot", "/nonexistent/x.png"],
+        "plot-is-dir": sweep + ["--plot", str(tmp_path)],
+        "store-is-file": sweep + ["--store", str(a_file)],
+        "out-unwritable": sweep + ["--out", "/proc/x.nc"],
+        "paper-out-unwritable": ["paper", "--quick", "--out", "/proc/impactosc-reports"],
+        "paper-out-is-file": ["paper", "--quick", "--out", str(a_file)],
+        "simulate-plot-missing-dir": ["simulate", "--F", "0.5", "--Omega", "1.1", "--beta", "0.01", "--K", "1e4",
+                                      "--plot", "/nonexistent/x.png"],
+    }[case]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert err.startswith("impactosc: error:") and message in err and "\n" not in err, err
+    assert "Traceback" not in captured.out + captured.err
+
+
+def test_a_failed_write_after_the_run_is_one_line(capsys, tmp_path, monkeypatch):
+    import xarray as xr
+
+    def fails(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied", str(tmp_path / "x.nc"))
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", fails)
+    assert main(["sweep", "--grid", "speed=4", "--duration", "1e-5", "--serial", "--no-progress",
+                 "--out", str(tmp_path / "x.nc")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("impactosc: error:") and "Permission denied" in err and "x.nc" in err and "\n" not in err
+
+
+@pytest.mark.parametrize("argv", [["simulate", "--events", "-1"], ["sweep", "--grid", "speed=4", "--rows", "-1"]])
+def test_negative_row_counts_are_refused(capsys, argv):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert "must be >= 0, got -1" in err and "\n" not in err
+
+
+def test_events_zero_shows_no_rows_and_the_right_count(capsys):
+    assert main(["simulate", "--F", "0.5", "--Omega", "1.1", "--beta", "0.01", "--K", "1e4", "--events", "0"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"Events \(first 0\):\n +t kind +x +v side\n\.\.\. [1-9]\d* more events", out), out

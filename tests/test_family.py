@@ -26,17 +26,17 @@ from impactosc.engine import (
     transition,
 )
 
-#: Backends that support each feature (heyoka: tests/test_family_heyoka.py).
-RIGID = ["exact", "scipy"]
-STATIC = ["exact", "scipy"]
-DAMPED = ["scipy"]
-POWER = ["scipy"]
-HARMONICS = ["scipy"]
+#: Backends that support each feature (more heyoka cases: tests/test_family_heyoka.py).
+RIGID = ["heyoka", "exact", "scipy"]
+STATIC = ["heyoka", "exact", "scipy"]
+DAMPED = ["heyoka", "scipy"]
+POWER = ["heyoka", "scipy"]
+HARMONICS = ["heyoka", "scipy"]
 SCIPY_TIGHT = {"rtol": 1e-13, "atol": 1e-15}
 
 
-def _run(osc, t_end, x0, v0, backend, **kw):
-    return simulate(osc, t_end, x0, v0, backend=backend, **kw)
+def _run(osc, t_end, x0, v0, backend, **scipy_options):
+    return simulate(osc, t_end, x0, v0, backend=backend, **(scipy_options if backend == "scipy" else {}))
 
 
 # -- rigid flanges: chatter, rest, release -----------------------------------------------

@@ -20,6 +20,7 @@ import xarray as xr
 import impactosc
 from impactosc.tape import TapeDrive
 
+from impactosc import _sweep_exec  # isort: skip
 from impactosc.sweep import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, load_sweep, sweep  # isort: skip
 
 DURATION = 2e-3
@@ -105,6 +106,14 @@ def test_dask_local_cluster_equals_serial(serial):
         current = sweep(BASE, GRID, duration=DURATION, executor="dask", progress=False)  # the current client
     xr.testing.assert_identical(ds, serial)
     xr.testing.assert_identical(current, serial)
+
+
+def test_a_closed_dask_client_is_refused_by_name():
+    distributed = pytest.importorskip("distributed")
+    client = distributed.Client(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None)
+    client.close()
+    with pytest.raises(ValueError, match=r"executor is a dask\.distributed\.Client that is closed"):
+        sweep(BASE, GRID, duration=DURATION, executor=client, progress=False)
 
 
 def test_dask_missing_gives_install_hint(monkeypatch):
@@ -206,39 +215,70 @@ def test_failed_points_are_recorded_not_raised():
     assert bool(np.isnan(bad["mean_flange_force"]).all()) and bool(np.isnan(bad["F"]).all())
 
 
-def test_a_crashed_worker_loses_only_its_point(serial, monkeypatch):
+def test_a_crashed_worker_loses_only_its_point(monkeypatch):
     # The task holding the guilty point dies as a whole (as when its process crashes), taking
-    # the innocent points of its chunk with it: they are retried, the guilty point is lost alone.
-    # The package root exports the function `sweep`, which shadows the module attribute.
-    monkeypatch.setattr(sys.modules["impactosc.sweep"], "CHUNKS_PER_WORKER", 1)
-    ex = RecordingExecutor(fail_when=lambda f: BrokenProcessPool("worker died") if f["speed"] == 8.0
-                           and f["pack_diameter"] == 0.09 else None)
-    ex._max_workers = 1  # so all four points share one chunk
-    with pytest.warns(RuntimeWarning, match=r"1 of 4 points failed.*pack_diameter=0\.09, speed=8\.0"):
-        ds = sweep(BASE, GRID, duration=DURATION, executor=ex, progress=False)
-    assert int(ds["status"].sel(pack_diameter=0.09, speed=8.0)) == STATUS_LOST
-    assert "worker died" in ds["message"].sel(pack_diameter=0.09, speed=8.0).item()
-    good = ds.where(ds["status"] == 0)
-    xr.testing.assert_identical(good["mean_flange_force"], serial["mean_flange_force"].where(ds["status"] == 0))
-    assert int((ds["status"] == 0).sum()) == 3
-    # one chunk of 4, then the 4 points one per task, then the guilty one alone again
-    assert ex.tasks == 1 + 4 + 1
+    # the innocent points of its batch with it: they are retried, the guilty point is lost alone.
+    monkeypatch.setattr(_sweep_exec, "TASK_SECONDS", 1e9)  # batches as large as load balance allows
+    grid = {"pack_diameter": [0.05, 0.09], "speed": [4.0, 8.0, 12.0, 16.0]}
+
+    def guilty(f):
+        return f["pack_diameter"] == 0.05 and f["speed"] == 16.0
+
+    class Sizes(RecordingExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            self.sizes.append([guilty(f) for _, f in args[0]])
+            return super().submit(fn, *args, **kwargs)
+
+    ex = Sizes(fail_when=lambda f: BrokenProcessPool("worker died") if guilty(f) else None)
+    ex.sizes, ex._max_workers = [], 1
+    with pytest.warns(RuntimeWarning, match=r"1 of 8 points failed.*pack_diameter=0\.05, speed=16\.0"):
+        ds = sweep(BASE, grid, duration=DURATION, executor=ex, progress=False)
+    bad = ds.sel(pack_diameter=0.05, speed=16.0)
+    assert int(bad["status"]) == STATUS_LOST and "worker died" in bad["message"].item()
+    serial = sweep(BASE, grid, duration=DURATION, executor="serial", progress=False)
+    good = ds["status"] == 0
+    assert int(good.sum()) == 7
+    xr.testing.assert_identical(ds["mean_flange_force"].where(good), serial["mean_flange_force"].where(good))
+    # first in a batch with innocent points, then retried alone, then alone with nothing else running
+    with_guilty = [s for s in ex.sizes if any(s)]
+    assert len(with_guilty[0]) > 1 and [len(s) for s in with_guilty[1:]] == [1, 1]
+    # the innocent points of that batch were retried one per task, and not lost
+    assert sum(len(s) == 1 and not any(s) for s in ex.sizes) >= len(with_guilty[0]) - 1
 
 
-class _ExitOnUnpickle:
-    """Kills the process that unpickles it: a stand-in for a worker that segfaults."""
+def test_a_sweep_that_loses_every_point_raises():
+    ex = RecordingExecutor(fail_when=lambda f: BrokenProcessPool("no worker would start"))
+    with pytest.raises(RuntimeError, match=r"all 4 points run were lost.*no worker would start"):
+        sweep(BASE, GRID, duration=DURATION, executor=ex, progress=False)
+
+
+def test_cheap_points_share_tasks_and_each_runs_once():
+    # Batches are sized from the measured cost of a point (issue #12): many cheap points
+    # share a task, and every point is submitted exactly once.
+    grid = {"speed": [4.0 + i for i in range(40)]}
+    ex = RecordingExecutor()
+    ex._max_workers = 2
+    ds = sweep(BASE, grid, duration=1e-5, executor=ex, progress=False)
+    assert (ds["status"] == 0).all()
+    assert sorted(p["speed"] for p in ex.points) == grid["speed"]
+    assert ex.tasks < len(grid["speed"]) / 2
+
+
+class _ExitOnUnpickle(float):
+    """A valid ``tol`` here that kills the process unpickling it: a stand-in for a worker that segfaults."""
 
     def __reduce__(self):
         return (os._exit, (3,))
 
 
-def test_a_real_crashed_pool_worker_is_recorded_and_the_sweep_completes():
-    # Every task kills its worker process, so the owned pool breaks and must be replaced each
-    # round; the sweep still ends, with the point recorded as lost.
-    with pytest.warns(RuntimeWarning, match="1 of 1 points failed"):
-        ds = sweep(BASE, {"speed": [4.0]}, duration=DURATION, progress=False, tol=_ExitOnUnpickle())
-    assert int(ds["status"].item()) == STATUS_LOST
-    assert "BrokenProcessPool" in ds["message"].item()
+def test_a_real_crashed_pool_worker_breaks_the_pool_which_is_replaced():
+    # Every task kills its worker process, so the default pool breaks and is replaced each
+    # round; the point is lost, and a sweep losing every point raises.
+    with pytest.raises(RuntimeError, match="all 1 points run were lost.*TerminatedWorkerError"):
+        sweep(BASE, {"speed": [4.0]}, duration=DURATION, progress=False, tol=_ExitOnUnpickle(1e-15))
+    # the replaced pool works
+    ds = sweep(BASE, {"speed": [4.0]}, duration=DURATION, progress=False)
+    assert int(ds["status"].item()) == 0
 
 
 def test_t_sin_half_theta_sets_the_tension_keeping_theta():
@@ -273,6 +313,12 @@ def _fields(drive):
         ({"speed": [4.0]}, {"record": "full"}, ValueError, "record"),
         ({"speed": [4.0]}, {"backend": "nope"}, ValueError, "backend must be one of"),
         ({"speed": [4.0]}, {"tolerance": 1e-9}, TypeError, "tolerance"),
+        # option values are checked by the backend itself, in one short run before anything else
+        ({"speed": [4.0]}, {"tol": 0.0}, ValueError, r"rejected by backend 'heyoka'.*tol must be in \[1e-18, 0.01\]"),
+        ({"speed": [4.0]}, {"tol": "x"}, TypeError, "tol must be a real number"),
+        ({"speed": [4.0]}, {"backend": "scipy", "rtol": 0.0}, ValueError, r"rtol must be in \[2.22.*e-14, 0.001\]"),
+        ({"speed": [4.0]}, {"backend": "rk4", "dt": -1.0}, ValueError, "dt must be > 0"),
+        ({"speed": [4.0]}, {"max_events": 0}, ValueError, "max_events"),
         ({"speed": [4.0]}, {"executor": "threads"}, ValueError, "executor must be"),
         ({"speed": [4.0]}, {"executor": object()}, TypeError, "submit"),
     ],
@@ -304,3 +350,16 @@ def test_progress_bar_is_shown_only_when_asked(capsys):
     assert "2/2" in capsys.readouterr().err
     sweep(BASE, grid, duration=1e-4, executor="serial", progress=False)
     assert capsys.readouterr().err == ""
+
+
+def test_an_error_of_the_first_drive_itself_is_recorded_not_raised():
+    # rk4 refuses a run of more than 2e9 steps: the stiff first point (K = 1e6) is refused
+    # with or without the options, so that is its own failure, not the options': the sweep runs.
+    ex = RecordingExecutor()
+    with pytest.warns(RuntimeWarning, match="2 of 2 points failed"):
+        ds = sweep(TapeDrive(), {"stiffness_ratio": [1e6, 1e4]}, duration=1.0, backend="rk4", executor=ex,
+                   progress=False, flange="consistent", max_events=5)
+    assert len(ex.points) == 2
+    stiff = ds.sel(stiffness_ratio=1e6)
+    assert int(stiff["status"]) == STATUS_EXCEPTION and "steps" in stiff["message"].item()
+    assert int(ds["status"].sel(stiffness_ratio=1e4)) == 1  # the event limit: it did run

@@ -37,7 +37,7 @@ event-driven hybrid system, and this module corrects them instead of trusting sm
   and the steps grow tenfold each time, so a release window shorter than a step would be
   stepped over, and a mass stuck for ever would still be stepped through. A stuck piece
   is not integrated at all: its release is the closed form shared by every backend
-  (:func:`impactosc._stuck.release_time`, an arccos of the harmonic forcing).
+  (``impactosc._stuck.release_time``, an arccos of the harmonic forcing).
 """
 
 from __future__ import annotations

@@ -47,12 +47,14 @@ print("impactosc", io.__version__, "| quick mode" if QUICK else "| full mode")
 #
 # `sweep(base, grid, duration=...)` runs `base.replace(**point)` for every point of the
 # grid, for `duration` seconds each, with `simulate(..., record="stats")`. By default the
-# points run on a local pool of `os.cpu_count()` processes (each compiles the heyoka
-# integrator once and reuses it). With `store=` every finished point is saved as a small
-# netCDF file next to a `manifest.json` of the settings.
+# points run on a local pool of one process per CPU (each compiles the heyoka integrator
+# once and reuses it, also in the next sweep). With `store=` every finished point is saved
+# as a small netCDF file next to a `manifest.json` of the settings, as soon as it arrives:
+# interrupting the kernel stops the sweep at once and keeps what is done.
 #
-# (In a script, call `sweep` under `if __name__ == "__main__":`, because the pool spawns
-# fresh processes; in a notebook nothing special is needed.)
+# The same call works in a notebook, a script (no `if __name__ == "__main__":` guard
+# needed), a REPL or a program fed on standard input: the workers never re-import the
+# caller's code.
 
 # %%
 base = io.TapeDrive(clearance=100e-6)          # paper's drive, 100 um flange clearance
