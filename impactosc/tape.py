@@ -491,4 +491,7 @@ class TapeDrive:
             f"  scales: L = {self.clearance:.4g} m, k L = {self.force_scale:.4g} N",
             f"  eq. 3: F = {self.F:.4g}, Omega = {self.Omega:.4g}, beta = {self.beta:.4g}, K = {self.K:.4g}",
         ]
+        extra = self.oscillator().unsupported()
+        if extra:
+            lines.append(f"  model family: {', '.join(extra)}")
         return "\n".join(lines)

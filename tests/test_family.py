@@ -365,3 +365,14 @@ def test_release_under_a_sum_of_harmonics_is_the_first_crossing():
     # A forcing whose peaks stay below beta_s never releases, however long the run.
     calm = Oscillator(0.1, 1.0, 0.2, 1e4, harmonics=[(0.1, 2.0, 0.0)])
     assert simulate(calm, 1e9, 0.0, 0.0, backend="scipy", record="stats").counts["release"] == 0
+
+
+def test_tape_drive_describes_its_family_and_the_paper_grid_refuses_it():
+    from impactosc import TapeDrive
+    from impactosc.paper import rk4_grid
+
+    drive = TapeDrive(damping_ratio=0.02, flange="rigid", restitution=0.5)
+    assert "model family: damping zeta=0.02, a rigid flange (restitution=0.5)" in drive.describe()
+    assert "model family" not in TapeDrive().describe()
+    with pytest.raises(ValueError, match="RK4 grid runs eq. 3 only.*damping"):
+        rk4_grid(drive, {"speed": [4.0]}, duration=1e-4)
