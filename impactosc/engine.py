@@ -513,9 +513,16 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             return
         mode, x1, v1, recorded, jump = _settle(osc, recorder, chatter, mode, guard, t1, x1, v1)
         if jump is not None:
-            if jump.t_inf >= t_end:
-                recorder.chatter(jump, None)
-                recorder.finish(t_end, float(jump.side), 0.0, Mode(jump.side, 0, True), 0,
+            # Sample times inside the tail of the chatter get the local model's state.
+            while next_stop < jump.t_inf and next_stop <= t_end:
+                xs, vs, motion, *_ = jump.state_at(next_stop)
+                recorder.sample(next_stop, xs, vs, Mode(0, motion, True))
+                next_stop = next(stops, math.inf)
+            if jump.t_inf > t_end:
+                # The run ends inside the tail: its state and totals up to t_end, not the rest
+                # at t_inf (the rebound speed there can be 1e-4, far above any tolerance).
+                x1, v1, motion = recorder.chatter(jump, t_end)
+                recorder.finish(t_end, x1, v1, Mode(0, motion, True), 0,
                                 f"The end time was reached inside a chatter on the {_SIDE[jump.side]} flange "
                                 f"(its impacts accumulate at t={jump.t_inf!r}, after the end).")
                 return

@@ -153,19 +153,24 @@ class _Recorder:
             if self.keep_events:
                 self.impacts.append((t, t, side, v, -e * v, 0.0, math.inf, impulse, True))
 
-    def chatter(self, jump, t: float | None) -> None:
-        """Add the resolved remainder of a chatter (:class:`impactosc._chatter.ChatterJump`).
+    def chatter(self, jump, t: float) -> tuple[float, float, int]:
+        """Add the resolved tail of a chatter (:class:`impactosc._chatter.ChatterJump`) up to ``t``.
 
-        ``t`` is the accumulation time where the event is recorded, or ``None`` when it lies
-        beyond the end of the run (the totals are still added: their error is below the
-        jump's tolerance).
+        ``t`` is the accumulation time, where the ``chatter`` event is recorded (its
+        ``count`` is the number of impacts followed one by one), or the end of the run when
+        that comes first: then only the impacts and flights of the tail before ``t`` are
+        added. The forcing works on the tail's net displacement (zero at the accumulation
+        time). Returns the local model's ``(x, v, motion)`` at ``t``.
         """
         side = jump.side
-        self.impulse[side] += jump.impulse
-        self.slip_path += jump.path
-        self.impact_loss += jump.loss
-        if t is not None:
-            self.event(t, CHATTER, float(side), 0.0, side, jump.impacts)
+        x, v, motion, impulse, path, loss = jump.state_at(t)
+        self.impulse[side] += impulse
+        self.slip_path += path
+        self.impact_loss += loss
+        self.forcing_work += self.osc._forcing_scalar(jump.t0) * (x - side)
+        if t >= jump.t_inf:
+            self.event(jump.t_inf, CHATTER, float(side), 0.0, side, jump.impacts)
+        return x, v, motion
 
     def _close(self, t: float, v: float) -> None:
         start, side, v_in, pen, imp, complete = self._open
@@ -268,7 +273,12 @@ class Solution(SolutionFramesMixin):
 
     @property
     def events(self) -> np.recarray:
-        """One record per event: fields ``t, kind, x, v, side`` (``side`` +1/-1 at a flange, 0 otherwise)."""
+        """One record per event: fields ``t, kind, x, v, side, count``.
+
+        ``side`` is +1/-1 at a flange, 0 otherwise. ``count`` is 1, except for a ``chatter``
+        event: the number of impacts of the sequence followed one by one before the jump to
+        their accumulation point (the infinitely many remaining ones are not events).
+        """
         self._need("events", "Solution.events")
         return self._events
 
