@@ -99,3 +99,17 @@ def test_no_chatter_jump_when_the_mass_would_stick_at_an_apex():
     sol = simulate(osc, 10.0, 0.0, 0.0, backend="exact")
     assert list(sol.events.kind) == ["impact", "stick"]
     assert math.isclose(sol.events.x[1], 1.0 - (0.1 * sol.events.v[0]) ** 2 / (2 * 0.4), rel_tol=0, abs_tol=1e-3)
+
+
+@pytest.mark.parametrize("backend", RIGID)
+def test_peak_wall_force_of_a_rest_is_the_maximum_of_the_push(backend):
+    # At rest on the upper wall under 2 cos(t - 0.5): the push 2 cos(t - 0.5) - 1 peaks at
+    # 1 at t = 0.5, inside the rest. The peak was the largest quadrature node (0.99689).
+    osc = Oscillator(2.0, 1.0, 0.1, 1.0, -0.5, flange="rigid", beta_static=0.3)
+    sol = simulate(osc, 3.0, 1.0, 0.0, backend=backend)
+    rest = sol.impacts[0]
+    assert rest.end == pytest.approx(0.5 + math.acos(0.35), abs=1e-12)
+    assert rest.peak_force == pytest.approx(1.0, rel=1e-14)
+    # The impulse is the closed-form integral of the push while it is positive.
+    t_off = 0.5 + math.acos(0.5)
+    assert rest.impulse == pytest.approx(2.0 * (math.sin(t_off - 0.5) - math.sin(-0.5)) - t_off, rel=1e-12)
