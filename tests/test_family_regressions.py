@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 from family_reference import rigid_chatter_accumulation, rigid_chatter_state
+from scipy.optimize import brentq
 
 from impactosc import Oscillator, simulate
 from impactosc._chatter import ChatterTracker
@@ -113,3 +114,29 @@ def test_peak_wall_force_of_a_rest_is_the_maximum_of_the_push(backend):
     # The impulse is the closed-form integral of the push while it is positive.
     t_off = 0.5 + math.acos(0.5)
     assert rest.impulse == pytest.approx(2.0 * (math.sin(t_off - 0.5) - math.sin(-0.5)) - t_off, rel=1e-12)
+
+
+@pytest.mark.parametrize("delta", [1e-3, 1e-5])
+@pytest.mark.parametrize("samples", [0, 101])
+def test_a_narrow_release_window_under_a_harmonic_sum_is_found(delta, samples):
+    # Stuck under 0.5 cos(3.9 t) + 0.5 cos(3.45 t + 4.5) with beta_s a hair below the largest
+    # |f| on [0, 60] (at t = 37.86): the release window is 0.024 (delta = 1e-3) or 0.0024 wide.
+    # scipy's stuck pieces were cut every 0.1 and its steps on the constant state stepped
+    # over it (found by the fuzz as "sample_at changes the run"); now a curvature-bounded
+    # search finds the first crossing, with or without sample times.
+    harm = [(0.5, 3.9, 0.0), (0.5, 3.45, 4.5)]
+
+    def f(t):
+        return sum(F * np.cos(Om * t + ph) for F, Om, ph in harm)
+
+    ts = np.linspace(0.0, 60.0, 600_001)
+    fs = np.abs(f(ts))
+    beta = float(fs.max()) - delta
+    j = int(np.flatnonzero(fs > beta)[0])
+    t_rel = brentq(lambda t: abs(f(t)) - beta, ts[j - 1], ts[j], xtol=1e-15)
+    assert t_rel > 30.0
+    osc = Oscillator.from_harmonics(harm, beta=beta, K=1.0)
+    grid = np.linspace(0.0, 60.0, samples) if samples else None
+    sol = simulate(osc, 60.0, 0.0, 0.0, backend="scipy", sample_at=grid)
+    assert sol.events.kind[0] == "release"
+    assert abs(sol.events.t[0] - t_rel) <= 1e-12 * t_rel
