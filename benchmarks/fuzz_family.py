@@ -112,9 +112,10 @@ def _forcing(rng, tags, beta, beta_s):
     tags.append(tag)
     bs = beta if beta_s is None else beta_s
     # The push at the upper wall is F cos - 1: put its peak near beta or beta_s sometimes.
-    near = rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-12, -3)
+    near = 0.0 if rng.random() < 0.2 else rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-12, -3)
     tag, F = _pick(rng, [
-        (0.55, "", lambda: rng.uniform(0.0, 3.0)),
+        (0.45, "", lambda: rng.uniform(0.0, 3.0)),
+        (0.1, "F~beta_s (narrow releases)", lambda: bs * (1.0 + 10 ** rng.uniform(-6, -2))),
         (0.2, "F-1~beta", lambda: max(0.0, 1.0 + beta * (1.0 + near) + near)),
         (0.15, "F-1~beta_s", lambda: max(0.0, 1.0 + bs * (1.0 + near) + near)),
         (0.1, "F=0", lambda: 0.0),
@@ -182,7 +183,7 @@ def draw_scipy(rng) -> Case:
         features = {f for f in ("zeta", "power", "harmonics") if rng.random() < 0.5}
     rigid = rng.random() < 0.5
     if "zeta" in features:
-        kw["zeta"] = float(10 ** rng.uniform(-3, 0))
+        kw["zeta"] = float(10 ** rng.uniform(-3, 0.5))
         tags.append("damped")
     if rigid:
         kw["flange"] = "rigid"
@@ -197,6 +198,11 @@ def draw_scipy(rng) -> Case:
         kw["harmonics"] = tuple((float(rng.uniform(0.0, 1.0)), float(rng.uniform(0.0, 4.0)),
                                  float(rng.uniform(0.0, 2 * math.pi))) for _ in range(n))
         tags.append(f"{n} harmonics")
+        if rng.random() < 0.2:
+            # Static friction a hair below the largest |forcing|: rare, narrow release windows.
+            top = sum(F for F, _, _ in Oscillator(**kw).terms)
+            kw["beta_static"] = max(kw["beta"], top * (1.0 - 10 ** rng.uniform(-4, -1)))
+            tags.append("beta_s~sum F (narrow releases)")
     x0, v0 = _start(rng, tags, rigid)
     return Case("scipy", kw, float(rng.uniform(5.0, 30.0)), x0, v0, [t for t in tags if t])
 
@@ -238,46 +244,71 @@ def _compare_events(a, b):
     return first, float(dt.max())
 
 
+#: An impact slower than this is near-grazing: its time and speed are ill-conditioned (an
+#: error dX in the position moves it by dX / V and its speed by dX / V), so the backends may
+#: part there without either being wrong.
+GRAZING_SPEED = 1e-5
+
+
+def _grazing(*sols) -> bool:
+    for sol in sols:
+        ev = sol.events
+        if np.any((ev.kind == "impact") & (np.abs(ev.v) < GRAZING_SPEED)):
+            return True
+    return False
+
+
 def judge_diff(case: Case, max_events: int, timeout: float):
-    """Outcome class and a detail string for a ``diff`` case."""
+    """Outcome class and a detail string for a ``diff`` case (a mismatch after a near-grazing
+    impact gets its own class)."""
+    cls, detail, be, sols = _judge_diff(case, max_events, timeout)
+    if sols is not None and not cls.startswith(("agree", "energy", "status -1", "exception", "timeout")) \
+            and _grazing(*sols):
+        cls = f"{cls} after a near-grazing impact"
+    return cls, detail, be
+
+
+def _judge_diff(case: Case, max_events: int, timeout: float):
     runs = {}
     for be in ("exact", "scipy"):
         try:
             runs[be] = _run(case, be, max_events, timeout)
         except Timeout:
-            return f"timeout ({be})", f"> {timeout} s", be
+            return f"timeout ({be})", f"> {timeout} s", be, None
         except Exception as exc:  # noqa: BLE001 - every exception is a finding
-            return f"exception ({be}): {type(exc).__name__}", traceback.format_exc(limit=3)[-400:], be
+            return f"exception ({be}): {type(exc).__name__}", traceback.format_exc(limit=3)[-400:], be, None
     ex, sc = runs["exact"][0], runs["scipy"][0]
     for be, sol in (("exact", ex), ("scipy", sc)):
         if sol.status == -1:
-            return f"status -1 ({be})", sol.message[:200], be
+            return f"status -1 ({be})", sol.message[:200], be, (ex, sc)
     if ex.status != sc.status:
-        return "status differs", f"exact {ex.status} ({ex.t_final:.6g}) / scipy {sc.status} ({sc.t_final:.6g})", "scipy"
+        return ("status differs", f"exact {ex.status} ({ex.t_final:.6g}) / scipy {sc.status} ({sc.t_final:.6g})",
+                "scipy", (ex, sc))
     first, dt = _compare_events(ex, sc)
     if first is not None:
         sa, sb = _sequence(ex), _sequence(sc)
         t_at = ex.events.t[first] if first < len(sa) else sc.events.t[first]
         return ("event sequence differs",
                 f"at #{first} t={t_at:.9g}: exact {sa[first:first + 3]} / scipy {sb[first:first + 3]} "
-                f"(counts {len(sa)}/{len(sb)})", "scipy")
+                f"(counts {len(sa)}/{len(sb)})", "scipy", (ex, sc))
     if dt > TIME_TOL:
-        return "event times differ", f"max |dt|/max(1,t) = {dt:.2e}", "scipy"
+        return "event times differ", f"max |dt|/max(1,t) = {dt:.2e}", "scipy", (ex, sc)
     for be, sol in (("exact", ex), ("scipy", sc)):
         r = _residual(sol)
         if r > ENERGY_TOL:
-            return f"energy identity ({be})", f"residual/scale = {r:.2e}", be
+            return f"energy identity ({be})", f"residual/scale = {r:.2e}", be, (ex, sc)
     if ex.status == 0:
         d = max(abs(ex.x_final - sc.x_final), abs(ex.v_final - sc.v_final))
         if d > STATE_TOL:
-            return "final state differs", f"max(|dx|,|dv|) = {d:.2e}", "scipy"
+            return "final state differs", f"max(|dx|,|dv|) = {d:.2e}", "scipy", (ex, sc)
         for side in (1, -1):
             fa, fb = ex.mean_flange_force(side), sc.mean_flange_force(side)
             if abs(fa - fb) > FORCE_RTOL * abs(fa) + FORCE_ATOL:
-                return "mean flange force differs", f"side {side}: {fa!r} / {fb!r}", "scipy"
+                return "mean flange force differs", f"side {side}: {fa!r} / {fb!r}", "scipy", (ex, sc)
     if ex.status == 1:
-        return "agree (both at the event limit)", f"{len(ex.events)} events to t={ex.t_final:.4g}", "exact"
-    return "agree", f"{len(ex.events)} events, max dt {dt:.1e}", "exact"
+        return ("agree (both at the event limit)", f"{len(ex.events)} events to t={ex.t_final:.4g}", "exact",
+                (ex, sc))
+    return "agree", f"{len(ex.events)} events, max dt {dt:.1e}", "exact", (ex, sc)
 
 
 def judge_scipy(case: Case, max_events: int, timeout: float):
