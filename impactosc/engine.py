@@ -239,10 +239,11 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     if guard in (ENTER_UPPER, ENTER_LOWER):
         side = 1 if guard == ENTER_UPPER else -1
         if osc.rigid:
-            return _impact(osc, side, v)
-        return Mode(side, s, armed), float(side), v, CONTACT_START, side
+            return _impact(osc, t, side, v)
+        # A velocity against the motion is a turning point passed by rounding (see _settle).
+        return Mode(side, s, armed), float(side), v if s * v > 0.0 else 0.0, CONTACT_START, side
     if guard == LEAVE:
-        return Mode(0, s, armed), float(r), v, CONTACT_END, r
+        return Mode(0, s, armed), float(r), v if s * v > 0.0 else 0.0, CONTACT_END, r
     if guard == ACCEL_ZERO:
         if s * v <= 0.0:
             # The guard fires a rounding-level offset late (see guard_offsets): if the
@@ -260,18 +261,26 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     raise ValueError(f"guard must be one of 0..{N_GUARDS}, got {guard!r}")
 
 
-def _impact(osc: Oscillator, side: int, v: float):
+def _impact(osc: Oscillator, t: float, side: int, v: float):
     """Newton's impact law ``V -> -e V`` on the rigid flange ``side`` (Shaw & Holmes; Brach).
 
-    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``, or
-    a touch with ``V = 0``) is left at the wall in the free region with motion 0, where
-    :func:`pending_guard` applies the wall's rest test (:data:`AT_WALL`) at once.
+    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``) is
+    left at the wall in the free region with motion 0, where :func:`pending_guard` applies
+    the wall's rest test (:data:`AT_WALL`) at once. A *touch* (the wall reached at a turning
+    point: ``V = 0``, or ``V`` pointing away by rounding) is no impact: it is the turning
+    point, decided by the stick test at the wall like any other (a reversal away from the
+    wall, or a rest on it), so that a backend that puts the apex a rounding error short of
+    the wall records the same reversal.
     """
+    if side * v <= 0.0:
+        s_new, armed = motion_at_rest(osc, t, float(side))
+        if s_new == -side:
+            return Mode(0, s_new, armed), float(side), 0.0, REVERSAL, 0
+        return Mode(side, 0, True), float(side), 0.0, CONTACT_START, side
     v_out = -osc.restitution * v
-    kind = IMPACT if v != 0.0 else None
     if side * v_out < -KINEMATIC_GUARD_OFFSET:
-        return Mode(0, -side, True), float(side), v_out, kind, side
-    return Mode(0, 0, True), float(side), 0.0, kind, side
+        return Mode(0, -side, True), float(side), v_out, IMPACT, side
+    return Mode(0, 0, True), float(side), 0.0, IMPACT, side
 
 
 def _rest_at_wall(osc: Oscillator, t: float, x: float):
@@ -571,8 +580,29 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
                 elif kind != REVERSAL:
                     chatter.interrupt()
                     jump = None
+        if _crossed_at_turning_point(mode, guard, kind, v_before):
+            # A spring flange crossed at a turning point (V = 0, or past it by rounding): the
+            # piece ended on two guards at once. Both the slip-end and the flange guard of the
+            # next piece would start at zero and never cross (the mass once spent 4.4 time
+            # units inside a flange with the spring in tension), so the turning point is
+            # applied now.
+            guard = SLIP_END
+            continue
         guard = pending_guard(mode, x, osc.rigid)
     return mode, x, v, recorded, jump
+
+
+def _crossed_at_turning_point(mode: Mode, guard: int, kind, v: float) -> bool:
+    """Whether a spring flange guard fired where the velocity ``v`` had already stopped.
+
+    ``s v < 0`` is a turning point passed by rounding; ``v == 0`` at a contact start is one
+    reached exactly (after a reversal on the boundary, :func:`pending_guard` enters with
+    ``v = 0`` as well, and the stick test then lets the mass go on into the flange).
+    """
+    s = mode.motion
+    if s == 0 or guard not in (ENTER_UPPER, ENTER_LOWER, LEAVE) or kind not in (CONTACT_START, CONTACT_END):
+        return False
+    return s * v < 0.0 or (s * v == 0.0 and kind == CONTACT_START)
 
 
 def check_sample_times(sample_at, t_end: float):

@@ -140,3 +140,35 @@ def test_a_narrow_release_window_under_a_harmonic_sum_is_found(delta, samples):
     sol = simulate(osc, 60.0, 0.0, 0.0, backend="scipy", sample_at=grid)
     assert sol.events.kind[0] == "release"
     assert abs(sol.events.t[0] - t_rel) <= 1e-12 * t_rel
+
+
+@pytest.mark.parametrize("backend", RIGID)
+def test_a_spring_flange_grazed_at_a_turning_point_is_left_at_once(backend):
+    # No friction, constant force c = 0.856 < 1, start at rest on the flange: X = c + (1 - c) cos t
+    # grazes X = 1 at every 2 pi with V = 0. exact located the contact at the turning point
+    # with V = -4.6e-17; the slip-end and leave guards of the next piece both started at zero
+    # and never crossed, and the mass spent 4.4 time units in the flange with the spring in
+    # tension (a reversal at t = 10.73 instead of 9.42).
+    osc = Oscillator(0.9999995626483104, 0.0, 0.0, 1.0, phase=5.7422878452837525)
+    c = osc.forcing(0.0)
+    sol = simulate(osc, 24.254342954621205, 1.0, 1.9404351474762093e-15, backend=backend)
+    assert sol.status == 0
+    assert sol.contact_time() <= 1e-6  # a graze, not a contact
+    rev = sol.events[sol.events.kind == "reversal"]
+    np.testing.assert_allclose(rev.t, math.pi * np.round(rev.t / math.pi), rtol=0, atol=1e-8)
+    assert len(rev) == 1 + int(sol.t_final // math.pi)
+    assert sol.x_final == pytest.approx(c + (1.0 - c) * math.cos(sol.t_final), abs=1e-9)
+
+
+def test_a_rigid_wall_touched_at_a_turning_point_is_a_reversal():
+    # A touch (V = 0, or V pointing away by rounding) is the turning point, not an impact:
+    # pulled away, the mass reverses there (the event another backend records when its
+    # apex lies a rounding error short of the wall); pushed in, it rests on the wall.
+    from impactosc.engine import ENTER_UPPER, Mode, transition
+
+    away = Oscillator(0.5, 0.0, 0.1, 1.0, flange="rigid", restitution=0.5)
+    for v in (0.0, -1e-17):
+        assert transition(away, Mode(0, 1), ENTER_UPPER, 2.0, 1.0, v) == (Mode(0, -1), 1.0, 0.0, "reversal", 0)
+    pushed = Oscillator(2.0, 0.0, 0.1, 1.0, flange="rigid", restitution=0.5)
+    assert transition(pushed, Mode(0, 1), ENTER_UPPER, 2.0, 1.0, -1e-17) == (Mode(1, 0), 1.0, 0.0,
+                                                                              "contact_start", 1)
