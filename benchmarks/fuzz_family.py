@@ -66,6 +66,9 @@ class Case:
     v0: float
     tags: list = field(default_factory=list)
 
+    def __post_init__(self):
+        self.kw = {k: float(v) if isinstance(v, np.floating) else v for k, v in self.kw.items()}
+
     def oscillator(self) -> Oscillator:
         return Oscillator(**self.kw)
 
@@ -244,7 +247,7 @@ def _compare_events(a, b):
     return first, float(dt.max())
 
 
-#: An impact slower than this is near-grazing: its time and speed are ill-conditioned (an
+#: An impact (or a spring contact) slower than this is near-grazing: its time and speed are ill-conditioned (an
 #: error dX in the position moves it by dX / V and its speed by dX / V), so the backends may
 #: part there without either being wrong.
 GRAZING_SPEED = 1e-5
@@ -253,7 +256,7 @@ GRAZING_SPEED = 1e-5
 def _grazing(*sols) -> bool:
     for sol in sols:
         ev = sol.events
-        if np.any((ev.kind == "impact") & (np.abs(ev.v) < GRAZING_SPEED)):
+        if np.any(((ev.kind == "impact") | (ev.kind == "contact_start")) & (np.abs(ev.v) < GRAZING_SPEED)):
             return True
     return False
 
