@@ -256,7 +256,8 @@ GRAZING_SPEED = 1e-5
 def _grazing(*sols) -> bool:
     for sol in sols:
         ev = sol.events
-        if np.any(((ev.kind == "impact") | (ev.kind == "contact_start")) & (np.abs(ev.v) < GRAZING_SPEED)):
+        entry = "impact" if sol.oscillator.rigid else "contact_start"  # a rigid rest starts at V = 0
+        if np.any((ev.kind == entry) & (np.abs(ev.v) < GRAZING_SPEED)):
             return True
     return False
 
