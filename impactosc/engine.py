@@ -470,7 +470,11 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     ``sample_at`` (sorted times in ``[0, t_end]``, see :func:`check_sample_times`) are time
     events: a piece ends exactly there, the state goes to ``recorder.sample`` and the
     motion goes on in the same mode. A recorder with an ``on_transition`` method is told
-    of every transition (for saltation matrices, :mod:`impactosc.dynamics`).
+    of every transition (for saltation matrices, :mod:`impactosc.dynamics`); a chatter jump
+    comes with guard ``None`` and kind ``"chatter"`` (the mode goes from the last flight to
+    ``Mode(0, 0)`` at the wall, where the rest test follows as an ``AT_WALL`` transition).
+    A run that ends inside the tail of a chatter ends with the local model's state there
+    (:meth:`impactosc._chatter.ChatterJump.state_at`), and so do sample times in the tail.
     """
     # A velocity below the kinematic guard offset is rest: its turning point would lie
     # within ~1e-300 of the start, closer than any guard can resolve (v0 = -5e-324 inside a
@@ -537,6 +541,9 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
                 return
             t1, x1, v1 = jump.t_inf, float(jump.side), 0.0
             recorder.chatter(jump, t1)
+            hook = getattr(recorder, "on_transition", None)
+            if hook is not None:  # the jump itself: no guard, from the last flight to rest at the wall
+                hook(t1, mode, None, Mode(0, 0, True), x1, 0.0, x1, 0.0, CHATTER)
             mode, x1, v1, _, _ = _settle(osc, recorder, chatter, Mode(0, 0, True), AT_WALL, t1, x1, v1)
             recorded = True
         same_instant = same_instant + 1 if t1 == t else 0

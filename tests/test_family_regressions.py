@@ -172,3 +172,24 @@ def test_a_rigid_wall_touched_at_a_turning_point_is_a_reversal():
     pushed = Oscillator(2.0, 0.0, 0.1, 1.0, flange="rigid", restitution=0.5)
     assert transition(pushed, Mode(0, 1), ENTER_UPPER, 2.0, 1.0, -1e-17) == (Mode(1, 0), 1.0, 0.0,
                                                                               "contact_start", 1)
+
+
+def test_the_transition_hook_sees_the_chatter_jump():
+    # The hook used to see only a transition out of a Mode(0, 0) that never existed.
+    from impactosc.backends.exact import _Stepper
+    from impactosc.engine import AT_WALL, Mode, drive
+    from impactosc.solution import _Recorder
+
+    class Hooked(_Recorder):
+        def on_transition(self, t, before, guard, after, x0, v0, x1, v1, kind):
+            self.seen.append((t, before, guard, after, kind))
+
+    osc = Oscillator(2.0, 0.0, 0.1, 1.0, flange="rigid", restitution=0.8)
+    rec = Hooked("events", "exact", None)
+    rec.seen = []
+    drive(_Stepper(osc), osc, 30.0, 0.0, 0.0, rec, 10_000)
+    k = next(i for i, s in enumerate(rec.seen) if s[4] == "chatter")
+    t, before, guard, after, _ = rec.seen[k]
+    assert guard is None and before == Mode(0, -1) and after == Mode(0, 0)
+    assert rec.seen[k + 1][:4] == (t, Mode(0, 0), AT_WALL, Mode(1, 0))
+    assert rec.seen[k - 1][4] == "impact"
