@@ -339,7 +339,8 @@ def judge_scipy(case: Case, max_events: int, timeout: float):
         return "sample_at changes the run", f"status {sol.status} -> {sampled.status}", "scipy"
     first, dt = _compare_events(sol, sampled)
     if first is not None or dt > 1e3 * TIME_TOL:
-        return "sample_at changes the run", f"first differing event {first}, max dt {dt:.1e}", "scipy"
+        cls = "sample_at changes the run" + (" after a near-grazing impact" if _grazing(sol, sampled) else "")
+        return cls, f"first differing event {first}, max dt {dt:.1e}", "scipy"
     if sol.status == 0 and len(sampled.samples) != len(grid):
         return "sample_at lost samples", f"{len(sampled.samples)} of {len(grid)}", "scipy"
     if sol.status == 1:
