@@ -267,7 +267,7 @@ def judge_diff(case: Case, max_events: int, timeout: float):
     impact gets its own class)."""
     cls, detail, be, sols = _judge_diff(case, max_events, timeout)
     if sols is not None and not cls.startswith(("agree", "energy", "status -1", "exception", "timeout")) \
-            and _grazing(*sols):
+            and "near-grazing" not in cls and _grazing(*sols):
         cls = f"{cls} after a near-grazing impact"
     return cls, detail, be
 
@@ -309,10 +309,51 @@ def _judge_diff(case: Case, max_events: int, timeout: float):
             fa, fb = ex.mean_flange_force(side), sc.mean_flange_force(side)
             if abs(fa - fb) > FORCE_RTOL * abs(fa) + FORCE_ATOL:
                 return "mean flange force differs", f"side {side}: {fa!r} / {fb!r}", "scipy", (ex, sc)
+    extra = _tail_and_samples(case, ex, sc, max_events, timeout)
+    if extra is not None:
+        return (*extra, (ex, sc))
     if ex.status == 1:
         return ("agree (both at the event limit)", f"{len(ex.events)} events to t={ex.t_final:.4g}", "exact",
                 (ex, sc))
     return "agree", f"{len(ex.events)} events, max dt {dt:.1e}", "exact", (ex, sc)
+
+
+def _tail_and_samples(case: Case, ex, sc, max_events: int, timeout: float):
+    """Two more checks of a ``diff`` case: a run ending inside a chatter tail, and exact time events.
+
+    * If the run has a chatter, both backends rerun to the middle of its tail (between the
+      last impact followed and the accumulation time) must end in the same state, with the
+      energy identity holding.
+    * exact with 50 sample times must give the same events as exact without them.
+    """
+    ev = ex.events
+    chatter = np.flatnonzero(ev.kind == "chatter")
+    if len(chatter):
+        k = int(chatter[0])
+        last = ev.t[:k][ev.kind[:k] == "impact"][-1]
+        mid = Case(case.group, case.kw, float(0.5 * (last + ev.t[k])), case.x0, case.v0)
+        if mid.t_end > 0.0:
+            try:
+                a, _ = _run(mid, "exact", max_events, timeout)
+                b, _ = _run(mid, "scipy", max_events, timeout)
+            except Timeout:
+                return "timeout (chatter tail)", f"> {timeout} s", "scipy"
+            d = max(abs(a.x_final - b.x_final), abs(a.v_final - b.v_final))
+            r = max(_residual(a), _residual(b))
+            if a.status != 0 or b.status != 0 or d > STATE_TOL or r > ENERGY_TOL:
+                return ("run ending inside a chatter tail",
+                        f"t_end={mid.t_end!r}: status {a.status}/{b.status}, |state diff| {d:.1e}, "
+                        f"residual {r:.1e}", "scipy")
+    if ex.status == 0:
+        try:
+            sampled, _ = _run(case, "exact", max_events, timeout, sample_at=np.linspace(0.0, case.t_end, 50))
+        except Timeout:
+            return "timeout (exact with sample_at)", f"> {timeout} s", "exact"
+        first, dt = _compare_events(ex, sampled)
+        if sampled.status != 0 or first is not None or dt > 1e-10:
+            cls = "sample_at changes the exact run" + (" after a near-grazing impact" if _grazing(ex, sampled) else "")
+            return cls, f"status {sampled.status}, first differing event {first}, max dt {dt:.1e}", "exact"
+    return None
 
 
 def judge_scipy(case: Case, max_events: int, timeout: float):
