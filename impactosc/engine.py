@@ -526,6 +526,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             return
         mode, x1, v1, recorded, jump = _settle(osc, recorder, chatter, mode, guard, t1, x1, v1)
         if jump is not None:
+            recorder.segment(t1, x1, v1, mode)  # the last flight followed, where the tail starts
             # Sample times inside the tail of the chatter get the local model's state.
             while next_stop < jump.t_inf and next_stop <= t_end:
                 xs, vs, motion, *_ = jump.state_at(next_stop)

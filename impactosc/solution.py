@@ -91,6 +91,7 @@ class _Recorder:
         self.pieces = 0
         self._open: list | None = None  # [start, side, entry_v, peak_pen, impulse, complete]
         self.samples: list[tuple] = []  # exact states at the requested sample times
+        self.tails: list = []  # chatter jumps, for dense output inside their tails
 
     def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
         self.osc = osc
@@ -163,6 +164,8 @@ class _Recorder:
         time). Returns the local model's ``(x, v, motion)`` at ``t``.
         """
         side = jump.side
+        if self.keep_segments:
+            self.tails.append(jump)
         x, v, motion, impulse, path, loss = jump.state_at(t)
         self.impulse[side] += impulse
         self.slip_path += path
@@ -251,6 +254,7 @@ class Solution(SolutionFramesMixin):
         self._impacts = (np.rec.array(rec.impacts, dtype=IMPACT_DTYPE) if rec.impacts
                          else np.recarray((0,), dtype=IMPACT_DTYPE)) if rec.keep_events else None
         self._segments = np.array(rec.segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
+        self._tails = tuple(rec.tails)
         self.samples = (np.rec.array(rec.samples, dtype=SAMPLE_DTYPE) if rec.samples
                         else np.recarray((0,), dtype=SAMPLE_DTYPE))
 
@@ -374,6 +378,11 @@ class Solution(SolutionFramesMixin):
             mode = Mode(int(s["region"]), int(s["motion"]), bool(s["armed"]))
             xs, vs, qs = self._evaluator(mode, float(s["t"]), float(s["x"]), float(s["v"]), t[sel])
             x[sel], v[sel], q[sel] = xs, vs, qs
+        for jump in self._tails:
+            # Inside the tail of a chatter the last flight's piece would run through the wall:
+            # the jump's local model holds the motion there.
+            for i in np.flatnonzero((t > jump.t0) & (t < jump.t_inf)):
+                x[i], v[i] = jump.state_at(float(t[i]))[:2]
         at_end = t == self.t_final
         x[at_end], v[at_end] = self.x_final, self.v_final
         return x, v, q, k
@@ -407,7 +416,11 @@ class Solution(SolutionFramesMixin):
         _, _, q, k = self._evaluate(t_arr)
         seg = self._segments[k[0]]
         cum = float(seg["impulse_upper" if side == 1 else "impulse_lower"])
-        return cum + (float(q[0]) if int(seg["region"]) == side else 0.0)
+        cum += float(q[0]) if int(seg["region"]) == side else 0.0
+        for jump in self._tails:  # the impacts of a chatter tail before t
+            if jump.side == side and jump.t0 < t < jump.t_inf:
+                cum += jump.state_at(t)[3]
+        return cum
 
     # -- energy ------------------------------------------------------------------------
     def energy_balance(self) -> dict[str, float]:
