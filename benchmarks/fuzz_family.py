@@ -391,7 +391,10 @@ def judge_scipy(case: Case, max_events: int, timeout: float):
         return "sample_at changes the run", f"status {sol.status} -> {sampled.status}", "scipy"
     first, dt = _compare_events(sol, sampled)
     if first is not None or dt > 1e3 * TIME_TOL:
-        cls = "sample_at changes the run" + (" after a near-grazing impact" if _grazing(sol, sampled) else "")
+        cls = "sample_at changes the run"
+        if _grazing(sol, sampled):
+            d = max(abs(sol.x_final - sampled.x_final), abs(sol.v_final - sampled.v_final))
+            cls += " after a near-grazing impact" + (", diverged" if d > DIVERGED else "")
         return cls, f"first differing event {first}, max dt {dt:.1e}", "scipy"
     if sol.status == 0 and len(sampled.samples) != len(grid):
         return "sample_at lost samples", f"{len(sampled.samples)} of {len(grid)}", "scipy"
