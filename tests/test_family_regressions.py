@@ -214,3 +214,23 @@ def test_dense_output_inside_a_chatter_tail_stays_behind_the_wall(backend):
     # The impulse of the tail's impacts accrues inside it and is continuous at t_inf.
     imp = [sol.flange_impulse(1, 0.0, t) for t in (t_last, 0.5 * (t_last + t_inf), t_inf - 1e-12, t_inf)]
     assert imp[0] < imp[1] < imp[2] <= imp[3] and imp[3] - imp[2] < 1e-9
+
+
+def test_the_fuzz_script_runs(capsys):
+    # benchmarks/fuzz_family.py found the regressions above; keep it runnable (tiny n, no timing).
+    import importlib.util
+    import re
+    import sys
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "fuzz_family.py"
+    spec = importlib.util.spec_from_file_location("_fuzz_family", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up there
+    spec.loader.exec_module(mod)
+    assert mod.main(["--n", "3", "--seed", "0", "--max-events", "300"]) == 0
+    out = capsys.readouterr().out
+    for group in ("diff", "scipy"):
+        table = out.split(f"## group {group}")[1].split("##")[0]
+        counts = [int(c) for c in re.findall(r"\|\s+(\d+) \|", table)]
+        assert sum(counts) == 3, table
