@@ -254,10 +254,11 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     if guard in (ENTER_UPPER, ENTER_LOWER):
         side = 1 if guard == ENTER_UPPER else -1
         if osc.rigid:
-            return _impact(osc, side, v)
-        return Mode(side, s, armed), float(side), v, CONTACT_START, side
+            return _impact(osc, t, side, v)
+        # A velocity against the motion is a turning point passed by rounding (see _settle).
+        return Mode(side, s, armed), float(side), v if s * v > 0.0 else 0.0, CONTACT_START, side
     if guard == LEAVE:
-        return Mode(0, s, armed), float(r), v, CONTACT_END, r
+        return Mode(0, s, armed), float(r), v if s * v > 0.0 else 0.0, CONTACT_END, r
     if guard == ACCEL_ZERO:
         if s * v <= 0.0:
             # The guard fires a rounding-level offset late (see guard_offsets): if the
@@ -275,18 +276,26 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     raise ValueError(f"guard must be one of 0..{N_GUARDS}, got {guard!r}")
 
 
-def _impact(osc: Oscillator, side: int, v: float):
+def _impact(osc: Oscillator, t: float, side: int, v: float):
     """Newton's impact law ``V -> -e V`` on the rigid flange ``side`` (Shaw & Holmes; Brach).
 
-    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``, or
-    a touch with ``V = 0``) is left at the wall in the free region with motion 0, where
-    :func:`pending_guard` applies the wall's rest test (:data:`AT_WALL`) at once.
+    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``) is
+    left at the wall in the free region with motion 0, where :func:`pending_guard` applies
+    the wall's rest test (:data:`AT_WALL`) at once. A *touch* (the wall reached at a turning
+    point: ``V = 0``, or ``V`` pointing away by rounding) is no impact: it is the turning
+    point, decided by the stick test at the wall like any other (a reversal away from the
+    wall, or a rest on it), so that a backend that puts the apex a rounding error short of
+    the wall records the same reversal.
     """
+    if side * v <= 0.0:
+        s_new, armed = motion_at_rest(osc, t, float(side))
+        if s_new == -side:
+            return Mode(0, s_new, armed), float(side), 0.0, REVERSAL, 0
+        return Mode(side, 0, True), float(side), 0.0, CONTACT_START, side
     v_out = -osc.restitution * v
-    kind = IMPACT if v != 0.0 else None
     if side * v_out < -KINEMATIC_GUARD_OFFSET:
-        return Mode(0, -side, True), float(side), v_out, kind, side
-    return Mode(0, 0, True), float(side), 0.0, kind, side
+        return Mode(0, -side, True), float(side), v_out, IMPACT, side
+    return Mode(0, 0, True), float(side), 0.0, IMPACT, side
 
 
 def _rest_at_wall(osc: Oscillator, t: float, x: float):
@@ -515,7 +524,11 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     ``sample_at`` (sorted times in ``[0, t_end]``, see :func:`check_sample_times`) are time
     events: a piece ends exactly there, the state goes to ``recorder.sample`` and the
     motion goes on in the same mode. A recorder with an ``on_transition`` method is told
-    of every transition (for saltation matrices, :mod:`impactosc.dynamics`).
+    of every transition (for saltation matrices, :mod:`impactosc.dynamics`); a chatter jump
+    comes with guard ``None`` and kind ``"chatter"`` (the mode goes from the last flight to
+    ``Mode(0, 0)`` at the wall, where the rest test follows as an ``AT_WALL`` transition).
+    A run that ends inside the tail of a chatter ends with the local model's state there
+    (:meth:`impactosc._chatter.ChatterJump.state_at`), and so do sample times in the tail.
     """
     # A velocity below the kinematic guard offset is rest: its turning point would lie
     # within ~1e-300 of the start, closer than any guard can resolve (v0 = -5e-324 inside a
@@ -572,14 +585,25 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             return
         mode, x1, v1, recorded, jump = _settle(osc, recorder, chatter, mode, guard, t1, x1, v1)
         if jump is not None:
-            if jump.t_inf >= t_end:
-                recorder.chatter(jump, None)
-                recorder.finish(t_end, float(jump.side), 0.0, Mode(jump.side, 0, True), 0,
+            recorder.segment(t1, x1, v1, mode)  # the last flight followed, where the tail starts
+            # Sample times inside the tail of the chatter get the local model's state.
+            while next_stop < jump.t_inf and next_stop <= t_end:
+                xs, vs, motion, *_ = jump.state_at(next_stop)
+                recorder.sample(next_stop, xs, vs, Mode(0, motion, True))
+                next_stop = next(stops, math.inf)
+            if jump.t_inf > t_end:
+                # The run ends inside the tail: its state and totals up to t_end, not the rest
+                # at t_inf (the rebound speed there can be 1e-4, far above any tolerance).
+                x1, v1, motion = recorder.chatter(jump, t_end)
+                recorder.finish(t_end, x1, v1, Mode(0, motion, True), 0,
                                 f"The end time was reached inside a chatter on the {_SIDE[jump.side]} flange "
                                 f"(its impacts accumulate at t={jump.t_inf!r}, after the end).")
                 return
             t1, x1, v1 = jump.t_inf, float(jump.side), 0.0
             recorder.chatter(jump, t1)
+            hook = getattr(recorder, "on_transition", None)
+            if hook is not None:  # the jump itself: no guard, from the last flight to rest at the wall
+                hook(t1, mode, None, Mode(0, 0, True), x1, 0.0, x1, 0.0, CHATTER)
             mode, x1, v1, _, _ = _settle(osc, recorder, chatter, Mode(0, 0, True), AT_WALL, t1, x1, v1)
             recorded = True
         same_instant = same_instant + 1 if t1 == t else 0

@@ -83,6 +83,9 @@ class TangentRecorder(_Recorder):
             self.jacobian = matmul(transition_matrix(self.osc, mode, t0, x0, v0, t1), self.jacobian)
 
     def on_transition(self, t, mode_before, guard, mode_after, x_before, v_before, x_after, v_after, kind):
+        if guard is None:  # a chatter jump: :meth:`chatter` zeroes the Jacobian
+            self._state = (t, x_after, v_after)
+            return
         sal = saltation_matrix(self.osc, t, mode_before, guard, mode_after, x_before, v_before,
                                x_after, v_after, kind)
         if self.keep_saltations:
@@ -94,15 +97,16 @@ class TangentRecorder(_Recorder):
         self.jacobian = matmul(sal.matrix, self.jacobian)
         self._state = (t, x_after, v_after)
 
-    def chatter(self, jump, t) -> None:
+    def chatter(self, jump, t):
         # Infinitely many impacts end at rest on the wall at a time set by the impacts, after
         # which the release from the wall depends on the forcing alone: the map is locally
         # constant, its Jacobian zero.
-        super().chatter(jump, t)
+        state = super().chatter(jump, t)
         self.jacobian = _ZERO
         self.collapsed = True
         if self.keep_saltations:
             self.saltations.append(Saltation(jump.t_inf, CHATTER, CHATTER, _ZERO, 0.0, False))
+        return state
 
     def sample(self, t: float, x: float, v: float, mode: Mode) -> None:
         super().sample(t, x, v, mode)
