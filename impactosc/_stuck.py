@@ -110,7 +110,8 @@ def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, g
             hmin = 4.0 * _EPS * (abs(t0) + b)
             bracket, (hb, db) = _first_rising(fun, a, ha, da, b, m2, m3, hmin)
             if bracket is not None:
-                t1 = t0 + _refine(fun, *bracket, t0)
+                lo, hi, hlo, hhi = bracket
+                t1 = t0 + _refine(fun, lo, hi, hlo, hhi, t0)
                 if t1 < best_t:
                     best_t, best_guard = t1, guard
                 break

@@ -563,7 +563,8 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
         recorder.piece(mode, t, x, t1, x1, q, q2, w, vv, steps)
         if getattr(stepper, "stopped", False):
             # The backend stopped early on a limit the user set (e.g. a wall-time limit).
-            recorder.finish(t1, x1, v1, mode, 1, stepper.stop_message)
+            message = getattr(stepper, "stop_message", "A limit set by the caller was reached.")
+            recorder.finish(t1, x1, v1, mode, 1, message)
             return
         missed = missed_guard(osc, mode, guard, t, x, v, t1, x1, v1)
         if missed:

@@ -32,7 +32,9 @@ the mass rests against that flange (``X = region``, ``V = 0``), which is only po
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass
+from typing import cast
 
 import numpy as np
 
@@ -128,7 +130,7 @@ class Oscillator:
     flange: str = "spring"
     exponent: float = 1.0
     restitution: float = 1.0
-    harmonics: tuple = ()
+    harmonics: Sequence[Sequence[float]] = ()
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -180,7 +182,8 @@ class Oscillator:
     @property
     def terms(self) -> tuple[tuple[float, float, float], ...]:
         """Every harmonic of the forcing as ``(F_i, Omega_i, phase_i)``, the fundamental first."""
-        return ((self.F, self.Omega, self.phase), *self.harmonics)
+        # __post_init__ stored ``harmonics`` as a tuple of float triples.
+        return ((self.F, self.Omega, self.phase), *cast(tuple, self.harmonics))
 
     @property
     def beta_s(self) -> float:

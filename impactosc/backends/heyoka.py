@@ -353,9 +353,10 @@ class _Stepper:
         self.chunk = [_CHUNK_STEPS * 0.5 / max(fastest, w) for w in (1.0, osc.contact_frequency)]
         self.deadline = deadline  # time.monotonic() after which the run stops (max_wall_time)
         self.stopped = False
+        self.stop_message = "The wall-time limit max_wall_time was reached; results up to t_final are kept."
 
     def _out_of_time(self) -> bool:
-        if time.monotonic() > self.deadline:
+        if self.deadline is not None and time.monotonic() > self.deadline:
             self.stopped = True
         return self.stopped
 

@@ -954,8 +954,8 @@ def rk4_batch(F, Omega, beta, K, phase=0.0, t_end=400.0, x0=0.95, v0=0.0, dt=Non
         Flange force law (see :func:`run`; ``"paper"`` needs ``exponent == 1`` in every set).
     zeta, exponent : float or array_like, keyword-only
         Viscous damping ratio (>= 0) and flange exponent ``p >= 1`` (see :class:`impactosc.Oscillator`).
-    harmonics : sequence of (F_i, Omega_i, phase_i), keyword-only
-        Further forcing harmonics, the same number in every set; each entry of a triple
+    harmonics : sequence of tuple, keyword-only
+        Further forcing harmonics ``(F_i, Omega_i, phase_i)``, the same number in every set; each entry of a triple
         may be an array broadcast with the other arguments.
 
     Returns

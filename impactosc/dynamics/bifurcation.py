@@ -30,6 +30,7 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -65,7 +66,7 @@ CHUNKS_PER_WORKER = 4
 def _run_value(base, parameter: str, value: float, x0: float, v0: float, settings: dict) -> dict:
     """One value: transient, then the recorded section points. Never raises."""
     n_rec = settings["record_periods"]
-    out = {"x": np.full(n_rec, math.nan), "v": np.full(n_rec, math.nan), "t": np.full(n_rec, math.nan),
+    out: dict[str, Any] = {"x": np.full(n_rec, math.nan), "v": np.full(n_rec, math.nan), "t": np.full(n_rec, math.nan),
            "x_final": math.nan, "v_final": math.nan}
     try:
         osc = oscillator_of(with_parameter(base, parameter, value))

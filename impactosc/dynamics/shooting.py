@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -125,8 +126,8 @@ class PeriodicOrbit:
     iterations: int
     residual: float
     history: list = field(default_factory=list)
-    events: np.recarray | None = None
-    solution: object = None
+    events: Any = None
+    solution: Any = None
 
     @property
     def converged(self) -> bool:
@@ -146,7 +147,7 @@ class PeriodicOrbit:
     def summary(self) -> str:
         """A few lines: the point, the multipliers, the verdict and the events of a period."""
         mus = ", ".join(f"{m.real:.6g}" if m.imag == 0 else f"{m.real:.6g}{m.imag:+.6g}j" for m in self.multipliers)
-        counts = {}
+        counts: dict[str, int] = {}
         if self.events is not None:
             for k in self.events.kind:
                 counts[str(k)] = counts.get(str(k), 0) + 1

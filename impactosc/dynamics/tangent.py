@@ -59,7 +59,7 @@ class TangentRecorder(_Recorder):
         self.saltations: list[Saltation] = []
         self.slip_time = 0.0
         self.on_sample = on_sample
-        self._state = None  # (t, x, v) at the start of the next piece
+        self._state: tuple[float, float, float] | None = None  # (t, x, v) at the start of the next piece
 
     def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
         super().begin(osc, t, x, v, mode)
