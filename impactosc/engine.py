@@ -528,7 +528,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     comes with guard ``None`` and kind ``"chatter"`` (the mode goes from the last flight to
     ``Mode(0, 0)`` at the wall, where the rest test follows as an ``AT_WALL`` transition).
     A run that ends inside the tail of a chatter ends with the local model's state there
-    (:meth:`impactosc._chatter.ChatterJump.state_at`), and so do sample times in the tail.
+    (``impactosc._chatter.ChatterJump.state_at``), and so do sample times in the tail.
     """
     # A velocity below the kinematic guard offset is rest: its turning point would lie
     # within ~1e-300 of the start, closer than any guard can resolve (v0 = -5e-324 inside a

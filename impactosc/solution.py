@@ -157,7 +157,7 @@ class _Recorder:
                 self.impacts.append((t, t, side, v, -e * v, 0.0, math.inf, impulse, True))
 
     def chatter(self, jump, t: float) -> tuple[float, float, int]:
-        """Add the resolved tail of a chatter (:class:`impactosc._chatter.ChatterJump`) up to ``t``.
+        """Add the resolved tail of a chatter (``impactosc._chatter.ChatterJump``) up to ``t``.
 
         ``t`` is the accumulation time, where the ``chatter`` event is recorded (its
         ``count`` is the number of impacts followed one by one), or the end of the run when
