@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import _validation as _v
 from ..model import Oscillator
-from ..tape import TapeDrive
+from ..tape import FIELD_UNITS, TapeDrive
 
 #: Fields of an Oscillator that a study may vary (``flange`` and ``harmonics`` are structure).
 OSCILLATOR_PARAMETERS = ("F", "Omega", "beta", "K", "phase", "zeta", "beta_static", "exponent", "restitution")
@@ -24,25 +24,7 @@ OSCILLATOR_PARAMETERS = ("F", "Omega", "beta", "K", "phase", "zeta", "beta_stati
 TAPE_PARAMETERS = tuple(f.name for f in dataclasses.fields(TapeDrive) if f.name != "bending") + ("t_sin_half_theta",)
 
 #: (units, long name) of the TapeDrive parameters, for xarray attributes and plot labels.
-TAPE_UNITS = {
-    "speed": ("m/s", "tape speed V"),
-    "tension": ("N", "tape tension T"),
-    "pack_diameter": ("m", "supply pack diameter D"),
-    "wrap_angle": ("deg", "wrap angle theta"),
-    "width": ("m", "tape width w"),
-    "thickness": ("m", "tape thickness h"),
-    "free_length": ("m", "free span length l"),
-    "youngs_modulus": ("Pa", "Young's modulus E"),
-    "density": ("kg/m^3", "tape density rho"),
-    "clearance": ("m", "tape edge to flange clearance L"),
-    "stiffness_ratio": ("1", "flange to tape stiffness ratio k0/k"),
-    "friction": ("1", "friction coefficient mu"),
-    "hub_diameter": ("m", "hub diameter"),
-    "full_pack_diameter": ("m", "full pack diameter"),
-    "runout_hub": ("m", "reel run-out at the hub"),
-    "runout_full": ("m", "reel run-out at full pack"),
-    "t_sin_half_theta": ("N", "T sin(theta/2)"),
-}
+TAPE_UNITS = FIELD_UNITS
 _OSC_NAMES = {"F": "forcing amplitude F", "Omega": "forcing frequency Omega", "beta": "friction level beta",
               "K": "flange stiffness ratio K", "phase": "forcing phase", "zeta": "damping ratio zeta",
               "beta_static": "static friction level", "exponent": "flange law exponent p",
