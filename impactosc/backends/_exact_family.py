@@ -177,29 +177,44 @@ class FamilyPiece:
     ``yv``, ``_yvp``, ``int_y``, ``int_squares``, ``bounds`` and ``y0``.
     """
 
-    __slots__ = ("mc", "t0", "x0", "v0", "y0", "A", "B", "q", "_ab", "_dab")
+    __slots__ = ("mc", "t0", "x0", "v0", "y0", "A", "B", "q", "qk", "_ab", "_dab", "_at0")
 
     def __init__(self, mc: FamilyConstants, t0: float, x0: float, v0: float):
         self.mc = mc
         self.t0, self.x0, self.v0 = t0, x0, v0
         self.y0 = x0 - mc.ref
-        # Q_i as (Re, Im, Omega_i): the steady response of each harmonic at the piece start.
-        q = []
+        # Q_i as (Re, Im, Omega_i): the steady response of each harmonic at the piece start,
+        # and qk[k] the same for Y^(k): Q_i (i Omega_i)^k, k = 1..3.
+        q, qk = [], ([], [], [])
         sum_re = sum_v = scale = 0.0
-        for _, Om, ph, gain in mc.terms:
-            Q = gain * complex(math.cos(Om * t0 + ph), math.sin(Om * t0 + ph))
+        force = d_force = 0.0
+        for F, Om, ph, gain in mc.terms:
+            th = Om * t0 + ph  # the phase as the engine evaluates the forcing
+            c, s = math.cos(th), math.sin(th)
+            Q = gain * complex(c, s)
             q.append((Q.real, Q.imag, Om))
+            for k in range(3):
+                Qk = Q * (1j * Om) ** (k + 1)
+                qk[k].append((Qk.real, Qk.imag, Om))
             sum_re += Q.real
             sum_v -= Om * Q.imag  # Re(i Omega Q)
             scale += abs(Q) * (1.0 + Om)
+            force += F * c
+            d_force -= F * Om * s
         self.q = tuple(q)
+        self.qk = (None, *(tuple(x) for x in qk))
         self.A = self.y0 - mc.Yc - sum_re
         self.B = v0 - sum_v
+        # Y^(k)(0) from the equation of motion: the anchors of the derivatives about the
+        # start, so that V(0) is v0 exactly (a tiny v0 next to a large steady velocity
+        # would otherwise be lost, and its sign with it).
+        z, w2 = mc.zeta, mc.w2
+        a0 = mc.cY + force - 2.0 * z * v0 - w2 * self.y0
+        self._at0 = (self.y0, v0, a0, d_force - 2.0 * z * a0 - w2 * v0)
         # (A_k, B_k) for k = 0..5 and bounds of their rounding (abs recursion of the input errors).
         dA = 8.0 * _EPS * (abs(self.y0) + abs(mc.Yc) + scale)
         dB = 8.0 * _EPS * (abs(v0) + scale)
         ab, dab = [(self.A, self.B)], [(dA, dB)]
-        w2, z = mc.w2, mc.zeta
         for _ in range(5):
             a, b = ab[-1]
             ea, eb = dab[-1]
@@ -208,41 +223,40 @@ class FamilyPiece:
         self._ab, self._dab = ab, dab
 
     # -- values --------------------------------------------------------------------------
-    def _deriv(self, tau: float, k: int, ec: float, es: float) -> float:
-        """``Y^(k)`` at a scalar ``tau`` for ``k >= 1``."""
+    def _deriv(self, tau: float, k: int, ecm1: float, es: float) -> float:
+        """``Y^(k)`` at a scalar ``tau`` for ``1 <= k <= 3``, about its value at the start."""
         a, b = self._ab[k]
-        out = a * ec + (b + self.mc.zeta * a) * es
-        for qr, qi, Om in self.q:
-            # Re(Q (i Omega)^k e^{i Omega tau})
-            ik = (1j * Om) ** k
-            c = complex(qr, qi) * ik
-            out += c.real * math.cos(Om * tau) - c.imag * math.sin(Om * tau)
-        return out
+        out = a * ecm1 + (b + self.mc.zeta * a) * es
+        for cr, ci, Om in self.qk[k]:
+            h = math.sin(0.5 * Om * tau)
+            out += -2.0 * cr * h * h - ci * math.sin(Om * tau)  # Re(Q_k (e^{i Omega tau} - 1))
+        return self._at0[k] + out
 
     def va(self, tau: float):
         """``(V, Y'')`` at a scalar ``tau``."""
-        ec, es, _ = self.mc.basis(tau, math)
-        return self._deriv(tau, 1, ec, es), self._deriv(tau, 2, ec, es)
+        _, es, ecm1 = self.mc.basis(tau, math)
+        return self._deriv(tau, 1, ecm1, es), self._deriv(tau, 2, ecm1, es)
 
     def aj(self, tau: float):
         """``(Y'', Y''')`` at a scalar ``tau``."""
-        ec, es, _ = self.mc.basis(tau, math)
-        return self._deriv(tau, 2, ec, es), self._deriv(tau, 3, ec, es)
+        _, es, ecm1 = self.mc.basis(tau, math)
+        return self._deriv(tau, 2, ecm1, es), self._deriv(tau, 3, ecm1, es)
 
     def _yvp(self, tau):
         """``(Y, V, None, Y - y0)`` at a scalar or array ``tau`` (the layout of exact's ``_yvp``)."""
         lib = np if isinstance(tau, np.ndarray) else math
-        mc, A, B = self.mc, self.A, self.B
-        ec, es, ecm1 = mc.basis(tau, lib)
-        dy = A * ecm1 + (B + mc.zeta * A) * es
-        a1, b1 = self._ab[1]
-        v = a1 * ec + (b1 + mc.zeta * a1) * es
-        for qr, qi, Om in self.q:
+        mc, A, B, z = self.mc, self.A, self.B, self.mc.zeta
+        _, es, ecm1 = mc.basis(tau, lib)
+        dy = A * ecm1 + (B + z * A) * es
+        b1 = self._ab[1][1]
+        dv = B * ecm1 + (b1 + z * B) * es
+        for (qr, qi, Om), (cr, ci, _) in zip(self.q, self.qk[1], strict=True):
             sn = lib.sin(Om * tau)
             h = lib.sin(0.5 * Om * tau)
-            dy = dy + (-2.0 * qr * h * h - qi * sn)  # Re(Q (e^{i Omega tau} - 1))
-            v = v - Om * (qr * sn + qi * lib.cos(Om * tau))
-        return self.y0 + dy, v, None, dy
+            h2 = 2.0 * h * h
+            dy = dy - (qr * h2 + qi * sn)  # Re(Q (e^{i Omega tau} - 1))
+            dv = dv - (cr * h2 + ci * sn)
+        return self.y0 + dy, self.v0 + dv, None, dy
 
     def yv(self, tau):
         """``(Y, V)`` at a scalar ``tau`` or an array of them."""
