@@ -32,11 +32,12 @@ eq. 3 itself keeps the resonance-safe piece of :mod:`.exact`.
 
 Derivative bounds
 -----------------
-On ``tau >= 0``: ``|EC| <= 1`` and ``0 <= ES <= min(tau, 1 / wd, 1 / (e zeta))``
-underdamped, ``min(tau, 1 / (e zeta))`` critically damped and
-``min(tau, 1 / (2 mu), 1 / (e (zeta - mu)))`` overdamped, so
-``|Y^(k)| <= |A_k| + |B_k + zeta A_k| max ES + sum_i |Q_i| Omega_i^k``, plus a margin
-for the rounding of ``A`` and ``B``.
+On ``[a, b]``, with ``rho = zeta`` (overdamped ``zeta - mu``) and ``D = e^{-rho a}``:
+``|EC| <= D`` and ``0 <= ES <= min(b D, D / wd, max_{[a, b]} tau e^{-rho tau})``
+underdamped (``D / (2 mu)`` in place of ``D / wd`` overdamped, neither when critical),
+so ``|Y^(k)| <= |A_k| D + |B_k + zeta A_k| max ES + sum_i |Q_i| Omega_i^k``, plus a
+margin for the rounding of ``A`` and ``B``. Taken per window (``a > 0``), the decay lets
+the search prove the sign of an overdamped velocity that creeps to zero.
 
 Integrals
 ---------
@@ -125,17 +126,24 @@ class FamilyConstants:
                            for F, Om, ph in osc.terms if F > 0.0)
         self.fastest = max([w, self.hi] + [Om for _, Om, _, _ in self.terms])
 
-    def es_max(self, tmax: float) -> float:
-        """An upper bound of ``ES`` on ``[0, tmax]`` (see the module docstring)."""
-        z = self.zeta
-        b = tmax
-        if z > 0.0:
-            b = min(b, 1.0 / (math.e * (self.lo if self.kind == 2 else z)))
+    def decay_bounds(self, start: float, tmax: float) -> tuple[float, float]:
+        """Upper bounds of ``|EC|`` and ``|ES|`` on ``[start, tmax]`` (see the module docstring).
+
+        Both decay like ``e^{-rho tau}`` (``rho = zeta``, overdamped ``zeta - mu``); bounds taken
+        at ``start`` rather than 0 let the guard search prove the sign of a velocity that
+        creeps to zero without crossing it (overdamped), window after window.
+        """
+        rho = self.lo if self.kind == 2 else self.zeta
+        decay = math.exp(-rho * start)
+        es = tmax * decay  # |S| <= tau
         if self.kind == 0:
-            b = min(b, 1.0 / self.wd)
+            es = min(es, decay / self.wd)
         elif self.kind == 2:
-            b = min(b, 0.5 / self.mu)
-        return b
+            es = min(es, 0.5 * decay / self.mu)
+        if rho > 0.0:  # tau e^{-rho tau} peaks at 1 / rho
+            peak = start * decay if rho * start >= 1.0 else 1.0 / (math.e * rho)
+            es = min(es, peak)
+        return decay, es
 
     def basis(self, tau, lib):
         """``(EC, ES, EC - 1)`` at ``tau`` (``lib`` is :mod:`math` or NumPy)."""
@@ -288,15 +296,15 @@ class FamilyPiece:
         weights = 0.5 * h * np.tile(_GL_WEIGHTS, n)
         return float(weights @ (y * y)), float(weights @ (v * v))
 
-    def bounds(self, tmax: float, k: int) -> tuple[float, float]:
-        """Upper bounds of ``|Y^(k+2)|`` and ``|Y^(k+3)|`` over ``[0, tmax]`` (module docstring)."""
+    def bounds(self, tmax: float, k: int, start: float = 0.0) -> tuple[float, float]:
+        """Upper bounds of ``|Y^(k+2)|`` and ``|Y^(k+3)|`` over ``[start, tmax]`` (module docstring)."""
         mc = self.mc
-        esb = mc.es_max(tmax)
+        ecb, esb = mc.decay_bounds(start, tmax)
         out = []
         for j in (k + 2, k + 3):
             a, b = self._ab[j]
             ea, eb = self._dab[j]
-            o = abs(a) + ea + (abs(b + mc.zeta * a) + eb + mc.zeta * ea) * esb
+            o = (abs(a) + ea) * ecb + (abs(b + mc.zeta * a) + eb + mc.zeta * ea) * esb
             o += sum(math.hypot(qr, qi) * Om**j for qr, qi, Om in self.q)
             out.append(o * (1.0 + 1e-9) + 1e-300)
         return out[0], out[1]

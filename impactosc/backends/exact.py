@@ -530,7 +530,7 @@ class _Stepper:
         ha, da = fun(0.0)
         while a < T:
             b = min(T, a + window)
-            M2, M3 = p.bounds(b, k)
+            M2, M3 = p.bounds(b, k, a) if self.family else p.bounds(b, k)
             hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
             bracket, (hb, db) = _first_rising(fun, a, ha, da, b, M2, M3, hmin)
             if bracket is not None:
