@@ -35,9 +35,10 @@ Derivative bounds
 On ``[a, b]``, with ``rho = zeta`` (overdamped ``zeta - mu``) and ``D = e^{-rho a}``:
 ``|EC| <= D`` and ``0 <= ES <= min(b D, D / wd, max_{[a, b]} tau e^{-rho tau})``
 underdamped (``D / (2 mu)`` in place of ``D / wd`` overdamped, neither when critical),
-so ``|Y^(k)| <= |A_k| D + |B_k + zeta A_k| max ES + sum_i |Q_i| Omega_i^k``, plus a
-margin for the rounding of ``A`` and ``B``. Taken per window (``a > 0``), the decay lets
-the search prove the sign of an overdamped velocity that creeps to zero.
+so ``|Y^(k)| <= |A_k| D + |B_k + zeta A_k| max ES + sum_i |Q_i| Omega_i^k``: a bound of
+the derivatives of the formula as evaluated, with the rounded ``A`` and ``B``. Taken per
+window (``a > 0``), the decay lets the search prove the sign of an overdamped velocity that
+creeps to zero.
 
 Integrals
 ---------
@@ -185,7 +186,7 @@ class FamilyPiece:
     ``yv``, ``_yvp``, ``int_y``, ``int_squares``, ``bounds`` and ``y0``.
     """
 
-    __slots__ = ("mc", "t0", "x0", "v0", "y0", "A", "B", "q", "qk", "_ab", "_dab", "_at0")
+    __slots__ = ("mc", "t0", "x0", "v0", "y0", "A", "B", "q", "qk", "_ab", "_at0")
 
     def __init__(self, mc: FamilyConstants, t0: float, x0: float, v0: float):
         self.mc = mc
@@ -194,9 +195,8 @@ class FamilyPiece:
         # Q_i as (Re, Im, Omega_i): the steady response of each harmonic at the piece start,
         # and qk[k] the same for Y^(k): Q_i (i Omega_i)^k, k = 1..3.
         q, qk = [], ([], [], [])
-        sum_re = sum_v = scale = 0.0
-        force = d_force = 0.0
-        for F, Om, ph, gain in mc.terms:
+        sum_re = sum_v = 0.0
+        for _, Om, ph, gain in mc.terms:
             th = Om * t0 + ph  # the phase as the engine evaluates the forcing
             c, s = math.cos(th), math.sin(th)
             Q = gain * complex(c, s)
@@ -206,29 +206,23 @@ class FamilyPiece:
                 qk[k].append((Qk.real, Qk.imag, Om))
             sum_re += Q.real
             sum_v -= Om * Q.imag  # Re(i Omega Q)
-            scale += abs(Q) * (1.0 + Om)
-            force += F * c
-            d_force -= F * Om * s
         self.q = tuple(q)
         self.qk = (None, *(tuple(x) for x in qk))
         self.A = self.y0 - mc.Yc - sum_re
         self.B = v0 - sum_v
-        # Y^(k)(0) from the equation of motion: the anchors of the derivatives about the
-        # start, so that V(0) is v0 exactly (a tiny v0 next to a large steady velocity
-        # would otherwise be lost, and its sign with it).
+        # (A_k, B_k) for k = 0..5: Y^(k)_h has the form of Y_h with these amplitudes.
         z, w2 = mc.zeta, mc.w2
-        a0 = mc.cY + force - 2.0 * z * v0 - w2 * self.y0
-        self._at0 = (self.y0, v0, a0, d_force - 2.0 * z * a0 - w2 * v0)
-        # (A_k, B_k) for k = 0..5 and bounds of their rounding (abs recursion of the input errors).
-        dA = 8.0 * _EPS * (abs(self.y0) + abs(mc.Yc) + scale)
-        dB = 8.0 * _EPS * (abs(v0) + scale)
-        ab, dab = [(self.A, self.B)], [(dA, dB)]
+        ab = [(self.A, self.B)]
         for _ in range(5):
             a, b = ab[-1]
-            ea, eb = dab[-1]
             ab.append((b, -w2 * a - 2.0 * z * b))
-            dab.append((eb * (1.0 + 1e-12), (w2 * ea + 2.0 * z * eb) * (1.0 + 1e-12)))
-        self._ab, self._dab = ab, dab
+        self._ab = ab
+        # The derivatives are evaluated about their start values: V(0) is v0 exactly (a tiny v0
+        # next to a large steady velocity would otherwise be lost, and its sign with it);
+        # Y''(0) and Y'''(0) are those of the formula, A_k + sum_i Re(Q_i (i Omega_i)^k), so
+        # each evaluated derivative is exactly the derivative of the one below it and the
+        # bounds below hold for the functions the guard search sees (no rounding offsets).
+        self._at0 = (self.y0, v0, *(ab[k][0] + sum(c[0] for c in self.qk[k]) for k in (2, 3)))
 
     # -- values --------------------------------------------------------------------------
     def _deriv(self, tau: float, k: int, ecm1: float, es: float) -> float:
@@ -303,8 +297,7 @@ class FamilyPiece:
         out = []
         for j in (k + 2, k + 3):
             a, b = self._ab[j]
-            ea, eb = self._dab[j]
-            o = (abs(a) + ea) * ecb + (abs(b + mc.zeta * a) + eb + mc.zeta * ea) * esb
+            o = abs(a) * ecb + abs(b + mc.zeta * a) * esb
             o += sum(math.hypot(qr, qi) * Om**j for qr, qi, Om in self.q)
             out.append(o * (1.0 + 1e-9) + 1e-300)
         return out[0], out[1]
