@@ -31,6 +31,12 @@ cancellation near resonance and the exact resonance ``w == Omega`` (``Omega = 1`
 ``Omega = sqrt(1 + K)`` in contact) is the same formula. The homogeneous part uses ``tau``,
 never the absolute time, so nothing degrades at large ``t``.
 
+Damping and harmonic sums (the linear family of issue #10) use the closed-form pieces of
+``impactosc.backends._exact_family`` (under-, critically and over-damped, the steady
+response of each harmonic); a stuck piece with a harmonic sum uses ``impactosc._stuck``.
+A power-law flange, or a harmonic within ``1e-6`` of an (almost) undamped resonance, is
+refused with a ``ValueError``.
+
 Guards
 ------
 The armed guards and their directions come from :func:`impactosc.engine.guard_gates` and
