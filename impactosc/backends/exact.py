@@ -23,7 +23,7 @@ With ``tau = t - t0`` and ``theta0 = Omega t0 + phase``::
 where ``Yp = cY / w^2``, ``Ah = y0 - Yp``, ``Bh = v0 / w``. Where ``|Yp| > |y0|`` (huge
 ``beta``: ``Yp ~ -beta s / w^2``) the same motion is evaluated about the start point,
 ``Y = y0 - 2 Ah sin^2(w tau / 2) + ...``, so ``Yp`` never cancels against ``Ah`` (see
-:class:`_SlipPiece`); the velocity is ``v0 cos(w tau) - w Ah sin(w tau) + ...`` in both forms.
+``_SlipPiece``); the velocity is ``v0 cos(w tau) - w Ah sin(w tau) + ...`` in both forms.
 
 ``Cc`` and ``Ss`` (the response to the forcing from rest) are evaluated through
 ``sin((w - Omega) tau / 2) / (w - Omega)``, which tends to ``tau / 2``: there is no
@@ -132,7 +132,7 @@ def _kernel(mc: _ModeConstants, y0, v0, Ah, about_start, c0, s0, tau, sin, cos):
     energy balance of the forcing work, ``Delta E + beta s (Y - y0)``, cancels ``beta`` sized
     terms on a short piece with a huge ``beta``. ``P'`` is the velocity of the response to
     the forcing from rest (``V = v0 cos(w tau) - w Ah sin(w tau) + F P'``). ``about_start``
-    selects the form of ``Y`` (see :class:`_SlipPiece`). ``sin`` and ``cos`` are those of
+    selects the form of ``Y`` (see ``_SlipPiece``). ``sin`` and ``cos`` are those of
     :mod:`math` for scalars or of NumPy for arrays.
     """
     w, Om, F, sig, dlt = mc.w, mc.Om, mc.F, mc.sig, mc.dlt
