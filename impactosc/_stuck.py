@@ -61,7 +61,10 @@ def release_time(osc: Oscillator, region: int, t0: float, x: float, t_end: float
         # GUARD_DIRECTIONS holds exactly these orientations.
         target = -alpha if GUARD_DIRECTIONS[guard] > 0 else alpha
         dtheta = (target - th0) % _TWO_PI
-        t1 = _polish(osc, t0 + dtheta / Om, t0, spring + offset)
+        t1 = t0 + dtheta / Om
+        if not t1 < t_end:  # beyond the run (or inf for a subnormal Omega): nothing to polish
+            continue
+        t1 = _polish(osc, t1, t0, spring + offset)
         if t1 < best_t:
             best_t, best_guard = t1, guard
     if best_t >= t_end:

@@ -29,9 +29,9 @@ from impactosc.engine import (
 #: Backends that support each feature (more heyoka cases: tests/test_family_heyoka.py).
 RIGID = ["heyoka", "exact", "scipy"]
 STATIC = ["heyoka", "exact", "scipy"]
-DAMPED = ["heyoka", "scipy"]
+DAMPED = ["heyoka", "exact", "scipy"]
 POWER = ["heyoka", "scipy"]
-HARMONICS = ["heyoka", "scipy"]
+HARMONICS = ["heyoka", "exact", "scipy"]
 SCIPY_TIGHT = {"rtol": 1e-13, "atol": 1e-15}
 
 

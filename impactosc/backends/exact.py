@@ -31,6 +31,12 @@ cancellation near resonance and the exact resonance ``w == Omega`` (``Omega = 1`
 ``Omega = sqrt(1 + K)`` in contact) is the same formula. The homogeneous part uses ``tau``,
 never the absolute time, so nothing degrades at large ``t``.
 
+Damping and harmonic sums (the linear family of issue #10) use the closed-form pieces of
+``impactosc.backends._exact_family`` (under-, critically and over-damped, the steady
+response of each harmonic); a stuck piece with a harmonic sum uses ``impactosc._stuck``.
+A power-law flange, or a harmonic within ``1e-6`` of an (almost) undamped resonance, is
+refused with a ``ValueError``.
+
 Guards
 ------
 The armed guards and their directions come from :func:`impactosc.engine.guard_gates` and
@@ -68,6 +74,7 @@ import math
 
 import numpy as np
 
+from .._stuck import advance_stuck, evaluate_stuck
 from ..engine import (
     ACCEL_ZERO,
     ENTER_LOWER,
@@ -84,6 +91,7 @@ from ..engine import (
 )
 from ..model import Oscillator
 from ..solution import Solution, _Recorder
+from ._exact_family import FamilyConstants, FamilyPiece, near_resonance
 
 __all__ = ["run"]
 
@@ -406,16 +414,22 @@ class _Stepper:
 
     def __init__(self, osc: Oscillator):
         self.osc = osc
-        self.consts: dict[tuple[int, int], _ModeConstants] = {}
+        # Damping or a harmonic sum: the family piece (``_exact_family``); eq. 3 keeps its own.
+        self.family = bool(osc.zeta or osc.harmonics)
+        self.consts: dict[tuple[int, int], _ModeConstants | FamilyConstants] = {}
 
-    def _mode_constants(self, r: int, s: int) -> _ModeConstants:
+    def _mode_constants(self, r: int, s: int) -> _ModeConstants | FamilyConstants:
         mc = self.consts.get((r, s))
         if mc is None:
-            mc = self.consts[(r, s)] = _ModeConstants(self.osc, r, s)
+            kind = FamilyConstants if self.family else _ModeConstants
+            mc = self.consts[(r, s)] = kind(self.osc, r, s)
         return mc
 
-    def _slip_piece(self, mode: Mode, t0: float, x0: float, v0: float) -> _SlipPiece:
-        return _SlipPiece(self._mode_constants(mode.region, mode.motion), self.osc.phase, t0, x0, v0)
+    def _slip_piece(self, mode: Mode, t0: float, x0: float, v0: float) -> _SlipPiece | FamilyPiece:
+        mc = self._mode_constants(mode.region, mode.motion)
+        if self.family:
+            return FamilyPiece(mc, t0, x0, v0)
+        return _SlipPiece(mc, self.osc.phase, t0, x0, v0)
 
     # -- one piece -----------------------------------------------------------------------
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
@@ -425,6 +439,8 @@ class _Stepper:
         is 1: a piece is one closed-form evaluation, whatever its length.
         """
         if mode.motion == 0:
+            if self.osc.harmonics:  # the shared bracketed release of a harmonic sum
+                return (*advance_stuck(self.osc, mode, t, x, t_end)[:-1], 1)
             return self._advance_stuck(mode, t, x, t_end)
         return self._advance_slip(mode, t, x, v, t_end)
 
@@ -460,7 +476,10 @@ class _Stepper:
             # GUARD_DIRECTIONS holds exactly these orientations.
             target = -alpha if GUARD_DIRECTIONS[guard] > 0 else alpha
             dtheta = (target - th0) % _TWO_PI
-            t1 = self._polish_release(t0 + dtheta / Om, t0, spring + offset)
+            t1 = t0 + dtheta / Om
+            if not t1 < t_end:  # beyond the run (or inf for a subnormal Omega): nothing to polish
+                continue
+            t1 = self._polish_release(t1, t0, spring + offset)
             if t1 < best_t:
                 best_t, best_guard = t1, guard
         if best_t >= t_end:
@@ -512,12 +531,12 @@ class _Stepper:
         tau_end, guard = T, NO_GUARD
         # Windows of one fast period keep the derivative bounds tight (they grow with tau
         # at resonance) and the bisection shallow when the piece is short.
-        window = _TWO_PI / mc.w
+        window = _TWO_PI / (mc.fastest if self.family else mc.w)
         a = 0.0
         ha, da = fun(0.0)
         while a < T:
             b = min(T, a + window)
-            M2, M3 = p.bounds(b, k)
+            M2, M3 = p.bounds(b, k, a) if self.family else p.bounds(b, k)
             hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
             bracket, (hb, db) = _first_rising(fun, a, ha, da, b, M2, M3, hmin)
             if bracket is not None:
@@ -557,12 +576,13 @@ class _Stepper:
             # r Y >= 0 all through a flange piece: a negative integral is rounding.
             q = max(mc.K * r * p.int_y(tau1, dp1), 0.0)
             q2 = mc.K * mc.K * y2
-        # Energy balance: int V F cos = Delta E + beta s Delta X, E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
+        # Energy balance: int V forcing = Delta E + beta s Delta X + 2 zeta int V^2,
+        # E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
         y0 = p.y0
         de = 0.5 * (v1 - v0) * (v1 + v0) + 0.5 * dy * (2.0 * mc.ref + y1 + y0)
         if r:
             de += 0.5 * mc.K * dy * (y1 + y0)
-        work = de + mc.beta * s * dy
+        work = de + mc.beta * s * dy + 2.0 * self.osc.zeta * vv
         return t1, x1, v1, guard, q, q2, work, vv, 1
 
     # -- dense output --------------------------------------------------------------------
@@ -571,6 +591,8 @@ class _Stepper:
         times = np.asarray(times, dtype=float)
         tau = times - t0
         r = mode.region
+        if mode.motion == 0 and self.osc.harmonics:
+            return evaluate_stuck(self.osc, mode, t0, x, times)
         if mode.motion == 0:
             xs = np.full(tau.shape, x)
             vs = np.zeros(tau.shape)
@@ -605,8 +627,11 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     Solution
         ``n_steps`` counts pieces: each is one closed-form evaluation.
     """
-    missing = [f for f in osc.unsupported() if f.startswith(("damping", "a power-law", "1 extra", "extra"))
-               or "extra forcing" in f]
+    missing = [f for f in osc.unsupported() if f.startswith("a power-law")]
+    if osc.zeta or osc.harmonics:
+        resonant = near_resonance(osc)
+        if resonant:
+            missing.append(resonant)
     if missing:
         raise ValueError(f"the exact backend does not support {', '.join(missing)} yet; "
                          "use backend='heyoka' or backend='scipy'")
