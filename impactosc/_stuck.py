@@ -85,7 +85,7 @@ def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, g
     slowest = min(Om for _, Om, _ in waves)
     fastest = max(Om for _, Om, _ in waves)
     ratios = [Om / slowest for _, Om, _ in waves]
-    periodic = all(abs(r - round(r)) <= 1e-12 * r for r in ratios)
+    periodic = all(math.isfinite(r) and abs(r - round(r)) <= 1e-12 * r for r in ratios)
     horizon = t_end - t0
     if periodic:  # no crossing within one period of the slowest harmonic: none ever
         horizon = min(horizon, 2.0 * math.pi / slowest * (1.0 + 1e-12) + 2.0 * math.pi / fastest)

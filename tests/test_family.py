@@ -376,3 +376,10 @@ def test_tape_drive_describes_its_family_and_the_paper_grid_refuses_it():
     assert "model family" not in TapeDrive().describe()
     with pytest.raises(ValueError, match="RK4 grid runs eq. 3 only.*damping"):
         rk4_grid(drive, {"speed": [4.0]}, duration=1e-4)
+
+
+def test_subnormal_frequencies_in_a_harmonic_sum_do_not_break_the_release_search():
+    # Omega_i / Omega_min overflowed to inf in the commensurability test of the release search.
+    osc = Oscillator(1.0, 2.2e-313, 0.1, 1.0, harmonics=[(0.1, 3e-313, 0.0)])
+    for backend in ("heyoka", "scipy", "exact"):
+        assert simulate(osc, 10.0, 1.0, 0.0, backend=backend).status == 0

@@ -43,7 +43,7 @@ from scipy.optimize import brentq
 import impactosc as io
 
 # The backend of every run, per member: heyoka (the default) and scipy run every member;
-# exact eq. 3, rigid flanges and static friction; rk4 what needs no event location.
+# exact the linear ones (not the Hertz flange); rk4 what needs no event location.
 # Change a value here to see another backend give the same numbers.
 BACKEND = {
     "damped": "heyoka",
