@@ -82,8 +82,6 @@ from ..engine import (
     GUARD_DIRECTIONS,
     LEAVE,
     NO_GUARD,
-    RELEASE_DOWN,
-    RELEASE_UP,
     SLIP_END,
     Mode,
     drive,
@@ -105,6 +103,9 @@ _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(_GL_N)
 # Bisection stops at this many ulps of t when neither the sign nor the monotonicity of a
 # guard can be proven (a tangency at rounding level): the ends then decide.
 _MIN_WIDTH_ULPS = 4.0
+# Intervals one guard search may examine in one window: a few hundred are typical (a
+# tangency bisected down to ulps takes ~100 per level); far more means useless bounds.
+_MAX_BRACKET_STEPS = 100_000
 
 
 class _ModeConstants:
@@ -336,9 +337,16 @@ def _first_rising(fun, a: float, ha: float, da: float, b: float, M2: float, M3: 
     hb, db = fun(b)
     end = (hb, db)
     stack = [(b, hb, db)]
+    evaluations = 0
     while stack:
         b, hb, db = stack[-1]
         width = b - a
+        evaluations += 1
+        if evaluations > _MAX_BRACKET_STEPS or not math.isfinite(ha + hb + da + db + M2 + M3):
+            # Never a hang: non-finite values or bounds would send the bisection down to
+            # ulp-wide intervals over the whole window. The engine ends the run (status -1).
+            raise FloatingPointError(f"the guard search on [{a!r}, {b!r}] did not converge "
+                                     f"(h={ha!r}..{hb!r}, h'={da!r}..{db!r}, bounds M2={M2!r}, M3={M3!r})")
         slack2 = 0.125 * M2 * width * width  # max distance of h from its chord
         decided = False
         if ha >= 0.0 and hb >= 0.0 and min(ha, hb) > slack2:
@@ -439,74 +447,10 @@ class _Stepper:
         is 1: a piece is one closed-form evaluation, whatever its length.
         """
         if mode.motion == 0:
-            if self.osc.harmonics:  # the shared bracketed release of a harmonic sum
-                return (*advance_stuck(self.osc, mode, t, x, t_end)[:-1], 1)
-            return self._advance_stuck(mode, t, x, t_end)
+            # The release of a stuck mass is shared by every backend (impactosc._stuck);
+            # a stuck piece counts as one closed-form evaluation here too.
+            return (*advance_stuck(self.osc, mode, t, x, t_end)[:-1], 1)
         return self._advance_slip(mode, t, x, v, t_end)
-
-    def _advance_stuck(self, mode: Mode, t0: float, x: float, t_end: float):
-        osc = self.osc
-        r = mode.region
-        gates = guard_gates(mode, osc.rigid)
-        t1, guard = self._release_time(r, t0, x, t_end, gates)
-        tau = t1 - t0
-        q = q2 = 0.0
-        if r:
-            force = osc.K * (r * x - 1.0)  # a mass stuck inside a flange keeps it compressed
-            q, q2 = force * tau, force * force * tau
-        return t1, x, 0.0, guard, q, q2, 0.0, 0.0, 1
-
-    def _release_time(self, r: int, t0: float, x: float, t_end: float, gates) -> tuple[float, int]:
-        """First release after ``t0``: ``F cos(Omega t + phase) - spring(x) = +-beta``."""
-        osc = self.osc
-        F, Om, phase, beta = osc.F, osc.Omega, osc.phase, osc.beta_s
-        if F == 0.0 or Om == 0.0:
-            return t_end, NO_GUARD  # constant force: a stuck mass stays stuck
-        spring = osc._spring_scalar(x)  # the restoring force of f_net (no spring for a rigid wall)
-        th0 = (Om * t0 + phase) % _TWO_PI
-        best_t, best_guard = math.inf, NO_GUARD
-        for guard, offset in ((RELEASE_UP, beta), (RELEASE_DOWN, -beta)):
-            if not gates[guard]:
-                continue
-            q = (spring + offset) / F
-            if not -1.0 < q < 1.0:
-                continue  # |q| >= 1: never reached, or only touched (a tangency is no crossing)
-            alpha = math.acos(q)
-            # Rising f_net (up) needs sin(theta) < 0, falling f_net (down) sin(theta) > 0;
-            # GUARD_DIRECTIONS holds exactly these orientations.
-            target = -alpha if GUARD_DIRECTIONS[guard] > 0 else alpha
-            dtheta = (target - th0) % _TWO_PI
-            t1 = t0 + dtheta / Om
-            if not t1 < t_end:  # beyond the run (or inf for a subnormal Omega): nothing to polish
-                continue
-            t1 = self._polish_release(t1, t0, spring + offset)
-            if t1 < best_t:
-                best_t, best_guard = t1, guard
-        if best_t >= t_end:
-            return t_end, NO_GUARD
-        return best_t, best_guard
-
-    def _polish_release(self, t: float, t0: float, level: float) -> float:
-        """Newton steps on ``F cos(Omega t + phase) - level`` as the engine evaluates it.
-
-        The arccos is exact in phase, but ``Omega t + phase`` is rounded when the engine
-        and the other backends evaluate the forcing; two Newton steps put the release on
-        the root of that rounded function. Steps larger than a phase error can explain
-        (near a tangency, where the root is ill-conditioned anyway) are not taken.
-        """
-        osc = self.osc
-        F, Om, phase = osc.F, osc.Omega, osc.phase
-        for _ in range(2):
-            th = Om * t + phase
-            g = F * math.cos(th) - level
-            dg = -F * Om * math.sin(th)
-            if g == 0.0 or dg == 0.0:
-                break
-            step = g / dg
-            if abs(step) * Om > 64.0 * _EPS * (abs(th) + 1.0) or t - step <= t0:
-                break
-            t -= step
-        return t
 
     def _advance_slip(self, mode: Mode, t0: float, x0: float, v0: float, t_end: float):
         p = self._slip_piece(mode, t0, x0, v0)
