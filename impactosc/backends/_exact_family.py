@@ -194,7 +194,8 @@ class FamilyPiece:
         self.y0 = x0 - mc.ref
         # Q_i as (Re, Im, Omega_i): the steady response of each harmonic at the piece start,
         # and qk[k] the same for Y^(k): Q_i (i Omega_i)^k, k = 1..3.
-        q, qk = [], ([], [], [])
+        q: list = []
+        qk: tuple[list, list, list] = ([], [], [])
         sum_re = sum_v = 0.0
         for _, Om, ph, gain in mc.terms:
             th = Om * t0 + ph  # the phase as the engine evaluates the forcing
@@ -207,7 +208,7 @@ class FamilyPiece:
             sum_re += Q.real
             sum_v -= Om * Q.imag  # Re(i Omega Q)
         self.q = tuple(q)
-        self.qk = (None, *(tuple(x) for x in qk))
+        self.qk: tuple = ((), *(tuple(x) for x in qk))  # indexed by the derivative order k
         self.A = self.y0 - mc.Yc - sum_re
         self.B = v0 - sum_v
         # (A_k, B_k) for k = 0..5: Y^(k)_h has the form of Y_h with these amplitudes.

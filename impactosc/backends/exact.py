@@ -71,6 +71,7 @@ work ``int V F cos(Omega t + phase) dt`` from the energy balance
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -424,9 +425,9 @@ class _Stepper:
         self.osc = osc
         # Damping or a harmonic sum: the family piece (``_exact_family``); eq. 3 keeps its own.
         self.family = bool(osc.zeta or osc.harmonics)
-        self.consts: dict[tuple[int, int], _ModeConstants | FamilyConstants] = {}
+        self.consts: dict[tuple[int, int], Any] = {}
 
-    def _mode_constants(self, r: int, s: int) -> _ModeConstants | FamilyConstants:
+    def _mode_constants(self, r: int, s: int) -> Any:
         mc = self.consts.get((r, s))
         if mc is None:
             kind = FamilyConstants if self.family else _ModeConstants
@@ -454,7 +455,7 @@ class _Stepper:
 
     def _advance_slip(self, mode: Mode, t0: float, x0: float, v0: float, t_end: float):
         p = self._slip_piece(mode, t0, x0, v0)
-        mc = p.mc
+        mc: Any = p.mc  # _ModeConstants (eq. 3) or FamilyConstants
         s, r = mode.motion, mode.region
         gates = guard_gates(mode, self.osc.rigid)
         T = t_end - t0
