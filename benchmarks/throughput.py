@@ -197,34 +197,44 @@ class _TimedTA:
 
 def split(osc, n_events: int) -> dict:
     """Time per event inside ``propagate_until`` and in the Python around it (same loop as simulate)."""
+    import types
+
     from impactosc.backends import heyoka as hb
     from impactosc.engine import Mode, drive
     from impactosc.solution import _Recorder
 
-    ta = _TimedTA(hb.integrator(hb.DEFAULT_TOL))
-    stepper = hb._Stepper(ta, osc)
+    compiled = hb.integrator(hb.DEFAULT_TOL)
+    # The same integrators, each behind a proxy that times its propagate_until calls.
+    proxies = {family: _TimedTA(ta) for family, ta in compiled.ta.items()}
+    stepper = hb._Stepper(types.SimpleNamespace(shape=compiled.shape, dim=compiled.dim, ta=proxies), osc)
     rec = _Recorder("stats", "heyoka", None)
     t0 = time.perf_counter()
     drive(stepper, osc, HUGE_T, 0.95, 0.0, rec, n_events)
     total = time.perf_counter() - t0
+    spent = sum(p.spent for p in proxies.values())
+    calls = sum(p.calls for p in proxies.values())
     t1 = time.perf_counter()
     io.simulate(osc, HUGE_T, record="stats", max_events=n_events)
     plain_wall = time.perf_counter() - t1
     n = rec.n_events
-    # The fixed cost of one propagate_until call that takes a single tiny step (no event).
-    raw = hb.integrator(hb.DEFAULT_TOL)
-    hb._Stepper(raw, osc)._set_mode(Mode(0, 1, True), 0.0, 0.0)
-    raw.state[:] = (0.0, 1e-3, 0.0, 0.0, 0.0)
-    calls = 2000
+    # The fixed cost of one propagate_until call that takes a single tiny step (no event),
+    # on the integrator of free slipping.
+    raw_stepper = hb._Stepper(compiled, osc)
+    free = raw_stepper.families[0]
+    raw_stepper._set_mode(free, Mode(0, 1, True), 0.0, 0.0)
+    raw = free.ta
+    raw.state[:] = 0.0
+    raw.state[1] = 1e-3
+    n_calls = 2000
     raw.time = 0.0
     c0 = time.perf_counter()
-    for k in range(1, calls + 1):
+    for k in range(1, n_calls + 1):
         raw.propagate_until(k * 1e-9)
-    call_cost = (time.perf_counter() - c0) / calls
+    call_cost = (time.perf_counter() - c0) / n_calls
     return dict(events=n, pieces=rec.pieces, steps=rec.steps, total=total, plain_wall=plain_wall,
-                propagate=ta.spent, calls=ta.calls, python=total - ta.spent,
-                us_event=1e6 * total / n, us_propagate_event=1e6 * ta.spent / n,
-                us_python_event=1e6 * (total - ta.spent) / n, us_propagate_call=1e6 * ta.spent / ta.calls,
+                propagate=spent, calls=calls, python=total - spent,
+                us_event=1e6 * total / n, us_propagate_event=1e6 * spent / n,
+                us_python_event=1e6 * (total - spent) / n, us_propagate_call=1e6 * spent / calls,
                 us_tiny_call=1e6 * call_cost, steps_per_event=rec.steps / n, pieces_per_event=rec.pieces / n)
 
 
@@ -247,6 +257,10 @@ def profile(osc, n_events: int) -> tuple[str, dict]:
             g = "impactosc/solution.py (recorder)"
         elif file.endswith("backends/heyoka.py"):
             g = "impactosc/backends/heyoka.py (stepper: pars, state, offsets)"
+        elif file.endswith("_stuck.py"):
+            g = "impactosc/_stuck.py (stuck pieces in closed form)"
+        elif file.endswith("model.py"):
+            g = "impactosc/model.py (forces for the stick test and the guards)"
         else:
             g = "other (builtins, numpy views, ...)"
         groups[g] = groups.get(g, 0.0) + tt

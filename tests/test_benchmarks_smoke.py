@@ -77,3 +77,18 @@ def test_throughput_quick(tmp_path):
     assert 0 < split["us_propagate_event"] < split["us_event"]
     nums = _table_numbers(md)
     assert nums and all(math.isfinite(float(c.replace(",", ""))) for c in nums)
+
+
+def test_speed_quick(tmp_path):
+    mod = _load("speed")
+    assert mod.main(["--quick", "--rounds", "2", "--events", "300", "--skip", "fig7", "--out", str(tmp_path)]) == 0
+    md = (tmp_path / "speed.md").read_text()
+    raw = json.loads((tmp_path / "speed.json").read_text())
+    backends = {r["backend"] for r in raw["contact"]["rows"]}
+    assert {"heyoka", "rk4 (default dt)", "exact"} <= backends
+    for r in raw["contact"]["rows"] + raw["stickslip"]["rows"]:
+        assert r["events"] > 0 and math.isfinite(r["wall"]) and r["wall"] > 0, r
+    assert math.isfinite(raw["stickslip"]["ratios"]["heyoka"])
+    assert "## Targets (issue 12)" in md
+    nums = _table_numbers(md)
+    assert nums and all(math.isfinite(float(c.replace(",", ""))) for c in nums)
