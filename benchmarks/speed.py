@@ -227,7 +227,7 @@ def batch_mode(sizes=(2, 4, 8), repeats: int = 9) -> dict:
     direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative}
     scalar = hy.taylor_adaptive(rhs, [0.0] * len(rhs), t_events=[hy.t_event(e, direction=direction[d], cooldown=0.0)
                                                                  for e, d in events], compact_mode=False)
-    row = parameter_values(osc, mode, guard_gates(mode), guard_offsets(osc, x0))[:len(scalar.pars)]
+    row = parameter_values(osc, mode, guard_gates(mode), guard_offsets(osc, 0.0, x0))[:len(scalar.pars)]
     start = [x0, v0] + [0.0] * (len(rhs) - 2)
 
     def run_scalar():

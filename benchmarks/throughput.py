@@ -221,7 +221,7 @@ def split(osc, n_events: int) -> dict:
     # on the integrator of free slipping.
     raw_stepper = hb._Stepper(compiled, osc)
     free = raw_stepper.families[0]
-    raw_stepper._set_mode(free, Mode(0, 1, True), 0.0)
+    raw_stepper._set_mode(free, Mode(0, 1, True), 0.0, 0.0)
     raw = free.ta
     raw.state[:] = 0.0
     raw.state[1] = 1e-3

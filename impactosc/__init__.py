@@ -6,6 +6,7 @@ The model is the one-dimensional impact oscillator with Coulomb friction of
 release is a located event.
 """
 
+from . import dynamics as dynamics  # the dynamics toolkit: impactosc.dynamics.X
 from .engine import EVENT_KINDS, Mode
 from .model import Oscillator
 from .simulate import simulate

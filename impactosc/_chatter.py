@@ -1,38 +1,47 @@
 """Chatter on a rigid flange: impacts that accumulate in finite time, resolved by a jump.
 
-With restitution ``e < 1`` and a net force ``p`` pushing the mass into a rigid flange, every
-rebound is lower than the last and the impacts accumulate at a finite time ``t_inf`` (a Zeno
-point; Budd & Dux 1994, Nordmark 1991). An event loop that followed them one by one would
-never reach ``t_inf``. The engine follows them until a local model predicts the rest of the
-sequence to a stated accuracy, then jumps to ``t_inf`` and lets the mass rest on the flange.
+With a net force ``p`` pushing the mass into a rigid flange, restitution ``e < 1`` or kinetic
+friction ``beta > 0`` (or both) make every rebound lower than the last, and the impacts
+accumulate at a finite time ``t_inf`` (a Zeno point; Budd & Dux 1994, Nordmark 1991). An
+event loop that followed them one by one would never reach ``t_inf``. The engine follows them
+until a local model predicts the rest of the sequence to a stated accuracy, then jumps to
+``t_inf`` and lets the mass rest on the flange.
 
 Local model
 -----------
 Near the wall, over a flight of duration ``T``, the force on the mass is the push ``p`` (into
 the wall: ``p = side * f_net(t, side)``) plus kinetic friction ``beta`` opposing the motion.
 Moving away from the wall the mass decelerates at ``a_out = p + beta``, moving back it
-accelerates at ``a_in = p - beta`` (chatter needs ``p > beta``; with ``p <= beta_s`` it would
-stick at the apex, which the engine already handles). After an impact at speed ``u`` the
-mass leaves at ``e u``, returns at ``rho u`` and spends ``c u`` in flight, with::
+accelerates at ``a_in = p - beta``. The mass returns only if it slips at the apex, so the
+model needs ``p > beta_s`` (with ``p <= beta_s`` it sticks at the first apex, which the engine
+handles as a stick). After an impact at speed ``u`` the mass leaves at ``e u``, returns at
+``rho u`` and spends ``c u`` in flight, with::
 
     rho = e sqrt(a_in / a_out),     c = e (1 / a_out + 1 / sqrt(a_out a_in)).
 
-The remaining impacts form a geometric series: they accumulate after ``c u / (1 - rho)``,
-their impulses add to ``(1 + e) u rho / (1 - rho)``, the slip path to
-``e^2 u^2 / (a_out (1 - rho^2))`` and the impact losses to ``(1 - e^2) u^2 rho^2 / (2 (1 - rho^2))``
-(these three keep the energy identity balanced over the jump).
+``rho < 1`` unless ``e = 1`` and ``beta = 0`` (then nothing is lost and the impacts do not
+accumulate). The remaining impacts form a geometric series: they accumulate after
+``c u / (1 - rho)``, their impulses add to ``(1 + e) u rho / (1 - rho)``, the slip path to
+``e^2 u^2 / (a_out (1 - rho^2))`` and the impact losses to
+``(1 - e^2) u^2 rho^2 / (2 (1 - rho^2))`` (these three keep the energy identity balanced over
+the jump). :meth:`ChatterJump.state_at` gives the state and the partial sums at any time of
+the tail, for a run or a sample time that ends inside it.
 
 Error of the model
 ------------------
 The model freezes ``p`` and neglects damping. Over the remaining time ``T_rem`` the push
-changes by about ``|p'| T_rem`` (forcing rate), by the displacement ``h = (e u)^2 / (2 a_out)``
-(the tape spring's slope is 1) and the damping force is at most ``2 zeta e u``. Relative to
-``a_in`` these give a relative error ``delta`` of the flight times, so ``t_inf`` is in error by
-about ``delta T_rem``. The jump is taken when that estimate is below :data:`TIME_TOLERANCE`
-(relative to ``max(1, |t|)``), after at least :data:`MIN_IMPACTS` impacts on the same flange
-whose speed ratio agrees with ``rho`` (the model describes what is happening). Since
-``T_rem`` and ``delta`` both shrink like ``u``, the error shrinks like ``u^2`` per impact: with
-``e = 0.8`` the jump comes after a few dozen impacts.
+changes by the drift ``|f'| T_rem + |f''| T_rem^2 / 2`` of the forcing (the second term
+matters at an extremum of the forcing, where ``f' = 0``), by the displacement
+``h = (e u)^2 / (2 a_out)`` (the tape spring's slope is 1) and the damping force is at most
+``2 zeta e u``. Relative to ``a_in`` these give a relative error ``delta`` of the flight times,
+so ``t_inf`` is in error by about ``delta T_rem``. The jump is taken as soon as that estimate
+is below :data:`TIME_TOLERANCE` (relative to ``max(1, |t|)``) and the push stays above
+``beta_s`` over the whole tail. The decision uses the state at the impact only, never the
+history of the sequence: the flights that follow an impact of speed ``u`` are at most
+``(e u)^2 / (2 a_out)`` high, and once that is at the rounding level of ``X`` no integrator can
+measure the next impact speed (with ``e = 1e-4`` the third impact of a chatter is already
+rounding noise). Since ``T_rem`` and ``delta`` both shrink like ``u``, the error shrinks like
+``u^2`` per impact: with ``e = 0.8`` the jump comes after a few dozen impacts.
 """
 
 from __future__ import annotations
@@ -42,10 +51,6 @@ from typing import NamedTuple
 
 #: Relative accuracy (of ``max(1, |t|)``) of the accumulation time at which a jump is taken.
 TIME_TOLERANCE = 1e-12
-#: Impacts on the same flange needed before the local model is trusted.
-MIN_IMPACTS = 3
-#: How far the observed speed ratio may stray from the model's ``rho`` (relative).
-RATIO_AGREEMENT = 0.05
 
 
 class ChatterJump(NamedTuple):
@@ -58,6 +63,54 @@ class ChatterJump(NamedTuple):
     path: float  #: slip path of the remaining flights
     loss: float  #: energy lost in the remaining impacts
     error: float  #: estimated error of ``t_inf``
+    t0: float  #: time of the last impact followed one by one
+    speed: float  #: its impact speed ``u``
+    restitution: float  #: ``e``
+    a_out: float  #: deceleration moving away from the wall, ``p + beta``
+    a_in: float  #: acceleration back towards it, ``p - beta``
+
+    def state_at(self, t: float):
+        """The local model's state at ``t`` in ``[t0, t_inf]``, and the tail's totals up to ``t``.
+
+        Returns ``(x, v, motion, impulse, path, loss)``: position, velocity and direction of
+        motion (``-side`` moving away from the wall, ``side`` moving back), and the impulse,
+        slip path and impact loss of the impacts and flights of the tail before ``t``. At
+        ``t >= t_inf`` these are the jump's totals and the mass is at rest on the wall.
+        """
+        side, e, a_out, a_in = self.side, self.restitution, self.a_out, self.a_in
+        if t >= self.t_inf:
+            return float(side), 0.0, 0, self.impulse, self.path, self.loss
+        rho = e * math.sqrt(a_in / a_out)
+        c = e * (1.0 / a_out + 1.0 / math.sqrt(a_out * a_in))
+        u = self.speed
+        # The k-th flight starts at t0 + c u (1 - rho^k) / (1 - rho): invert for k.
+        span = (t - self.t0) * (1.0 - rho) / (c * u)
+        k = 0 if not span > 0.0 else int(math.log1p(-min(span, 1.0 - 1e-16)) / math.log(rho)) if rho > 0.0 else 0
+        start = self.t0 + c * u * (1.0 - rho**k) / (1.0 - rho)
+        if start > t and k > 0:  # rounding of the logarithm
+            k -= 1
+            start = self.t0 + c * u * (1.0 - rho**k) / (1.0 - rho)
+        uk = u * rho**k  # impact speed that started flight k
+        w = e * uk  # its rebound speed
+        height = w * w / (2.0 * a_out)
+        tau = max(t - start, 0.0)
+        t_up = w / a_out
+        if tau <= t_up:
+            dist, away = w * tau - 0.5 * a_out * tau * tau, w - a_out * tau
+            travelled = dist
+        else:
+            fall = min(tau - t_up, math.sqrt(2.0 * height / a_in))
+            dist, away = height - 0.5 * a_in * fall * fall, -a_in * fall
+            travelled = 2.0 * height - dist
+        dist = max(dist, 0.0)
+        r2 = rho * rho
+        geo1 = (1.0 - rho**k) / (1.0 - rho)  # 1 + rho + ... + rho^(k-1)
+        geo2 = (1.0 - r2**k) / (1.0 - r2)
+        impulse = (1.0 + e) * u * rho * geo1
+        loss = 0.5 * (1.0 - e * e) * u * u * r2 * geo2
+        path = e * e * u * u / a_out * geo2 + travelled
+        motion = -side if away > 0.0 else side
+        return side - side * dist, -side * away, motion, impulse, path, loss
 
 
 class ChatterTracker:
@@ -67,7 +120,7 @@ class ChatterTracker:
     other recorded event except a reversal (an out-and-back flight has one reversal).
     """
 
-    __slots__ = ("osc", "side", "count", "last_speed", "last_ratio")
+    __slots__ = ("osc", "side", "count")
 
     def __init__(self, osc):
         self.osc = osc
@@ -77,32 +130,29 @@ class ChatterTracker:
         """An event that breaks a chatter sequence (a stick, a release, a resting contact)."""
         self.side = 0
         self.count = 0
-        self.last_speed = math.nan
-        self.last_ratio = math.nan
 
     def impact(self, t: float, side: int, speed: float) -> ChatterJump | None:
         """Record an impact of ``speed`` (> 0) on ``side`` at ``t``; return a jump or ``None``."""
         osc = self.osc
         if side != self.side:
-            self.side, self.count, self.last_speed, self.last_ratio = side, 0, math.nan, math.nan
-        ratio = speed / self.last_speed if self.count else math.nan
+            self.side, self.count = side, 0
         self.count += 1
-        self.last_speed, self.last_ratio = speed, ratio
         e = osc.restitution
-        if e >= 1.0 or self.count < MIN_IMPACTS:
-            return None
         p = side * osc._net_force_scalar(t, float(side))
         a_out, a_in = p + osc.beta, p - osc.beta
-        if not (a_in > 0.0 and speed > 0.0):
-            return None
+        if not (a_in > 0.0 and p > osc.beta_s and speed > 0.0 and e > 0.0):
+            return None  # no return to the wall (or no rebound: e = 0 rests at once)
         rho = e * math.sqrt(a_in / a_out)
-        if not abs(ratio - rho) <= RATIO_AGREEMENT * rho:
-            return None
+        if not rho < 1.0:
+            return None  # e = 1 without friction: nothing is lost, the impacts do not accumulate
         flight = e * speed * (1.0 / a_out + 1.0 / math.sqrt(a_out * a_in))
         t_rem = flight / (1.0 - rho)
-        push_rate = abs(osc._forcing_derivatives(t)[0])
+        d1, d2, _ = osc._forcing_derivatives(t)
+        drift = abs(d1) * t_rem + 0.5 * abs(d2) * t_rem * t_rem
         height = (e * speed) ** 2 / (2.0 * a_out)
-        delta = (push_rate * t_rem + height + 2.0 * osc.zeta * e * speed) / a_in
+        if not p - drift - height > osc.beta_s:
+            return None  # the push may fall to the static level: the mass could stick at an apex
+        delta = (drift + height + 2.0 * osc.zeta * e * speed) / a_in
         error = delta * t_rem
         if error > TIME_TOLERANCE * max(1.0, abs(t)):
             return None
@@ -115,4 +165,9 @@ class ChatterTracker:
             path=e * e * u2 / (a_out * (1.0 - rho * rho)),
             loss=(1.0 - e * e) * u2 * rho * rho / (2.0 * (1.0 - rho * rho)),
             error=error,
+            t0=t,
+            speed=speed,
+            restitution=e,
+            a_out=a_out,
+            a_in=a_in,
         )

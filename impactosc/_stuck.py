@@ -61,7 +61,10 @@ def release_time(osc: Oscillator, region: int, t0: float, x: float, t_end: float
         # GUARD_DIRECTIONS holds exactly these orientations.
         target = -alpha if GUARD_DIRECTIONS[guard] > 0 else alpha
         dtheta = (target - th0) % _TWO_PI
-        t1 = _polish(osc, t0 + dtheta / Om, t0, spring + offset)
+        t1 = t0 + dtheta / Om
+        if not t1 < t_end:  # beyond the run (or inf for a subnormal Omega): nothing to polish
+            continue
+        t1 = _polish(osc, t1, t0, spring + offset)
         if t1 < best_t:
             best_t, best_guard = t1, guard
     if best_t >= t_end:
@@ -82,7 +85,7 @@ def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, g
     slowest = min(Om for _, Om, _ in waves)
     fastest = max(Om for _, Om, _ in waves)
     ratios = [Om / slowest for _, Om, _ in waves]
-    periodic = all(abs(r - round(r)) <= 1e-12 * r for r in ratios)
+    periodic = all(math.isfinite(r) and abs(r - round(r)) <= 1e-12 * r for r in ratios)
     horizon = t_end - t0
     if periodic:  # no crossing within one period of the slowest harmonic: none ever
         horizon = min(horizon, 2.0 * math.pi / slowest * (1.0 + 1e-12) + 2.0 * math.pi / fastest)
@@ -110,7 +113,8 @@ def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, g
             hmin = 4.0 * _EPS * (abs(t0) + b)
             bracket, (hb, db) = _first_rising(fun, a, ha, da, b, m2, m3, hmin)
             if bracket is not None:
-                t1 = t0 + _refine(fun, *bracket, t0)
+                lo, hi, hlo, hhi = bracket
+                t1 = t0 + _refine(fun, lo, hi, hlo, hhi, t0)
                 if t1 < best_t:
                     best_t, best_guard = t1, guard
                 break

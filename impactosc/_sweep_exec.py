@@ -27,6 +27,7 @@ import signal
 import threading
 import time
 from collections import deque
+from typing import Any
 
 from ._sweep_point import STATUS_LOST, failure, run_batch
 from ._sweep_store import interrupt_deferred
@@ -152,7 +153,7 @@ class Runner:
 
     def submit(self, task: list, args: tuple):
         if self.kind == "serial":
-            fut = cf.Future()
+            fut: cf.Future = cf.Future()
             fut.set_result(run_batch(task, *args))  # a KeyboardInterrupt propagates from here
             return fut
         with interrupt_deferred():  # not inside the executor's locks
@@ -255,7 +256,7 @@ def execute(runner: Runner, todo: list, args: tuple, on_result, bar) -> None:
     task; a point lost twice is run once more alone, with nothing else running, so that only
     a point that crashes its worker by itself is recorded as lost (status -3).
     """
-    fresh, retry, suspects = deque(todo), deque(), []
+    fresh, retry, suspects = deque(todo), deque[Any](), list[Any]()
     attempts: dict[str, int] = {}
     in_flight: dict = {}
     sizer = _BatchSizer(runner.n_workers)

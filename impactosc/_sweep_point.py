@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 from .simulate import simulate
 from .tape import TapeDrive
@@ -64,7 +65,7 @@ def run_batch(points: list, duration: float, backend: str, x0: float, v0: float,
 
 def run_point(fields: dict, duration: float, backend: str, x0: float, v0: float, options: dict) -> dict:
     """The result dict of one drive (``FLOAT_VARS``, ``status``, ``message``); never raises."""
-    out = dict.fromkeys(FLOAT_VARS, math.nan)
+    out: dict[str, Any] = dict.fromkeys(FLOAT_VARS, math.nan)
     try:
         drive = TapeDrive(**fields)
         out.update(F=drive.F, Omega=drive.Omega, beta=drive.beta, K=drive.K)
@@ -104,6 +105,6 @@ def run_point(fields: dict, duration: float, backend: str, x0: float, v0: float,
 
 def failure(status: int, message: str) -> dict:
     """The result dict of a point that has no results."""
-    out = dict.fromkeys(FLOAT_VARS, math.nan)
+    out: dict[str, Any] = dict.fromkeys(FLOAT_VARS, math.nan)
     out.update(status=status, message=message)
     return out

@@ -24,6 +24,7 @@ import tempfile
 import threading
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -211,7 +212,7 @@ class Store:
             fields = json.loads(ds.attrs["drive"])
             # Files written before the settings were recorded in them have the drive check only.
             settings = json.loads(ds.attrs["settings"]) if "settings" in ds.attrs else self.settings
-            out = {name: float(ds[name].values) for name in FLOAT_VARS}
+            out: dict[str, Any] = {name: float(ds[name].values) for name in FLOAT_VARS}
             out["status"] = int(ds["status"].values)
             out["message"] = str(ds.attrs["message"])
         if stored_key != key:
@@ -230,7 +231,7 @@ class Store:
         """
         if self.save_error is not None:
             return
-        data = {name: ((), np.float64(result[name])) for name in FLOAT_VARS}
+        data: dict[str, Any] = {name: ((), np.float64(result[name])) for name in FLOAT_VARS}
         data["status"] = ((), np.int32(result["status"]))
         ds = xr.Dataset(data, attrs={"key": key, "message": result["message"], "drive": json.dumps(fields),
                                      "settings": json.dumps(self.settings)})

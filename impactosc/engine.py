@@ -167,7 +167,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     af = abs(f)
     # Within the rounding of f_net of the threshold counts as on it: a release root at
     # tau ~ 1e-87 (beta = 1e-173, f_net = 0) is beyond any event finder (heyoka's gives up).
-    tie = _tie_tolerance(osc, x, f)
+    tie = _tie_tolerance(osc, t, x, f)
     if af < b - tie:
         return 0, True
     if af > b + tie:
@@ -190,14 +190,21 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
 _EPS = 2.0**-52
 
 
-def _tie_tolerance(osc: Oscillator, x: float, f: float) -> float:
-    """Rounding level of f_net at ``x``: a few ulps of the largest term that forms it."""
+def _tie_tolerance(osc: Oscillator, t: float, x: float, f: float) -> float:
+    """Rounding level of f_net at ``(t, x)``: a few ulps of every term that forms it.
+
+    Each forcing term ``F_i cos(Omega_i t + phase_i)`` is rounded like ``F_i`` times its phase
+    error, and the phase is rounded to an ulp of its largest part: at ``Omega t ~ 200`` that
+    is ~6e-15 F, far above an ulp of ``F`` (a force guard offset by less than it could start
+    a piece on the wrong side of zero, and heyoka then dropped its next root: issue 14).
+    The spring terms and ``f_net`` itself are rounded to an ulp.
+    """
     spring = abs(osc._spring_scalar(x))
+    forcing = sum(F * (1.0 + abs(Om * t) + abs(ph)) for F, Om, ph in osc.terms)
     # The floor keeps a force guard from being the zero polynomial when f_net vanishes
     # identically (F = 0 at equilibrium): that guard "crossed" everywhere and crawled
     # through 250000 stick/release pairs in half a time unit.
-    amplitude = sum(F for F, _, _ in osc.terms)
-    return max(4.0 * _EPS * max(amplitude, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
+    return max(4.0 * _EPS * max(forcing, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
@@ -247,10 +254,11 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     if guard in (ENTER_UPPER, ENTER_LOWER):
         side = 1 if guard == ENTER_UPPER else -1
         if osc.rigid:
-            return _impact(osc, side, v)
-        return Mode(side, s, armed), float(side), v, CONTACT_START, side
+            return _impact(osc, t, side, v)
+        # A velocity against the motion is a turning point passed by rounding (see _settle).
+        return Mode(side, s, armed), float(side), v if s * v > 0.0 else 0.0, CONTACT_START, side
     if guard == LEAVE:
-        return Mode(0, s, armed), float(r), v, CONTACT_END, r
+        return Mode(0, s, armed), float(r), v if s * v > 0.0 else 0.0, CONTACT_END, r
     if guard == ACCEL_ZERO:
         if s * v <= 0.0:
             # The guard fires a rounding-level offset late (see guard_offsets): if the
@@ -268,18 +276,26 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     raise ValueError(f"guard must be one of 0..{N_GUARDS}, got {guard!r}")
 
 
-def _impact(osc: Oscillator, side: int, v: float):
+def _impact(osc: Oscillator, t: float, side: int, v: float):
     """Newton's impact law ``V -> -e V`` on the rigid flange ``side`` (Shaw & Holmes; Brach).
 
-    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``, or
-    a touch with ``V = 0``) is left at the wall in the free region with motion 0, where
-    :func:`pending_guard` applies the wall's rest test (:data:`AT_WALL`) at once.
+    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``) is
+    left at the wall in the free region with motion 0, where :func:`pending_guard` applies
+    the wall's rest test (:data:`AT_WALL`) at once. A *touch* (the wall reached at a turning
+    point: ``V = 0``, or ``V`` pointing away by rounding) is no impact: it is the turning
+    point, decided by the stick test at the wall like any other (a reversal away from the
+    wall, or a rest on it), so that a backend that puts the apex a rounding error short of
+    the wall records the same reversal.
     """
+    if side * v <= 0.0:
+        s_new, armed = motion_at_rest(osc, t, float(side))
+        if s_new == -side:
+            return Mode(0, s_new, armed), float(side), 0.0, REVERSAL, 0
+        return Mode(side, 0, True), float(side), 0.0, CONTACT_START, side
     v_out = -osc.restitution * v
-    kind = IMPACT if v != 0.0 else None
     if side * v_out < -KINEMATIC_GUARD_OFFSET:
-        return Mode(0, -side, True), float(side), v_out, kind, side
-    return Mode(0, 0, True), float(side), 0.0, kind, side
+        return Mode(0, -side, True), float(side), v_out, IMPACT, side
+    return Mode(0, 0, True), float(side), 0.0, IMPACT, side
 
 
 def _rest_at_wall(osc: Oscillator, t: float, x: float):
@@ -301,25 +317,28 @@ def _rest_at_wall(osc: Oscillator, t: float, x: float):
 KINEMATIC_GUARD_OFFSET = 1e-300
 
 
-def force_guard_offset(osc: Oscillator, x: float) -> float:
-    """Offset of the force guards (release, acceleration zero) at position ``x``.
+def force_guard_offset(osc: Oscillator, t: float, x: float) -> float:
+    """Offset of the force guards (release, acceleration zero) at time ``t`` and position ``x``.
 
     These guards sit at a threshold where ``f_net`` is computed with rounding error;
     offsetting them by the same tolerance as the stick test's tie (:func:`motion_at_rest`)
     makes the event finder and the stick test agree on what "reaching beta" means, so
-    rounding noise at a tie cannot fire a spurious release. The shift of a genuine crossing
-    is of the order of the rounding of ``f_net``.
+    rounding noise at a tie cannot fire a spurious release, and a guard that starts on its
+    threshold (the acceleration after a release) starts on its near side however large
+    ``Omega t`` has grown. The shift of a genuine crossing is of the order of the rounding
+    of ``f_net``.
     """
-    return _tie_tolerance(osc, x, 0.0)
+    return _tie_tolerance(osc, t, x, 0.0)
 
 
-def guard_offsets(osc: Oscillator, x: float) -> tuple[float, ...]:
+def guard_offsets(osc: Oscillator, t: float, x: float) -> tuple[float, ...]:
     """How far each guard is shifted towards the side it crosses *from* (order of ``GUARD_NAMES``).
 
     A backend fires guard ``g`` (direction ``d``) at ``g - d * offset = 0``: the kinematic
-    guards by :data:`KINEMATIC_GUARD_OFFSET`, the force guards by :func:`force_guard_offset`.
+    guards by :data:`KINEMATIC_GUARD_OFFSET`, the force guards by :func:`force_guard_offset`
+    at the start ``(t, x)`` of the piece.
     """
-    tie = force_guard_offset(osc, x)
+    tie = force_guard_offset(osc, t, x)
     k = KINEMATIC_GUARD_OFFSET
     return (k, k, k, k, tie, tie, tie)
 
@@ -348,21 +367,32 @@ class PieceStepper(Protocol):
 MAX_EVENTS_AT_ONE_INSTANT = 64
 
 
-def pending_guard(mode: Mode, x: float, rigid: bool = False) -> int:
-    """A guard that already holds at the start of a piece, or ``NO_GUARD``.
+def pending_guard(osc: Oscillator, mode: Mode, fired: int, t: float, x: float, v: float) -> int:
+    """A guard that already holds at the start of a piece at ``(t, x, v)``, or ``NO_GUARD``.
 
+    ``fired`` is the guard whose transition produced ``mode``. A velocity that already
+    points against the motion (``motion * V < 0``) means the slip ended at this instant: a
+    flange crossing located at a turning point on ``|X| = 1`` lands a rounding error past
+    it, and the new piece, whose ``SLIP_END`` guard starts past zero, would never see it
+    cross (issue 14: a whole period ran with the wrong vector field). The same holds for a
+    flange crossing that lands exactly on the turning point (``V == 0``) when the stick test
+    there disagrees with the motion. The ``SLIP_END`` transition then applies the stick test.
     After a turning point, stick or release exactly on a flange boundary (``|X| = 1`` with
     ``V = 0``), the contact guard of the next piece has a *double* root at its start: no
     event finder sees it cross. Here the new motion direction decides: moving out of the
     free zone means the contact starts now; moving back from the boundary into the free
-    zone means it ends now. With a rigid flange (``rigid``) a mass at rest on the wall is
+    zone means it ends now. With a rigid flange a mass at rest on the wall is
     tested against it (:data:`AT_WALL`). Part of the transition rule, applied by :func:`drive`.
     """
     r, s, _ = mode
     if s == 0:
-        if rigid and r == 0 and abs(x) >= 1.0:
+        if osc.rigid and r == 0 and abs(x) >= 1.0:
             return AT_WALL
         return NO_GUARD
+    if s * v < 0.0:
+        return SLIP_END
+    if v == 0.0 and fired in (ENTER_UPPER, ENTER_LOWER, LEAVE) and motion_at_rest(osc, t, x)[0] != s:
+        return SLIP_END
     if r == 0:
         if s > 0 and x >= 1.0:
             return ENTER_UPPER
@@ -373,33 +403,56 @@ def pending_guard(mode: Mode, x: float, rigid: bool = False) -> int:
     return NO_GUARD
 
 
-#: Slack for the integrity checks of :func:`missed_guard`, far above rounding at event snaps.
-INTEGRITY_SLACK = 1e-9
+#: Rounding allowance of the integrity checks of :func:`missed_guard`, in ulps of the
+#: scale of the quantity checked (far above the rounding of a closed form or of a Taylor
+#: polynomial evaluated at its root, far below any violation that changes the motion).
+INTEGRITY_ULPS = 64.0
 
 
-def missed_guard(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float) -> str | None:
+def missed_guard(osc: Oscillator, mode: Mode, guard: int, t0: float, x0: float, v0: float,
+                 t1: float, x1: float, v1: float) -> str | None:
     """Name of a guard that must have been crossed unseen in the piece just integrated.
 
-    A backstop, not physics: in a slipping mode the velocity keeps the sign of the motion
-    until ``SLIP_END``; the flange region must match ``|X| > 1`` except on the guard that
-    ends the piece; a piece that stays stuck to its end must end with ``|f_net| <= beta``.
-    A violation means a wrong answer would follow, so :func:`drive` stops.
+    A backstop, not physics. At the start ``(t0, x0, v0)`` the engine's snapped state must
+    satisfy the mode exactly: ``motion * V >= 0`` (:func:`pending_guard` sees to it) and the
+    region must match ``|X| >= 1`` to rounding. At the end ``(t1, x1, v1)``: in a slipping
+    mode the velocity keeps the sign of the motion until ``SLIP_END``, and the flange region
+    must match ``|X| > 1`` except on the guard that ends the piece; a piece that stays stuck
+    to its end must end with ``|f_net| <= beta``. The allowances are rounding levels of each
+    quantity (:data:`INTEGRITY_ULPS` ulps of its scale), not absolute slacks: a wrong region
+    or direction is caught however small the motion. A violation means a wrong answer would
+    follow, so :func:`drive` stops.
     """
     r, s, _ = mode
     if s == 0:
         if guard == NO_GUARD:
-            f = osc._net_force_scalar(t, x)
+            f = osc._net_force_scalar(t1, x1)
             if osc.rigid and r != 0:
                 f = min(r * f, 0.0) * r  # the wall takes any push into it
-            if abs(f) > osc.beta_s + INTEGRITY_SLACK * (1.0 + abs(f)):
+            if abs(f) > osc.beta_s + 2.0 * INTEGRITY_ULPS * _tie_tolerance(osc, t1, x1, f):
                 return "release_up" if f > 0 else "release_down"
         return None
-    if guard != SLIP_END and s * v < -INTEGRITY_SLACK:
+    if s * v0 < 0.0:
         return GUARD_NAMES[SLIP_END]
-    if r == 0 and guard not in (ENTER_UPPER, ENTER_LOWER) and abs(x) > 1.0 + INTEGRITY_SLACK:
-        return "enter_upper" if x > 0 else "enter_lower"
-    if r != 0 and guard != LEAVE and r * x < 1.0 - INTEGRITY_SLACK:
-        return GUARD_NAMES[LEAVE]
+    # The region test against |X| = 1 with an allowance of ulps of X (the cheap test first).
+    if r == 0:
+        far = abs(x0) if guard in (ENTER_UPPER, ENTER_LOWER) else max(abs(x0), abs(x1))
+        if far > 1.0 and far - 1.0 > INTEGRITY_ULPS * _EPS * max(abs(x0), abs(x1)):
+            return "enter_upper" if x1 > 0 else "enter_lower"
+    else:
+        near = r * x0 if guard == LEAVE else min(r * x0, r * x1)
+        if near < 1.0 and 1.0 - near > INTEGRITY_ULPS * _EPS * max(1.0, abs(x0), abs(x1)):
+            return GUARD_NAMES[LEAVE]
+    if guard != SLIP_END and s * v1 < 0.0:
+        # V is rounded like the largest velocity the piece can reach from its start: the
+        # start velocity plus the largest acceleration (the piece is monotonic in X, so the
+        # restoring force peaks at an end) over the piece, and over one ulp of t1.
+        spring = max(abs(osc._spring_scalar(x0)), abs(osc._spring_scalar(x1)))
+        amplitude = sum(F for F, _, _ in osc.terms)
+        accel = amplitude + osc.beta + 1.0 + spring + 2.0 * osc.zeta * max(abs(v0), abs(v1))
+        tol_v = INTEGRITY_ULPS * _EPS * (abs(v0) + accel * (t1 - t0 + abs(t1) * _EPS))
+        if s * v1 < -tol_v:
+            return GUARD_NAMES[SLIP_END]
     return None
 
 
@@ -471,7 +524,11 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     ``sample_at`` (sorted times in ``[0, t_end]``, see :func:`check_sample_times`) are time
     events: a piece ends exactly there, the state goes to ``recorder.sample`` and the
     motion goes on in the same mode. A recorder with an ``on_transition`` method is told
-    of every transition (for saltation matrices, :mod:`impactosc.dynamics`).
+    of every transition (for saltation matrices, :mod:`impactosc.dynamics`); a chatter jump
+    comes with guard ``None`` and kind ``"chatter"`` (the mode goes from the last flight to
+    ``Mode(0, 0)`` at the wall, where the rest test follows as an ``AT_WALL`` transition).
+    A run that ends inside the tail of a chatter ends with the local model's state there
+    (``impactosc._chatter.ChatterJump.state_at``), and so do sample times in the tail.
     """
     # A velocity below the kinematic guard offset is rest: its turning point would lie
     # within ~1e-300 of the start, closer than any guard can resolve (v0 = -5e-324 inside a
@@ -481,7 +538,8 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
     recorder.begin(osc, t, x, v, mode)
     chatter = ChatterTracker(osc) if osc.rigid else None
     # A start on a boundary (a rigid wall, a spring flange's surface) is resolved at once.
-    mode, x, v, _, _ = _settle(osc, recorder, chatter, mode, pending_guard(mode, x, osc.rigid), t, x, v)
+    mode, x, v, _, _ = _settle(osc, recorder, chatter, mode, pending_guard(osc, mode, NO_GUARD, t, x, v),
+                               t, x, v)
     same_instant = 0
     advance = stepper.advance
     stops = iter(sample_at)
@@ -505,9 +563,10 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
         recorder.piece(mode, t, x, t1, x1, q, q2, w, vv, steps)
         if getattr(stepper, "stopped", False):
             # The backend stopped early on a limit the user set (e.g. a wall-time limit).
-            recorder.finish(t1, x1, v1, mode, 1, stepper.stop_message)
+            message = getattr(stepper, "stop_message", "A limit set by the caller was reached.")
+            recorder.finish(t1, x1, v1, mode, 1, message)
             return
-        missed = missed_guard(osc, mode, guard, t1, x1, v1)
+        missed = missed_guard(osc, mode, guard, t, x, v, t1, x1, v1)
         if missed:
             recorder.finish(t1, x1, v1, mode, -1,
                             f"the {stepper_name(stepper)} backend missed a {missed} guard in the piece "
@@ -527,14 +586,25 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             return
         mode, x1, v1, recorded, jump = _settle(osc, recorder, chatter, mode, guard, t1, x1, v1)
         if jump is not None:
-            if jump.t_inf >= t_end:
-                recorder.chatter(jump, None)
-                recorder.finish(t_end, float(jump.side), 0.0, Mode(jump.side, 0, True), 0,
+            recorder.segment(t1, x1, v1, mode)  # the last flight followed, where the tail starts
+            # Sample times inside the tail of the chatter get the local model's state.
+            while next_stop < jump.t_inf and next_stop <= t_end:
+                xs, vs, motion, *_ = jump.state_at(next_stop)
+                recorder.sample(next_stop, xs, vs, Mode(0, motion, True))
+                next_stop = next(stops, math.inf)
+            if jump.t_inf > t_end:
+                # The run ends inside the tail: its state and totals up to t_end, not the rest
+                # at t_inf (the rebound speed there can be 1e-4, far above any tolerance).
+                x1, v1, motion = recorder.chatter(jump, t_end)
+                recorder.finish(t_end, x1, v1, Mode(0, motion, True), 0,
                                 f"The end time was reached inside a chatter on the {_SIDE[jump.side]} flange "
                                 f"(its impacts accumulate at t={jump.t_inf!r}, after the end).")
                 return
             t1, x1, v1 = jump.t_inf, float(jump.side), 0.0
             recorder.chatter(jump, t1)
+            hook = getattr(recorder, "on_transition", None)
+            if hook is not None:  # the jump itself: no guard, from the last flight to rest at the wall
+                hook(t1, mode, None, Mode(0, 0, True), x1, 0.0, x1, 0.0, CHATTER)
             mode, x1, v1, _, _ = _settle(osc, recorder, chatter, Mode(0, 0, True), AT_WALL, t1, x1, v1)
             recorded = True
         same_instant = same_instant + 1 if t1 == t else 0
@@ -578,7 +648,7 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
                 elif kind != REVERSAL:
                     chatter.interrupt()
                     jump = None
-        guard = pending_guard(mode, x, osc.rigid)
+        guard = pending_guard(osc, mode, guard, t, x, v)
     return mode, x, v, recorded, jump
 
 

@@ -32,7 +32,9 @@ the mass rests against that flange (``X = region``, ``V = 0``), which is only po
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass
+from typing import cast
 
 import numpy as np
 
@@ -128,7 +130,7 @@ class Oscillator:
     flange: str = "spring"
     exponent: float = 1.0
     restitution: float = 1.0
-    harmonics: tuple = ()
+    harmonics: Sequence[Sequence[float]] = ()
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -180,7 +182,8 @@ class Oscillator:
     @property
     def terms(self) -> tuple[tuple[float, float, float], ...]:
         """Every harmonic of the forcing as ``(F_i, Omega_i, phase_i)``, the fundamental first."""
-        return ((self.F, self.Omega, self.phase), *self.harmonics)
+        # __post_init__ stored ``harmonics`` as a tuple of float triples.
+        return ((self.F, self.Omega, self.phase), *cast(tuple, self.harmonics))
 
     @property
     def beta_s(self) -> float:
@@ -359,10 +362,14 @@ class Oscillator:
         friction holds leaves it unloaded. Returns ``(int P dt, int P^2 dt, max P)``. The
         roots of ``side * f_net`` are bracketed on a grid finer than a quarter period of the
         fastest harmonic and refined, so each integral is over a smooth stretch (composite
-        16-node Gauss-Legendre, error far below rounding).
+        16-node Gauss-Legendre, error far below rounding). The maximum is taken at the ends
+        and at the maxima of the push inside (roots of the forcing rate, refined the same
+        way), not at the quadrature nodes.
         """
         if not t1 > t0:
             return 0.0, 0.0, 0.0
+        from scipy.optimize import brentq
+
         fastest = max((Om for F, Om, _ in self.terms if F > 0.0), default=0.0)
         n = max(1, math.ceil((t1 - t0) * fastest / (0.25 * math.pi)))
         grid = np.linspace(t0, t1, n + 1)
@@ -370,15 +377,19 @@ class Oscillator:
         def push(t):
             return side * self.forcing(t) - 1.0  # side * f_net at X = side (rigid: no spring)
 
-        g = push(grid)
-        cuts = [t0]
-        for a, b, ga, gb in zip(grid[:-1], grid[1:], g[:-1], g[1:], strict=True):
-            if ga * gb < 0.0:
-                from scipy.optimize import brentq
+        def rise(t):
+            return side * float(self.forcing_rate(t))
 
-                cuts.append(brentq(push, a, b, xtol=1e-15, rtol=4 * _EPS))
-        cuts.append(t1)
-        total = total_sq = peak = 0.0
+        g = push(grid)
+        rate = side * self.forcing_rate(grid)
+        cuts = [t0]
+        for i in np.flatnonzero(g[:-1] * g[1:] < 0.0):
+            cuts.append(brentq(push, grid[i], grid[i + 1], xtol=1e-15, rtol=4 * _EPS))
+        cuts += [float(t) for t in grid[1:-1][g[1:-1] == 0.0]]  # a root on the grid itself
+        cuts = sorted(cuts) + [t1]
+        tops = [t0, t1] + [brentq(rise, grid[i], grid[i + 1], xtol=1e-15, rtol=4 * _EPS)
+                           for i in np.flatnonzero((rate[:-1] > 0.0) & (rate[1:] < 0.0))]
+        total = total_sq = 0.0
         for a, b in zip(cuts[:-1], cuts[1:], strict=True):
             if not b > a:
                 continue
@@ -389,7 +400,7 @@ class Oscillator:
             weights = 0.5 * h * np.tile(_GL_WEIGHTS, m)
             total += float(weights @ vals)
             total_sq += float(weights @ (vals * vals))
-            peak = max(peak, float(vals.max()), float(max(push(a), push(b), 0.0)))
+        peak = max(0.0, float(g.max()), float(push(np.array(tops)).max()))
         return total, total_sq, peak
 
     # -- energy -------------------------------------------------------------------------

@@ -194,6 +194,15 @@ def figure_dt() -> float:
     return 2.0 * math.pi / FIGURE_STEPS_PER_PERIOD
 
 
+def _require_eq3(drives) -> None:
+    """The paper's RK4 grids run eq. 3 only: refuse a drive with a family member's fields."""
+    for d in drives:
+        extra = d.oscillator().unsupported()
+        if extra:
+            raise ValueError("the paper's RK4 grid runs eq. 3 only, but the drive has "
+                             f"{', '.join(extra)}; use impactosc.sweep (heyoka or scipy) for the model family")
+
+
 def rk4_grid(base: TapeDrive, grid: dict, *, duration: float = 1.0, dt="figure", flange: str = "consistent",
              x0: float = 0.95, v0: float = 0.0) -> xr.Dataset:
     """Run the paper's fixed-step RK4 (naive ``sign()``) on every point of a grid, as a Dataset in SI units.
@@ -231,6 +240,7 @@ def rk4_grid(base: TapeDrive, grid: dict, *, duration: float = 1.0, dt="figure",
     for idx, point in _points(grid):
         drives[idx] = resolve_drive(base, point)
     flat = drives.ravel()
+    _require_eq3(flat)
     F = np.array([d.F for d in flat])
     Om = np.array([d.Omega for d in flat])
     beta = np.array([d.beta for d in flat])
@@ -283,6 +293,7 @@ def rk4_default_step_cost(base: TapeDrive, points: list[dict], duration: float =
     from .backends.rk4 import default_dt, rk4_batch
 
     drives = [resolve_drive(base, p) for p in points]
+    _require_eq3(drives)
     t_end = np.array([d.seconds_to_lambda(duration) for d in drives])
     steps = np.array([default_dt(d.K) for d in drives])
     t = time.perf_counter()

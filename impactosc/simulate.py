@@ -113,7 +113,7 @@ def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> Non
     limit = math.log10(MAX_MAGNITUDE)
     if log_q2 <= limit:
         return
-    name = max(terms, key=terms.get)
+    name = max(terms, key=lambda k: terms[k])
     if log10(osc.K) > 2.0 * log_r:
         name = "K"
     culprit = {"x0": f"x0={x0!r}", "v0": f"v0={v0!r}", "K": f"K={osc.K!r}",

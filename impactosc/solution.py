@@ -93,6 +93,7 @@ class _Recorder:
         self.pieces = 0
         self._open: list | None = None  # [start, side, entry_v, peak_pen, impulse, complete]
         self.samples: list[tuple] = []  # exact states at the requested sample times
+        self.tails: list = []  # chatter jumps, for dense output inside their tails
 
     def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
         self.osc = osc
@@ -155,19 +156,26 @@ class _Recorder:
             if self.keep_events:
                 self.impacts.append((t, t, side, v, -e * v, 0.0, math.inf, impulse, True))
 
-    def chatter(self, jump, t: float | None) -> None:
-        """Add the resolved remainder of a chatter (``impactosc._chatter.ChatterJump``).
+    def chatter(self, jump, t: float) -> tuple[float, float, int]:
+        """Add the resolved tail of a chatter (``impactosc._chatter.ChatterJump``) up to ``t``.
 
-        ``t`` is the accumulation time where the event is recorded, or ``None`` when it lies
-        beyond the end of the run (the totals are still added: their error is below the
-        jump's tolerance).
+        ``t`` is the accumulation time, where the ``chatter`` event is recorded (its
+        ``count`` is the number of impacts followed one by one), or the end of the run when
+        that comes first: then only the impacts and flights of the tail before ``t`` are
+        added. The forcing works on the tail's net displacement (zero at the accumulation
+        time). Returns the local model's ``(x, v, motion)`` at ``t``.
         """
         side = jump.side
-        self.impulse[side] += jump.impulse
-        self.slip_path += jump.path
-        self.impact_loss += jump.loss
-        if t is not None:
-            self.event(t, CHATTER, float(side), 0.0, side, jump.impacts)
+        if self.keep_segments:
+            self.tails.append(jump)
+        x, v, motion, impulse, path, loss = jump.state_at(t)
+        self.impulse[side] += impulse
+        self.slip_path += path
+        self.impact_loss += loss
+        self.forcing_work += self.osc._forcing_scalar(jump.t0) * (x - side)
+        if t >= jump.t_inf:
+            self.event(jump.t_inf, CHATTER, float(side), 0.0, side, jump.impacts)
+        return x, v, motion
 
     def _close(self, t: float, v: float) -> None:
         start, side, v_in, pen, imp, complete = self._open
@@ -255,6 +263,7 @@ class Solution(SolutionFramesMixin):
         self._impacts = (np.rec.array(rec.impacts, dtype=IMPACT_DTYPE) if rec.impacts
                          else np.recarray((0,), dtype=IMPACT_DTYPE)) if rec.keep_events else None
         self._segments = np.array(rec.segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
+        self._tails = tuple(rec.tails)
         self.samples = (np.rec.array(rec.samples, dtype=SAMPLE_DTYPE) if rec.samples
                         else np.recarray((0,), dtype=SAMPLE_DTYPE))
 
@@ -277,7 +286,12 @@ class Solution(SolutionFramesMixin):
 
     @property
     def events(self) -> np.recarray:
-        """One record per event: fields ``t, kind, x, v, side`` (``side`` +1/-1 at a flange, 0 otherwise)."""
+        """One record per event: fields ``t, kind, x, v, side, count``.
+
+        ``side`` is +1/-1 at a flange, 0 otherwise. ``count`` is 1, except for a ``chatter``
+        event: the number of impacts of the sequence followed one by one before the jump to
+        their accumulation point (the infinitely many remaining ones are not events).
+        """
         self._need("events", "Solution.events")
         return self._events
 
@@ -395,6 +409,11 @@ class Solution(SolutionFramesMixin):
             mode = Mode(int(s["region"]), int(s["motion"]), bool(s["armed"]))
             xs, vs, qs = self._evaluator(mode, float(s["t"]), float(s["x"]), float(s["v"]), t[sel])
             x[sel], v[sel], q[sel] = xs, vs, qs
+        for jump in self._tails:
+            # Inside the tail of a chatter the last flight's piece would run through the wall:
+            # the jump's local model holds the motion there.
+            for i in np.flatnonzero((t > jump.t0) & (t < jump.t_inf) & ~at_end):
+                x[i], v[i] = jump.state_at(float(t[i]))[:2]
         if np.any(at_end & ~at_start):
             # The run's final state; the impulse of its last piece from the stored totals.
             last = seg[k[at_end][0]]
@@ -433,7 +452,11 @@ class Solution(SolutionFramesMixin):
         _, _, q, k = self._evaluate(t_arr)
         seg = self._segments[k[0]]
         cum = float(seg["impulse_upper" if side == 1 else "impulse_lower"])
-        return cum + (float(q[0]) if int(seg["region"]) == side else 0.0)
+        cum += float(q[0]) if int(seg["region"]) == side else 0.0
+        for jump in self._tails:  # the impacts of a chatter tail before t
+            if jump.side == side and jump.t0 < t < jump.t_inf:
+                cum += jump.state_at(t)[3]
+        return cum
 
     # -- energy ------------------------------------------------------------------------
     def energy_balance(self) -> dict[str, float]:

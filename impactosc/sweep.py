@@ -52,7 +52,7 @@ from ._sweep_point import FLOAT_VARS, STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_
 from ._sweep_store import Store, check_store_path, point_key
 from .backends import get_backend
 from .simulate import simulate
-from .tape import BENDING_OPTIONS, TapeDrive
+from .tape import BENDING_OPTIONS, FIELD_UNITS, TapeDrive
 
 __all__ = ["sweep", "load_sweep", "load", "SWEEP_KEYS", "STATUS_EXCEPTION", "STATUS_LOST", "STATUS_NOT_COMPUTED"]
 
@@ -60,34 +60,6 @@ _FIELDS = tuple(f.name for f in dataclasses.fields(TapeDrive))
 #: The keys a grid may use: every TapeDrive field, and ``t_sin_half_theta`` (Fig. 8).
 SWEEP_KEYS = _FIELDS + ("t_sin_half_theta",)
 
-# (units, long name) of the grid coordinates.
-_FIELD_ATTRS = {
-    "speed": ("m/s", "tape speed V"),
-    "tension": ("N", "tape tension T"),
-    "pack_diameter": ("m", "supply pack diameter D"),
-    "wrap_angle": ("deg", "wrap angle theta"),
-    "width": ("m", "tape width w"),
-    "thickness": ("m", "tape thickness h"),
-    "free_length": ("m", "free span length l"),
-    "youngs_modulus": ("Pa", "Young's modulus E of the tape"),
-    "density": ("kg/m^3", "tape density rho"),
-    "clearance": ("m", "tape edge to flange clearance L"),
-    "stiffness_ratio": ("1", "flange to tape stiffness ratio k0/k"),
-    "friction": ("1", "Coulomb friction coefficient mu"),
-    "bending": ("", "second moment of area reading of eq. 4"),
-    "hub_diameter": ("m", "hub diameter"),
-    "full_pack_diameter": ("m", "full pack diameter"),
-    "runout_hub": ("m", "reel run-out at the hub"),
-    "runout_full": ("m", "reel run-out at full pack"),
-    "damping_ratio": ("1", "viscous damping ratio zeta"),
-    "static_friction": ("1", "static (breakaway) friction coefficient mu_s"),
-    "flange": ("", "flange law (spring or rigid)"),
-    "flange_exponent": ("1", "exponent p of the flange spring law k0 d^p"),
-    "flange_stiffness": ("N/m^p", "flange stiffness k0 of the spring law"),
-    "restitution": ("1", "coefficient of restitution of a rigid flange"),
-    "runout_harmonics": ("", "run-out harmonics (n, fraction, phase)"),
-    "t_sin_half_theta": ("N", "T sin(theta/2), half the roller normal force (eq. 5)"),
-}
 
 _STATUS_DOC = ("0 ok; 1 event limit reached; -1 integration failed; -2 exception (see message); "
                "-3 task lost (worker crashed); -4 not computed")
@@ -443,7 +415,7 @@ def _assemble(plan: dict, results: dict) -> xr.Dataset:
     data = {name: (dims, floats[name], attrs(*FLOAT_VARS[name])) for name in FLOAT_VARS}
     data["status"] = (dims, status, {"long_name": "run status", "flag_meanings": _STATUS_DOC})
     data["message"] = (dims, message.astype(str), {"long_name": "status message"})
-    coords = {k: (k, v, attrs(*_FIELD_ATTRS[k])) for k, v in grid.items()}
+    coords = {k: (k, v, attrs(*FIELD_UNITS[k])) for k, v in grid.items()}
     base = plan["base"]
     ds_attrs = {f"base_{f}": _attr_value(getattr(base, f)) for f in _FIELDS}
     ds_attrs.update(duration=plan["duration"], duration_units="s", backend=plan["backend"], x0=plan["x0"],

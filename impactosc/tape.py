@@ -27,10 +27,40 @@ import numpy as np
 from . import _validation as _v
 from .model import Oscillator
 
-__all__ = ["TapeDrive", "BENDING_OPTIONS"]
+__all__ = ["TapeDrive", "BENDING_OPTIONS", "FIELD_UNITS"]
 
 #: The two readings of "moment of inertia of the cross section" in eq. 4.
 BENDING_OPTIONS = ("in-plane", "out-of-plane")
+
+#: ``(units, long name)`` of every TapeDrive field, and of ``t_sin_half_theta`` (eq. 5, Fig. 8):
+#: the coordinates of sweeps, bifurcation diagrams and design charts.
+FIELD_UNITS = {
+    "speed": ("m/s", "tape speed V"),
+    "tension": ("N", "tape tension T"),
+    "pack_diameter": ("m", "supply pack diameter D"),
+    "wrap_angle": ("deg", "wrap angle theta"),
+    "width": ("m", "tape width w"),
+    "thickness": ("m", "tape thickness h"),
+    "free_length": ("m", "free span length l"),
+    "youngs_modulus": ("Pa", "Young's modulus E of the tape"),
+    "density": ("kg/m^3", "tape density rho"),
+    "clearance": ("m", "tape edge to flange clearance L"),
+    "stiffness_ratio": ("1", "flange to tape stiffness ratio k0/k"),
+    "friction": ("1", "Coulomb friction coefficient mu"),
+    "bending": ("", "second moment of area reading of eq. 4"),
+    "hub_diameter": ("m", "hub diameter"),
+    "full_pack_diameter": ("m", "full pack diameter"),
+    "runout_hub": ("m", "reel run-out at the hub"),
+    "runout_full": ("m", "reel run-out at full pack"),
+    "damping_ratio": ("1", "viscous damping ratio zeta"),
+    "static_friction": ("1", "static (breakaway) friction coefficient mu_s"),
+    "flange": ("", "flange law (spring or rigid)"),
+    "flange_exponent": ("1", "exponent p of the flange spring law k0 d^p"),
+    "flange_stiffness": ("N/m^p", "flange stiffness k0 of the spring law"),
+    "restitution": ("1", "coefficient of restitution of a rigid flange"),
+    "runout_harmonics": ("", "run-out harmonics (n, fraction, phase)"),
+    "t_sin_half_theta": ("N", "T sin(theta/2), half the roller normal force (eq. 5)"),
+}
 
 _HUB_DIAMETER = 44e-3
 _FULL_PACK_DIAMETER = 97e-3
@@ -491,4 +521,7 @@ class TapeDrive:
             f"  scales: L = {self.clearance:.4g} m, k L = {self.force_scale:.4g} N",
             f"  eq. 3: F = {self.F:.4g}, Omega = {self.Omega:.4g}, beta = {self.beta:.4g}, K = {self.K:.4g}",
         ]
+        extra = self.oscillator().unsupported()
+        if extra:
+            lines.append(f"  model family: {', '.join(extra)}")
         return "\n".join(lines)

@@ -96,3 +96,35 @@ def rigid_release_time(F: float, Omega: float, beta_static: float) -> float:
     ``-beta_static`` and the mass leaves when ``F cos(Omega t) = 1 - beta_static`` (falling).
     """
     return math.acos((1.0 - beta_static) / F) / Omega
+
+
+def rigid_chatter_state(F: float, beta: float, e: float, t: float, x0: float = 0.0) -> tuple[float, float]:
+    """State ``(X, V)`` at ``t`` of the chatter of :func:`rigid_chatter_accumulation`.
+
+    The same harmonic arcs, walked until the one that holds ``t``: from the wall at speed
+    ``w`` down about ``co = F + beta`` (``X = co + (1 - co) cos s - w sin s``) to the apex ``A``,
+    then back up about ``ci = F - beta`` (``X = ci + (A - ci) cos s``). After the accumulation
+    time the mass rests on the wall.
+    """
+    t_inf, times = rigid_chatter_accumulation(F, beta, e, x0)
+    if t >= t_inf:
+        return 1.0, 0.0
+    ci, co = F - beta, F + beta
+    if t < times[0]:
+        s = t
+        return ci + (x0 - ci) * math.cos(s), -(x0 - ci) * math.sin(s)
+    k = max(i for i, ti in enumerate(times) if ti <= t)
+    # Speed of the k-th impact, as the reference recurrence computes it.
+    u = abs(x0 - ci) * math.sin(times[0])
+    for _ in range(k):
+        w = e * u
+        apex_m1 = -w * w / ((co - 1.0) + math.hypot(co - 1.0, w))
+        u = math.sqrt(apex_m1 * (apex_m1 + 2.0 - 2.0 * ci))
+    w = e * u
+    s = t - times[k]
+    t_up = math.atan2(w, co - 1.0)
+    if s <= t_up:
+        return co + (1.0 - co) * math.cos(s) - w * math.sin(s), -(1.0 - co) * math.sin(s) - w * math.cos(s)
+    apex = 1.0 - w * w / ((co - 1.0) + math.hypot(co - 1.0, w))
+    s -= t_up
+    return ci + (apex - ci) * math.cos(s), -(apex - ci) * math.sin(s)

@@ -234,3 +234,109 @@ def test_event_limit_and_recording_levels():
 def test_unknown_option_is_rejected():
     with pytest.raises(TypeError, match="does not accept"):
         simulate(CONTACT, 10.0, backend="exact", tol=1e-12)
+
+
+# -- the linear family: damping and harmonic sums (issue #10 item 4) ------------------------
+DAMPED_CONTACT = Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4, zeta=0.02)
+
+
+@pytest.mark.parametrize("osc, t_end", [
+    (DAMPED_CONTACT, 400.0),
+    (Oscillator(0.5, 1.1, 0.01, 1e4, harmonics=[(0.2, 2.2, 0.3), (0.05, 3.3, 1.0)]), 60.0),
+    (Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.05, harmonics=[(0.2, 2.2, 0.3)]), 100.0),
+    (Oscillator(0.8, 0.4, 0.05, 50.0, 0.3, zeta=0.3, beta_static=0.1), 60.0),
+])
+def test_family_members_match_heyoka(osc, t_end):
+    # Measured: event times within 4e-11, mean flange forces within 2e-13 relative.
+    h, e = _pair(osc, t_end, 0.95, 0.0)
+    _assert_agree(h, e, t_tol=1e-10, force_rtol=1e-11)
+    assert e.contact_entries() > 0 or e.counts["stick"] > 0  # the last: stick-slip, no contact
+    for sol in (h, e):
+        bal = sol.energy_balance()
+        assert abs(bal["residual"]) <= 1e-12 * bal["scale"]
+    assert e.forcing_work == pytest.approx(h.forcing_work, rel=1e-10)
+    if osc.zeta:
+        assert e.energy_balance()["damping_work"] == pytest.approx(h.energy_balance()["damping_work"], rel=1e-10)
+
+
+def test_damped_coulomb_decay_turns_to_1e10():
+    from family_reference import coulomb_decay_turns
+
+    osc = Oscillator(0.0, 0.0, 0.05, 1e4, zeta=0.05, beta_static=0.06)
+    turns, t_stick = coulomb_decay_turns(0.95, 0.05, 0.06, zeta=0.05)
+    ev = simulate(osc, 40.0, 0.95, 0.0, backend="exact").events
+    assert ev.kind[-1] == "stick" and len(ev) == len(turns) and ev.t[-1] == pytest.approx(t_stick, abs=1e-10)
+    np.testing.assert_allclose(ev.t, [t for t, _ in turns], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(ev.x, [x for _, x in turns], rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("zeta", [1.0, 2.5, 1.0 - 1e-9, 1.0 + 1e-9])
+def test_critically_and_over_damped_free_decay(zeta):
+    # X'' + 2 zeta X' + X = 0 from (x0, v0): never turns, tends to 0. Closed forms:
+    # critical (1 + t) e^{-t} x0 + t e^{-t} v0; over with roots l1,2 = -zeta +- mu.
+    x0, v0 = 0.8, 0.3
+    sol = simulate(Oscillator(0.0, 0.0, 0.0, 1e4, zeta=zeta), 12.0, x0, v0, backend="exact")
+    assert sol.status == 0 and len(sol.events) == 1 and sol.events.kind[0] == "reversal"
+    ts = np.linspace(0.0, 12.0, 49)
+    x, v = sol.sample(ts)
+    if zeta == 1.0:
+        ref_x = ((1.0 + ts) * x0 + ts * v0) * np.exp(-ts)
+        ref_v = (v0 - ts * (x0 + v0)) * np.exp(-ts)
+    else:
+        mu = np.sqrt(complex(zeta * zeta - 1.0))
+        l1, l2 = -zeta + mu, -zeta - mu
+        c1, c2 = (v0 - l2 * x0) / (l1 - l2), (l1 * x0 - v0) / (l1 - l2)
+        ref_x = (c1 * np.exp(l1 * ts) + c2 * np.exp(l2 * ts)).real
+        ref_v = (c1 * l1 * np.exp(l1 * ts) + c2 * l2 * np.exp(l2 * ts)).real
+        if abs(zeta - 1.0) < 1e-6:  # the two-root form cancels there: compare with looser bounds
+            np.testing.assert_allclose(x, ref_x, rtol=0, atol=1e-6)
+            return
+    np.testing.assert_allclose(x, ref_x, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(v, ref_v, rtol=0, atol=1e-14)
+    # The turning point (velocity zero) of the critical/over-damped motion from v0 > 0.
+    bal = sol.energy_balance()
+    assert abs(bal["residual"]) <= 1e-13 * bal["scale"]
+
+
+def test_harmonic_sum_forced_response_closed_form():
+    # Free region, no friction, no contact: X = steady response of each harmonic + a
+    # homogeneous part fixed by X(0), V(0) (undamped: cos/sin; damped: e^{-zeta t}).
+    terms = [(0.1, 0.5, 0.3), (0.05, 1.7, 1.1), (0.02, 3.1, 0.0)]
+    for zeta in (0.0, 0.1):
+        osc = Oscillator.from_harmonics(terms, beta=0.0, K=1e4, zeta=zeta)
+        ts = np.linspace(0.0, 30.0, 301)
+        sol = simulate(osc, 30.0, 0.0, 0.0, backend="exact", sample_at=ts)
+        assert sol.contact_entries() == 0
+        gains = [F / complex(1.0 - Om * Om, 2.0 * zeta * Om) * np.exp(1j * ph) for F, Om, ph in terms]
+        xs = sum((g * np.exp(1j * Om * ts)).real for g, (_, Om, _) in zip(gains, terms, strict=True))
+        a = -sum(g.real for g in gains)
+        b = -sum((1j * Om * g).real for g, (_, Om, _) in zip(gains, terms, strict=True))
+        wd = math.sqrt(1.0 - zeta * zeta)
+        xs = xs + np.exp(-zeta * ts) * (a * np.cos(wd * ts) + (b + zeta * a) / wd * np.sin(wd * ts))
+        np.testing.assert_allclose(sol.samples.x, xs, rtol=0, atol=1e-14)
+
+
+def test_damped_piece_bounds_hold():
+    # The guard search's derivative bounds must dominate the true derivatives everywhere.
+    for osc in (DAMPED_CONTACT, Oscillator(0.3, 0.7, 0.05, 50.0, zeta=3.0, harmonics=[(0.2, 2.2, 0.3)]),
+                Oscillator(0.3, 0.7, 0.05, 50.0, zeta=1.0), Oscillator(0.3, 0.7, 0.05, 50.0, zeta=math.sqrt(51.0))):
+        st = exact._Stepper(osc)
+        for mode, x0, v0 in ((Mode(0, 1), 0.2, 0.5), (Mode(1, 1), 1.001, 0.8), (Mode(1, -1), 1.01, -0.3)):
+            p = st._slip_piece(mode, 3.7, x0, v0)
+            taus = np.linspace(0.0, 6.0, 3001)
+            m2, m3 = p.bounds(6.0, 0)  # bounds of |Y''| and |Y'''| on [0, 6]
+            a2 = np.array([p.aj(t)[0] for t in taus])
+            a3 = np.array([p.aj(t)[1] for t in taus])
+            assert np.max(np.abs(a2)) <= m2 and np.max(np.abs(a3)) <= m3
+            # Y'''' (central differences of Y''') against the order-4 bound the ACCEL_ZERO search uses.
+            assert np.max(np.abs(np.gradient(a3, taus))) <= p.bounds(6.0, 1)[1]
+
+
+def test_exact_refuses_near_resonance_and_power_law():
+    with pytest.raises(ValueError, match="exact backend does not support a forcing harmonic at resonance"):
+        simulate(Oscillator(0.5, 1.1, 0.01, 1e4, harmonics=[(0.1, 1.0, 0.0)]), 1.0, backend="exact")
+    with pytest.raises(ValueError, match="exact backend does not support a power-law flange"):
+        simulate(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.1, exponent=1.5), 1.0, backend="exact")
+    # Damped, the same harmonic is fine: no singularity.
+    assert simulate(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.05, harmonics=[(0.1, 1.0, 0.0)]), 5.0,
+                    backend="exact").status == 0

@@ -1,10 +1,12 @@
 """rk4 backend: the paper's fixed-step baseline, its genuine errors measured against heyoka."""
 
+import dataclasses
 import math
 import warnings
 
 import numpy as np
 import pytest
+from scipy.integrate import quad
 
 import impactosc as io
 from impactosc.backends import rk4
@@ -226,3 +228,156 @@ def test_plain_python_fallback_warns_and_agrees(monkeypatch):
     assert slow.counts == fast.counts
     np.testing.assert_allclose(slow.events.t, fast.events.t, rtol=1e-12)
     assert slow.mean_flange_force() == pytest.approx(fast.mean_flange_force(), rel=1e-12)
+
+
+# -- the model family (issue #10): what the fixed-step scheme can express -------------------
+def test_damped_free_decay_is_fourth_order():
+    # X'' + 2 zeta X' + X = 0 from rest at x0 (|X| < 1, beta = 0): a smooth right-hand side.
+    zeta, x0, t_end = 0.05, 0.5, 10.0
+    wd = math.sqrt(1.0 - zeta * zeta)
+
+    def v_exact(t):
+        return -x0 * math.exp(-zeta * t) / wd * math.sin(wd * t)
+
+    x_end = x0 * math.exp(-zeta * t_end) * (math.cos(wd * t_end) + zeta / wd * math.sin(wd * t_end))
+    loss = 2.0 * zeta * quad(lambda t: v_exact(t) ** 2, 0.0, t_end, epsabs=1e-14, limit=200)[0]
+    osc = io.Oscillator(F=0.0, Omega=0.0, beta=0.0, K=1e4, zeta=zeta)
+    errors = []
+    for dt in (0.1, 0.05):
+        sol = io.simulate(osc, t_end, x0, 0.0, backend="rk4", dt=dt, record="stats")
+        errors.append((abs(sol.x_final - x_end), abs(sol.v_final - v_exact(t_end)), abs(sol.damping_work - loss)))
+        # The identity E(end) - E(0) = -2 zeta int V^2, with int V^2 integrated by RK4 itself.
+        balance = sol.energy_balance()
+        assert abs(balance["residual"]) < 1e-6 * balance["scale"]  # measured 4.2e-7, 5.4e-8 relative
+    for coarse, fine in zip(*errors, strict=True):
+        assert 1e-9 < fine < coarse
+        assert 12.0 <= coarse / fine <= 32.0  # measured 15.3 (X), 16.7 (V), 24.7 (int V^2)
+
+
+HARMONICS = [(0.1, 2.3, 0.3), (0.05, 3.7, 1.0)]
+
+
+def test_harmonic_sum_against_scipy():
+    # Free flight (|X| < 0.71, beta = 0) under three harmonics and damping: fourth order
+    # against scipy's DOP853 at rtol 1e-13, so each harmonic's phase rotation is exact.
+    osc = io.Oscillator(0.1, 1.1, 0.0, 1e4, zeta=0.02, harmonics=HARMONICS)
+    ref = io.simulate(osc, 20.0, 0.1, 0.0, backend="scipy", record="stats")
+    assert ref.counts["contact_start"] == 0
+    errors = []
+    for dt in (0.1, 0.05):
+        sol = io.simulate(osc, 20.0, 0.1, 0.0, backend="rk4", dt=dt, record="stats")
+        errors.append((abs(sol.x_final - ref.x_final), abs(sol.v_final - ref.v_final)))
+        assert sol.damping_work == pytest.approx(ref.damping_work, rel=1e-5)
+        # The forcing work is the trapezoid rule, O(dt^2) (measured 7.9e-5, 2.0e-5 of 1.5).
+        assert sol.forcing_work == pytest.approx(ref.forcing_work, abs=2e-4)
+    for coarse, fine in zip(*errors, strict=True):
+        assert 1e-9 < fine < coarse
+        assert 12.0 <= coarse / fine <= 20.0  # measured 13.9 (X), 16.2 (V)
+
+
+def test_harmonics_damping_and_contacts_against_scipy():
+    # Contacts with a linear flange and small friction that never sticks here: RK4 at its
+    # default step across the kinks of the force, against scipy's located events.
+    osc = io.Oscillator(0.5, 1.1, 0.01, 100.0, zeta=0.02, harmonics=[(0.1, 2.2, 0.3), (0.05, 3.3, 1.0)])
+    ref = io.simulate(osc, 60.0, 0.95, 0.0, backend="scipy")
+    sol = io.simulate(osc, 60.0, 0.95, 0.0, backend="rk4")
+    assert ref.counts["stick"] == 0 and ref.contact_entries(1) == 9
+    assert sol.counts == ref.counts
+    t = np.linspace(0.0, 60.0, 601)
+    np.testing.assert_allclose(sol.sample(t)[0], ref.sample(t)[0], atol=5e-3)  # measured 1.1e-3
+    assert abs(sol.events.t[0] - ref.events.t[0]) < 3e-5  # first entry, free flight only: 3.1e-6
+    for side in (1, -1):
+        # measured relative errors 1.5e-4 and 3.8e-4 (mean force), 2.1e-4 (peak penetration)
+        assert sol.mean_flange_force(side) == pytest.approx(ref.mean_flange_force(side), rel=2e-3)
+        assert sol.max_penetration(side) == pytest.approx(ref.max_penetration(side), rel=2e-3)
+    balance = sol.energy_balance()
+    assert balance["damping_work"] == pytest.approx(ref.damping_work, rel=1e-3)
+    assert abs(balance["residual"]) < 1e-3 * balance["scale"]  # measured 4.4e-5 relative
+
+
+def test_hertz_contact_against_scipy():
+    osc = io.Oscillator(0.5, 1.1, 0.0, 1e4, exponent=1.5)
+    ref = io.simulate(osc, 60.0, 0.95, 0.0, backend="scipy")
+    sol = io.simulate(osc, 60.0, 0.95, 0.0, backend="rk4")
+    assert sol.counts == ref.counts and ref.contact_entries() == 14
+    t = np.linspace(0.0, 60.0, 601)
+    x, v = sol.sample(t)
+    xr, vr = ref.sample(t)
+    np.testing.assert_allclose(x, xr, atol=2e-5)  # measured 3.8e-6
+    np.testing.assert_allclose(v, vr, atol=3e-4)  # measured 5.9e-5
+    assert sol.mean_flange_force() == pytest.approx(ref.mean_flange_force(), rel=1e-5)  # measured 1.1e-6
+    np.testing.assert_allclose(sol.impacts.peak_penetration, ref.impacts.peak_penetration, rtol=1e-3)
+    # The streamed peak force is the power law of the sampled peak penetration.
+    np.testing.assert_allclose(sol.impacts.peak_force, 1e4 * sol.impacts.peak_penetration**1.5, rtol=1e-14)
+    # Energy with the Hertz potential K d^2.5 / 2.5 balances: the kernel's force is K d^1.5.
+    balance = sol.energy_balance()
+    assert abs(balance["residual"]) < 1e-5 * balance["scale"]  # measured 2.2e-6 relative
+
+
+def test_family_kernel_reduces_to_eq3():
+    base = io.simulate(CONTACT_CASE, 20.0, 0.95, 0.0, backend="rk4")
+    # Static = kinetic friction is eq. 3 itself (same kernel, same numbers).
+    same = io.simulate(dataclasses.replace(CONTACT_CASE, beta_static=CONTACT_CASE.beta), 20.0, 0.95, 0.0,
+                       backend="rk4")
+    assert (same.x_final, same.v_final, same.mean_flange_force()) == (base.x_final, base.v_final,
+                                                                      base.mean_flange_force())
+    # A zero-amplitude harmonic runs the kernel compiled with the family terms (damping 0,
+    # p = 1): it must give eq. 3's numbers.
+    fam = io.simulate(dataclasses.replace(CONTACT_CASE, harmonics=[(0.0, 2.0, 0.0)]), 20.0, 0.95, 0.0,
+                      backend="rk4")
+    assert fam.counts == base.counts and fam.counts["contact_start"] == 4
+    np.testing.assert_allclose(fam.events.t, base.events.t, rtol=1e-13)
+    assert fam.mean_flange_force() == pytest.approx(base.mean_flange_force(), rel=1e-12)
+    assert fam.forcing_work == pytest.approx(base.forcing_work, rel=1e-12)
+    assert fam.damping_work == 0.0
+
+
+@pytest.mark.parametrize("osc, kwargs, match", [
+    (io.Oscillator(0.5, 1.1, 0.01, 1.0, flange="rigid", restitution=0.8), {},
+     r"rk4 baseline does not support a rigid flange \(restitution=0.8\).*event location.*heyoka"),
+    (io.Oscillator(0.5, 1.1, 0.1, 1e4, beta_static=0.2), {},
+     r"does not support static friction beta_static=0.2 > beta=0.1.*no stick logic.*heyoka"),
+    (io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5), {"flange": "paper"},
+     r"flange='paper'.*linear flange law only, got exponent=1.5"),
+    (CONTACT_CASE, {"sample_at": [1.0]}, r"sample_at needs time events.*heyoka"),
+])
+def test_family_refusals(osc, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        io.simulate(osc, 10.0, 0.5, 0.0, backend="rk4", **kwargs)
+
+
+def test_batch_family_equals_single_runs():
+    zeta = np.array([0.0, 0.03, 0.01])
+    p = np.array([1.0, 1.5, 1.0])
+    F2 = np.array([0.0, 0.1, 0.2])
+    res = rk4.rk4_batch(0.5, 1.1, 0.01, 1e4, 0.0, 50.0, 0.95, 0.0, zeta=zeta, exponent=p,
+                        harmonics=[(F2, 2.2, 0.3)])
+    for i in range(3):
+        osc = io.Oscillator(0.5, 1.1, 0.01, 1e4, zeta=zeta[i], exponent=p[i], harmonics=[(F2[i], 2.2, 0.3)])
+        s = io.simulate(osc, 50.0, 0.95, 0.0, backend="rk4", record="stats")
+        assert (res.mean_force_upper[i], res.mean_force_lower[i]) == (s.mean_flange_force(1), s.mean_flange_force(-1))
+        assert res.contacts_upper[i] == s.contact_entries(1) > 0
+        assert res.max_penetration_lower[i] == s.max_penetration(-1)
+    assert len(set(res.mean_force_upper.tolist())) == 3  # the family terms reached the kernel
+    with pytest.raises(ValueError, match="linear flange law only, got exponent=1.5"):
+        rk4.rk4_batch(0.5, 1.1, 0.01, 1e4, exponent=p, flange="paper")
+    with pytest.raises(ValueError, match="zeta must be finite and >= 0"):
+        rk4.rk4_batch(0.5, 1.1, 0.01, 1e4, zeta=[0.1, -0.1])
+    with pytest.raises(ValueError, match="exponent must be finite and >= 1"):
+        rk4.rk4_batch(0.5, 1.1, 0.01, 1e4, exponent=0.5)
+    with pytest.raises(ValueError, match=r"harmonics\[0\] amplitude"):
+        rk4.rk4_batch(0.5, 1.1, 0.01, 1e4, harmonics=[([0.1, -0.1], 2.0, 0.0)])
+    with pytest.raises(TypeError, match=r"harmonics\[0\] must be a triple"):
+        rk4.rk4_batch(0.5, 1.1, 0.01, 1e4, harmonics=[0.1])
+
+
+def test_plain_python_fallback_agrees_on_a_family_member(monkeypatch):
+    osc = io.Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02, exponent=1.5, harmonics=HARMONICS)
+    fast = io.simulate(osc, 3.0, 0.95, 1.0, backend="rk4")
+    monkeypatch.setattr(rk4, "_warned_slow", True)
+    monkeypatch.setattr(rk4, "_KERNEL", getattr(rk4._kernel, "py_func", rk4._kernel))
+    slow = io.simulate(osc, 3.0, 0.95, 1.0, backend="rk4")
+    assert slow.counts == fast.counts and slow.contact_entries(1) == 1
+    assert slow.x_final == pytest.approx(fast.x_final, rel=1e-12)
+    assert slow.damping_work == pytest.approx(fast.damping_work, rel=1e-12)
+    assert slow.flange_impulse() == pytest.approx(fast.flange_impulse(), rel=1e-12)

@@ -29,9 +29,9 @@ from impactosc.engine import (
 #: Backends that support each feature (more heyoka cases: tests/test_family_heyoka.py).
 RIGID = ["heyoka", "exact", "scipy"]
 STATIC = ["heyoka", "exact", "scipy"]
-DAMPED = ["heyoka", "scipy"]
+DAMPED = ["heyoka", "exact", "scipy"]
 POWER = ["heyoka", "scipy"]
-HARMONICS = ["heyoka", "scipy"]
+HARMONICS = ["heyoka", "exact", "scipy"]
 SCIPY_TIGHT = {"rtol": 1e-13, "atol": 1e-15}
 
 
@@ -365,3 +365,21 @@ def test_release_under_a_sum_of_harmonics_is_the_first_crossing():
     # A forcing whose peaks stay below beta_s never releases, however long the run.
     calm = Oscillator(0.1, 1.0, 0.2, 1e4, harmonics=[(0.1, 2.0, 0.0)])
     assert simulate(calm, 1e9, 0.0, 0.0, backend="scipy", record="stats").counts["release"] == 0
+
+
+def test_tape_drive_describes_its_family_and_the_paper_grid_refuses_it():
+    from impactosc import TapeDrive
+    from impactosc.paper import rk4_grid
+
+    drive = TapeDrive(damping_ratio=0.02, flange="rigid", restitution=0.5)
+    assert "model family: damping zeta=0.02, a rigid flange (restitution=0.5)" in drive.describe()
+    assert "model family" not in TapeDrive().describe()
+    with pytest.raises(ValueError, match="RK4 grid runs eq. 3 only.*damping"):
+        rk4_grid(drive, {"speed": [4.0]}, duration=1e-4)
+
+
+def test_subnormal_frequencies_in_a_harmonic_sum_do_not_break_the_release_search():
+    # Omega_i / Omega_min overflowed to inf in the commensurability test of the release search.
+    osc = Oscillator(1.0, 2.2e-313, 0.1, 1.0, harmonics=[(0.1, 3e-313, 0.0)])
+    for backend in ("heyoka", "scipy", "exact"):
+        assert simulate(osc, 10.0, 1.0, 0.0, backend=backend).status == 0

@@ -79,6 +79,19 @@ def _reexported(module: types.ModuleType, name: str, top: types.ModuleType) -> b
     return name in top.__all__ and getattr(top, name, None) is getattr(module, name, None)
 
 
+def _from_submodule(module: types.ModuleType, name: str) -> str | None:
+    """For a subpackage (``impactosc.dynamics``) re-exporting ``name`` from one of its public
+    submodules, that submodule's dotted name (the object is documented there, once)."""
+    if not hasattr(module, "__path__"):
+        return None
+    home = getattr(getattr(module, name, None), "__module__", None)
+    if (isinstance(home, str) and home.startswith(module.__name__ + ".")
+            and not any(part.startswith("_") for part in home.split("."))
+            and name in public_names(importlib.import_module(home))):
+        return home
+    return None
+
+
 # -- the pages -----------------------------------------------------------------------------
 def _title(text: str) -> str:
     return f"{text}\n{'=' * len(text)}\n"
@@ -106,6 +119,9 @@ def documented_at(modname: str, name: str, package: str = PACKAGE) -> tuple[str,
         return f"api/modules/{obj.__name__}", f"module-{obj.__name__}"
     if modname == package or _reexported(module, name, top):
         return f"api/generated/{package}.{name}", f"{package}.{name}"
+    home = _from_submodule(module, name)
+    if home is not None:
+        return documented_at(home, name, package)
     return f"api/generated/{modname}.{name}", f"{modname}.{name}"
 
 
@@ -139,8 +155,12 @@ def module_page(modname: str, package: str = PACKAGE) -> str:
     module = importlib.import_module(modname)
     top = importlib.import_module(package)
     names = public_names(module)
-    own = [n for n in names if not _reexported(module, n, top)]
+    homes = {n: _from_submodule(module, n) for n in names}
+    own = [n for n in names if not _reexported(module, n, top) and homes[n] is None]
     shared = [n for n in names if _reexported(module, n, top)]
+    # relative to the page's current module (autosummary refuses the module's own prefix)
+    from_submodules = [f"~{homes[n][len(modname) + 1:]}.{n}" for n in names
+                       if homes[n] is not None and not _reexported(module, n, top)]
     parts = [_title(f"``{modname}``")]
     # ``impactosc.simulate`` and ``impactosc.sweep`` are modules *and* the functions the
     # package re-exports under the same dotted name: registering the module as well would
@@ -154,6 +174,9 @@ def module_page(modname: str, package: str = PACKAGE) -> str:
     if shared:
         parts.append(f".. rubric:: Re-exported as ``{package}.<name>``\n")
         parts.append(_autosummary([f"~{package}.{n}" for n in shared], toctree=None))
+    if from_submodules:
+        parts.append(f".. rubric:: Importable as ``{modname}.<name>``, documented in its submodules\n")
+        parts.append(_autosummary(from_submodules, toctree=None))
     return "\n".join(parts)
 
 
@@ -220,12 +243,36 @@ def _canonical_targets(target: str, module: str | None, cls: str | None, package
             if _reexported(defining, parts[i], top):
                 candidates.append(".".join([package, *parts[i:]]))
                 break
+            home = _from_submodule(defining, parts[i])
+            if home is not None:
+                candidates.append(".".join([home, *parts[i:]]))
+                break
         return candidates
     contexts = [module] if module else []
     if module == package and cls and cls.partition(".")[0] in top.__all__:
         contexts.append(getattr(getattr(top, cls.partition(".")[0]), "__module__", None))
+    if module and module.startswith(package + "."):
+        # Inside a subpackage (``impactosc.dynamics.onset``), its package's names too.
+        parts = module.split(".")
+        contexts.extend(".".join(parts[:i]) for i in range(len(parts) - 1, 1, -1))
     candidates.extend(f"{mod}.{target}" for mod in contexts if mod)
-    return candidates
+    return _subpackage_homes(candidates, package)
+
+
+def _subpackage_homes(candidates: list[str], package: str) -> list[str]:
+    """Each candidate, followed by its home when a subpackage re-exports it from a submodule."""
+    out = []
+    for dotted in candidates:
+        out.append(dotted)
+        modname, _, name = dotted.rpartition(".")
+        try:
+            module = importlib.import_module(modname)
+        except ImportError:
+            continue
+        home = _from_submodule(module, name)
+        if home is not None:
+            out.append(f"{home}.{name}")
+    return out
 
 
 def _documented_attribute(cls, attr: str) -> bool:

@@ -116,7 +116,8 @@ def state_names(shape: Shape, family: int = FLANGE) -> list[str]:
 def integral_slots(shape: Shape, family: int) -> tuple[int, int, int, int]:
     """Where ``(Q, Q2, W, VV)`` sit in a family's state list; -1 is a 0.0 appended to it."""
     names = state_names(shape, family)
-    return tuple(names.index(n) if n in names else -1 for n in ("Q", "Q2", "W", "VV"))
+    q, q2, w, vv = (names.index(n) if n in names else -1 for n in ("Q", "Q2", "W", "VV"))
+    return q, q2, w, vv
 
 
 def layer_thickness(osc: Oscillator) -> float:

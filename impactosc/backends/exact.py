@@ -20,11 +20,22 @@ With ``tau = t - t0`` and ``theta0 = Omega t0 + phase``::
     Cc = (cos(Omega tau) - cos(w tau)) / (w^2 - Omega^2),
     Ss = (sin(Omega tau) - (Omega/w) sin(w tau)) / (w^2 - Omega^2).
 
+where ``Yp = cY / w^2``, ``Ah = y0 - Yp``, ``Bh = v0 / w``. Where ``|Yp| > |y0|`` (huge
+``beta``: ``Yp ~ -beta s / w^2``) the same motion is evaluated about the start point,
+``Y = y0 - 2 Ah sin^2(w tau / 2) + ...``, so ``Yp`` never cancels against ``Ah`` (see
+``_SlipPiece``); the velocity is ``v0 cos(w tau) - w Ah sin(w tau) + ...`` in both forms.
+
 ``Cc`` and ``Ss`` (the response to the forcing from rest) are evaluated through
 ``sin((w - Omega) tau / 2) / (w - Omega)``, which tends to ``tau / 2``: there is no
 cancellation near resonance and the exact resonance ``w == Omega`` (``Omega = 1`` free,
 ``Omega = sqrt(1 + K)`` in contact) is the same formula. The homogeneous part uses ``tau``,
 never the absolute time, so nothing degrades at large ``t``.
+
+Damping and harmonic sums (the linear family of issue #10) use the closed-form pieces of
+``impactosc.backends._exact_family`` (under-, critically and over-damped, the steady
+response of each harmonic); a stuck piece with a harmonic sum uses ``impactosc._stuck``.
+A power-law flange, or a harmonic within ``1e-6`` of an (almost) undamped resonance, is
+refused with a ``ValueError``.
 
 Guards
 ------
@@ -49,8 +60,8 @@ leaves the bracket or converges slowly) to one ulp of ``t``.
 
 Integrals
 ---------
-Over a flange piece, ``int K (r X - 1) dt = K r int Y dt`` in closed form (from
-``int Y = (cY tau + F int cos - (V - V0)) / w^2``); ``int (K (r X - 1))^2 dt`` by 16-node
+Over a flange piece, ``int K (r X - 1) dt = K r int Y dt`` in closed form about the start
+point (``y0 tau - Ah (w tau - sin(w tau)) / w + ...``, see ``_SlipPiece.int_y``); ``int (K (r X - 1))^2 dt`` by 16-node
 Gauss-Legendre quadrature on sub-intervals no longer than half the period of the fastest
 frequency ``max(w, Omega)`` (error below 1e-19 relative, see ``_GL_NODES``); the forcing
 work ``int V F cos(Omega t + phase) dt`` from the energy balance
@@ -60,9 +71,11 @@ work ``int V F cos(Omega t + phase) dt`` from the energy balance
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
+from .._stuck import advance_stuck, evaluate_stuck
 from ..engine import (
     ACCEL_ZERO,
     ENTER_LOWER,
@@ -70,8 +83,6 @@ from ..engine import (
     GUARD_DIRECTIONS,
     LEAVE,
     NO_GUARD,
-    RELEASE_DOWN,
-    RELEASE_UP,
     SLIP_END,
     Mode,
     drive,
@@ -79,6 +90,7 @@ from ..engine import (
 )
 from ..model import Oscillator
 from ..solution import Solution, _Recorder
+from ._exact_family import FamilyConstants, FamilyPiece, near_resonance
 
 __all__ = ["run"]
 
@@ -92,6 +104,9 @@ _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(_GL_N)
 # Bisection stops at this many ulps of t when neither the sign nor the monotonicity of a
 # guard can be proven (a tangency at rounding level): the ends then decide.
 _MIN_WIDTH_ULPS = 4.0
+# Intervals one guard search may examine in one window: a few hundred are typical (a
+# tangency bisected down to ulps takes ~100 per level); far more means useless bounds.
+_MAX_BRACKET_STEPS = 100_000
 
 
 class _ModeConstants:
@@ -112,10 +127,15 @@ class _ModeConstants:
         self.dlt = self.w - osc.Omega
 
 
-def _kernel(mc: _ModeConstants, Ah, Bh, c0, s0, tau, sin, cos):
-    """``(Y, V)`` at ``tau`` after the piece start (scalar or array).
+def _kernel(mc: _ModeConstants, y0, v0, Ah, about_start, c0, s0, tau, sin, cos):
+    """``(Y, V, P', Y - y0)`` at ``tau`` after the piece start (scalar or array).
 
-    ``sin`` and ``cos`` are those of :mod:`math` for scalars or of NumPy for arrays.
+    ``Y - y0`` is the displacement as computed, not rounded to the ulps of ``Y``: the
+    energy balance of the forcing work, ``Delta E + beta s (Y - y0)``, cancels ``beta`` sized
+    terms on a short piece with a huge ``beta``. ``P'`` is the velocity of the response to
+    the forcing from rest (``V = v0 cos(w tau) - w Ah sin(w tau) + F P'``). ``about_start``
+    selects the form of ``Y`` (see ``_SlipPiece``). ``sin`` and ``cos`` are those of
+    :mod:`math` for scalars or of NumPy for arrays.
     """
     w, Om, F, sig, dlt = mc.w, mc.Om, mc.F, mc.sig, mc.dlt
     sw = sin(w * tau)
@@ -127,9 +147,34 @@ def _kernel(mc: _ModeConstants, Ah, Bh, c0, s0, tau, sin, cos):
     Cc = 2.0 * sin(hs) * sd / sig  # (cos(Om tau) - cos(w tau)) / (w^2 - Om^2)
     D = (t2 + sin(Om * tau)) / sig  # Cc'
     Ss = (sw - t2) / (w * sig)  # (sin(Om tau) - (Om/w) sin(w tau)) / (w^2 - Om^2); Ss' = Om Cc
-    y = mc.Yp + Ah * cw + Bh * sw + F * (c0 * Cc - s0 * Ss)
-    v = w * (Bh * cw - Ah * sw) + F * (c0 * D - s0 * Om * Cc)
-    return y, v
+    dp = c0 * D - s0 * Om * Cc
+    forced = (v0 / w) * sw + F * (c0 * Cc - s0 * Ss)
+    if about_start:  # Y = y0 + Ah (cos - 1) + ..., with cos - 1 = -2 sin^2: no Yp added back
+        hw = sin(0.5 * w * tau)
+        dy = forced - 2.0 * Ah * hw * hw
+        y = y0 + dy
+    else:
+        y = mc.Yp + (forced + Ah * cw)
+        dy = y - y0
+    v = v0 * cw - w * Ah * sw + F * dp
+    return y, v, dp, dy
+
+
+def _x_minus_sin(z):
+    """``z - sin(z)`` without cancellation at small ``z`` (scalar or array)."""
+    arr = isinstance(z, np.ndarray)
+    if not arr and abs(z) >= 1.0:
+        return z - math.sin(z)
+    u = z * z
+    series = 0.0
+    for c in _X_MINUS_SIN_COEFFS:
+        series = c - u * series
+    series = z * u * series
+    return np.where(np.abs(z) < 1.0, series, z - np.sin(z)) if arr else series
+
+
+# z - sin z = z^3/3! - z^5/5! + ...: nine terms reach z^19/19!, below an ulp of z^3/6 for |z| < 1.
+_X_MINUS_SIN_COEFFS = tuple(1.0 / math.factorial(2 * k + 3) for k in reversed(range(9)))
 
 
 class _SlipPiece:
@@ -140,7 +185,8 @@ class _SlipPiece:
     (``Cc'' = D' = cos(w tau) - Omega^2 Cc`` and ``Ss' = Omega Cc``).
     """
 
-    __slots__ = ("mc", "t0", "x0", "v0", "y0", "Ah", "Bh", "c0", "s0", "theta0", "_k", "_hom", "_amp", "_G")
+    __slots__ = ("mc", "t0", "x0", "v0", "y0", "Ah", "Bh", "about_start", "c0", "s0", "theta0", "_k", "_hom",
+                 "_amp", "_G")
 
     def __init__(self, mc: _ModeConstants, phase: float, t0: float, x0: float, v0: float):
         self.mc = mc
@@ -152,6 +198,13 @@ class _SlipPiece:
         self.y0 = x0 - mc.ref
         self.Ah = self.y0 - mc.Yp  # homogeneous amplitudes: Y(0) = y0, V(0) = v0
         self.Bh = v0 / mc.w
+        # Y about its centre, Yp + Ah cos(w tau) + ..., is rounded like max(|Yp|, |Ah|); about
+        # the start point, y0 + Ah (cos(w tau) - 1) + ..., like |y0| + 2 |Ah| sin^2(w tau / 2).
+        # Where the particular solution Yp = cY / w^2 ~ -beta s / w^2 dwarfs y0 the first
+        # cancels Yp against Ah: with beta = 1e8 the position was rounded to 1e-8 while the
+        # mass slid 1e-9 (issue 14). The start-point form is taken there, the centred
+        # form (half the rounding over a long free half-period) elsewhere.
+        self.about_start = abs(mc.Yp) > abs(self.y0)
         w, w2 = mc.w, mc.w2
         # Amplitudes for the derivative bounds (see ``bounds``): homogeneous part, and off
         # resonance the free-oscillation amplitude of the classical form with its rounding.
@@ -183,7 +236,7 @@ class _SlipPiece:
         sw, cw, Cc, D = self._core(tau)
         k = self._k
         w, FC, FSO, O2 = k[0], k[6], k[7], k[8]
-        v = w * (self.Bh * cw - self.Ah * sw) + FC * D - FSO * Cc
+        v = self.v0 * cw - w * self.Ah * sw + FC * D - FSO * Cc
         a2 = -(k[9] * cw + k[10] * sw) + FC * (cw - O2 * Cc) - FSO * D
         return v, a2
 
@@ -199,24 +252,36 @@ class _SlipPiece:
 
     def yv(self, tau):
         """``(Y, V)`` at a scalar ``tau`` or an array of them."""
-        if isinstance(tau, np.ndarray):
-            return _kernel(self.mc, self.Ah, self.Bh, self.c0, self.s0, tau, np.sin, np.cos)
-        return _kernel(self.mc, self.Ah, self.Bh, self.c0, self.s0, tau, math.sin, math.cos)
+        return self._yvp(tau)[:2]
 
-    def int_y(self, tau, v):
-        """``int_0^tau Y`` given ``V(tau) = v`` (closed form, scalar or array)."""
+    def _yvp(self, tau):
+        if isinstance(tau, np.ndarray):
+            return _kernel(self.mc, self.y0, self.v0, self.Ah, self.about_start, self.c0, self.s0, tau, np.sin, np.cos)
+        return _kernel(self.mc, self.y0, self.v0, self.Ah, self.about_start, self.c0, self.s0, tau, math.sin, math.cos)
+
+    def int_y(self, tau, dp):
+        """``int_0^tau Y`` given ``P'(tau) = dp`` (closed form about the start point, scalar or array).
+
+        ``y0 tau + Ah (sin(w tau) - w tau) / w + (v0 / w^2) (1 - cos(w tau)) + F int P``, with
+        ``w^2 int P = int cos(Omega t + phase) - P'`` (the forced response from rest). Each
+        homogeneous term is computed without cancellation, so a short piece with a huge
+        ``beta`` (or ``K``) keeps the relative accuracy of its tiny impulse; the integrated
+        equation of motion ``(cY tau + F int cos - (V - v0)) / w^2`` cancelled ``cY tau``
+        against ``V - v0`` there.
+        """
         mc = self.mc
-        Om = mc.Om
+        Om, w = mc.Om, mc.w
+        arr = isinstance(tau, np.ndarray)
+        sin, cos = (np.sin, np.cos) if arr else (math.sin, math.cos)
         if Om != 0.0:
             half = 0.5 * Om * tau
-            if isinstance(tau, np.ndarray):
-                icos = 2.0 * (self.c0 * np.cos(half) - self.s0 * np.sin(half)) * np.sin(half) / Om
-            else:
-                icos = 2.0 * (self.c0 * math.cos(half) - self.s0 * math.sin(half)) * math.sin(half) / Om
+            icos = 2.0 * (self.c0 * cos(half) - self.s0 * sin(half)) * sin(half) / Om
         else:
             icos = self.c0 * tau
-        # Y'' + w^2 Y = cY + F cos(Omega t + phase), integrated once.
-        return (mc.cY * tau + mc.F * icos - (v - self.v0)) / mc.w2
+        hw = sin(0.5 * w * tau)
+        z_sin = _x_minus_sin(w * tau)
+        hom = self.y0 * tau - self.Ah * z_sin / w + 2.0 * (self.v0 / mc.w2) * hw * hw
+        return hom + mc.F * (icos - dp) / mc.w2
 
     def int_squares(self, tau: float) -> tuple[float, float]:
         """``(int_0^tau Y^2, int_0^tau V^2)`` by composite Gauss-Legendre (see ``_GL_NODES``)."""
@@ -273,9 +338,16 @@ def _first_rising(fun, a: float, ha: float, da: float, b: float, M2: float, M3: 
     hb, db = fun(b)
     end = (hb, db)
     stack = [(b, hb, db)]
+    evaluations = 0
     while stack:
         b, hb, db = stack[-1]
         width = b - a
+        evaluations += 1
+        if evaluations > _MAX_BRACKET_STEPS or not math.isfinite(ha + hb + da + db + M2 + M3):
+            # Never a hang: non-finite values or bounds would send the bisection down to
+            # ulp-wide intervals over the whole window. The engine ends the run (status -1).
+            raise FloatingPointError(f"the guard search on [{a!r}, {b!r}] did not converge "
+                                     f"(h={ha!r}..{hb!r}, h'={da!r}..{db!r}, bounds M2={M2!r}, M3={M3!r})")
         slack2 = 0.125 * M2 * width * width  # max distance of h from its chord
         decided = False
         if ha >= 0.0 and hb >= 0.0 and min(ha, hb) > slack2:
@@ -351,16 +423,22 @@ class _Stepper:
 
     def __init__(self, osc: Oscillator):
         self.osc = osc
-        self.consts: dict[tuple[int, int], _ModeConstants] = {}
+        # Damping or a harmonic sum: the family piece (``_exact_family``); eq. 3 keeps its own.
+        self.family = bool(osc.zeta or osc.harmonics)
+        self.consts: dict[tuple[int, int], Any] = {}
 
-    def _mode_constants(self, r: int, s: int) -> _ModeConstants:
+    def _mode_constants(self, r: int, s: int) -> Any:
         mc = self.consts.get((r, s))
         if mc is None:
-            mc = self.consts[(r, s)] = _ModeConstants(self.osc, r, s)
+            kind = FamilyConstants if self.family else _ModeConstants
+            mc = self.consts[(r, s)] = kind(self.osc, r, s)
         return mc
 
-    def _slip_piece(self, mode: Mode, t0: float, x0: float, v0: float) -> _SlipPiece:
-        return _SlipPiece(self._mode_constants(mode.region, mode.motion), self.osc.phase, t0, x0, v0)
+    def _slip_piece(self, mode: Mode, t0: float, x0: float, v0: float) -> _SlipPiece | FamilyPiece:
+        mc = self._mode_constants(mode.region, mode.motion)
+        if self.family:
+            return FamilyPiece(mc, t0, x0, v0)
+        return _SlipPiece(mc, self.osc.phase, t0, x0, v0)
 
     # -- one piece -----------------------------------------------------------------------
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
@@ -370,73 +448,14 @@ class _Stepper:
         is 1: a piece is one closed-form evaluation, whatever its length.
         """
         if mode.motion == 0:
-            return self._advance_stuck(mode, t, x, t_end)
+            # The release of a stuck mass is shared by every backend (impactosc._stuck);
+            # a stuck piece counts as one closed-form evaluation here too.
+            return (*advance_stuck(self.osc, mode, t, x, t_end)[:-1], 1)
         return self._advance_slip(mode, t, x, v, t_end)
-
-    def _advance_stuck(self, mode: Mode, t0: float, x: float, t_end: float):
-        osc = self.osc
-        r = mode.region
-        gates = guard_gates(mode, osc.rigid)
-        t1, guard = self._release_time(r, t0, x, t_end, gates)
-        tau = t1 - t0
-        q = q2 = 0.0
-        if r:
-            force = osc.K * (r * x - 1.0)  # a mass stuck inside a flange keeps it compressed
-            q, q2 = force * tau, force * force * tau
-        return t1, x, 0.0, guard, q, q2, 0.0, 0.0, 1
-
-    def _release_time(self, r: int, t0: float, x: float, t_end: float, gates) -> tuple[float, int]:
-        """First release after ``t0``: ``F cos(Omega t + phase) - spring(x) = +-beta``."""
-        osc = self.osc
-        F, Om, phase, beta = osc.F, osc.Omega, osc.phase, osc.beta_s
-        if F == 0.0 or Om == 0.0:
-            return t_end, NO_GUARD  # constant force: a stuck mass stays stuck
-        spring = osc._spring_scalar(x)  # the restoring force of f_net (no spring for a rigid wall)
-        th0 = (Om * t0 + phase) % _TWO_PI
-        best_t, best_guard = math.inf, NO_GUARD
-        for guard, offset in ((RELEASE_UP, beta), (RELEASE_DOWN, -beta)):
-            if not gates[guard]:
-                continue
-            q = (spring + offset) / F
-            if not -1.0 < q < 1.0:
-                continue  # |q| >= 1: never reached, or only touched (a tangency is no crossing)
-            alpha = math.acos(q)
-            # Rising f_net (up) needs sin(theta) < 0, falling f_net (down) sin(theta) > 0;
-            # GUARD_DIRECTIONS holds exactly these orientations.
-            target = -alpha if GUARD_DIRECTIONS[guard] > 0 else alpha
-            dtheta = (target - th0) % _TWO_PI
-            t1 = self._polish_release(t0 + dtheta / Om, t0, spring + offset)
-            if t1 < best_t:
-                best_t, best_guard = t1, guard
-        if best_t >= t_end:
-            return t_end, NO_GUARD
-        return best_t, best_guard
-
-    def _polish_release(self, t: float, t0: float, level: float) -> float:
-        """Newton steps on ``F cos(Omega t + phase) - level`` as the engine evaluates it.
-
-        The arccos is exact in phase, but ``Omega t + phase`` is rounded when the engine
-        and the other backends evaluate the forcing; two Newton steps put the release on
-        the root of that rounded function. Steps larger than a phase error can explain
-        (near a tangency, where the root is ill-conditioned anyway) are not taken.
-        """
-        osc = self.osc
-        F, Om, phase = osc.F, osc.Omega, osc.phase
-        for _ in range(2):
-            th = Om * t + phase
-            g = F * math.cos(th) - level
-            dg = -F * Om * math.sin(th)
-            if g == 0.0 or dg == 0.0:
-                break
-            step = g / dg
-            if abs(step) * Om > 64.0 * _EPS * (abs(th) + 1.0) or t - step <= t0:
-                break
-            t -= step
-        return t
 
     def _advance_slip(self, mode: Mode, t0: float, x0: float, v0: float, t_end: float):
         p = self._slip_piece(mode, t0, x0, v0)
-        mc = p.mc
+        mc: Any = p.mc  # _ModeConstants (eq. 3) or FamilyConstants
         s, r = mode.motion, mode.region
         gates = guard_gates(mode, self.osc.rigid)
         T = t_end - t0
@@ -457,12 +476,12 @@ class _Stepper:
         tau_end, guard = T, NO_GUARD
         # Windows of one fast period keep the derivative bounds tight (they grow with tau
         # at resonance) and the bisection shallow when the piece is short.
-        window = _TWO_PI / mc.w
+        window = _TWO_PI / (mc.fastest if self.family else mc.w)
         a = 0.0
         ha, da = fun(0.0)
         while a < T:
             b = min(T, a + window)
-            M2, M3 = p.bounds(b, k)
+            M2, M3 = p.bounds(b, k, a) if self.family else p.bounds(b, k)
             hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
             bracket, (hb, db) = _first_rising(fun, a, ha, da, b, M2, M3, hmin)
             if bracket is not None:
@@ -471,7 +490,7 @@ class _Stepper:
             a, ha, da = b, hb, db
         t1 = t_end if guard == NO_GUARD else t0 + tau_end
         tau1 = t1 - t0  # the exact offset of the float t1 the engine will see
-        y1, v1 = p.yv(tau1)
+        y1, v1, dp1, dy = p._yvp(tau1)
 
         # 2. X is monotonic on [0, tau1] (s V >= 0 there), so a flange guard is crossed iff
         #    its values at the two ends differ in sign, and at most one of them is.
@@ -491,7 +510,7 @@ class _Stepper:
                 guard = fg
                 t1 = t0 + tau_f
                 tau1 = t1 - t0
-                y1, v1 = p.yv(tau1)
+                y1, v1, dp1, dy = p._yvp(tau1)
                 break
 
         # 3. The state and the integrals at the end of the piece.
@@ -499,15 +518,16 @@ class _Stepper:
         q = q2 = 0.0
         y2, vv = p.int_squares(tau1)
         if r:
-            q = mc.K * r * p.int_y(tau1, v1)
+            # r Y >= 0 all through a flange piece: a negative integral is rounding.
+            q = max(mc.K * r * p.int_y(tau1, dp1), 0.0)
             q2 = mc.K * mc.K * y2
-        # Energy balance: int V F cos = Delta E + beta s Delta X, E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
+        # Energy balance: int V forcing = Delta E + beta s Delta X + 2 zeta int V^2,
+        # E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
         y0 = p.y0
-        dy = y1 - y0
         de = 0.5 * (v1 - v0) * (v1 + v0) + 0.5 * dy * (2.0 * mc.ref + y1 + y0)
         if r:
             de += 0.5 * mc.K * dy * (y1 + y0)
-        work = de + mc.beta * s * dy
+        work = de + mc.beta * s * dy + 2.0 * self.osc.zeta * vv
         return t1, x1, v1, guard, q, q2, work, vv, 1
 
     # -- dense output --------------------------------------------------------------------
@@ -516,15 +536,17 @@ class _Stepper:
         times = np.asarray(times, dtype=float)
         tau = times - t0
         r = mode.region
+        if mode.motion == 0 and self.osc.harmonics:
+            return evaluate_stuck(self.osc, mode, t0, x, times)
         if mode.motion == 0:
             xs = np.full(tau.shape, x)
             vs = np.zeros(tau.shape)
             qs = self.osc.K * (r * x - 1.0) * tau if r else np.zeros(tau.shape)
             return xs, vs, qs
         p = self._slip_piece(mode, t0, x, v)
-        ys, vs = p.yv(tau)
+        ys, vs, dps, _ = p._yvp(tau)
         xs = p.mc.ref + ys
-        qs = p.mc.K * r * p.int_y(tau, vs) if r else np.zeros(tau.shape)
+        qs = np.maximum(p.mc.K * r * p.int_y(tau, dps), 0.0) if r else np.zeros(tau.shape)
         return xs, vs, qs
 
 
@@ -550,8 +572,11 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     Solution
         ``n_steps`` counts pieces: each is one closed-form evaluation.
     """
-    missing = [f for f in osc.unsupported() if f.startswith(("damping", "a power-law", "1 extra", "extra"))
-               or "extra forcing" in f]
+    missing = [f for f in osc.unsupported() if f.startswith("a power-law")]
+    if osc.zeta or osc.harmonics:
+        resonant = near_resonance(osc)
+        if resonant:
+            missing.append(resonant)
     if missing:
         raise ValueError(f"the exact backend does not support {', '.join(missing)} yet; "
                          "use backend='heyoka' or backend='scipy'")

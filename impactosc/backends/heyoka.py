@@ -179,9 +179,10 @@ class _Stepper:
         self.chunk = [_CHUNK_STEPS * 0.5 / max(fastest, w) for w in (1.0, osc.contact_frequency)]
         self.deadline = deadline  # time.monotonic() after which the run stops (max_wall_time)
         self.stopped = False
+        self.stop_message = "The wall-time limit max_wall_time was reached; results up to t_final are kept."
 
     def _out_of_time(self) -> bool:
-        if time.monotonic() > self.deadline:
+        if self.deadline is not None and time.monotonic() > self.deadline:
             self.stopped = True
         return self.stopped
 
@@ -198,12 +199,12 @@ class _Stepper:
         missing = [g for g in range(N_GUARDS) if gates[g] and g not in fam.events]
         if missing:  # the engine arms a guard this family was not compiled with
             raise RuntimeError(f"mode {tuple(mode)} arms guards {missing} that its heyoka integrator lacks")
-        offsets = list(guard_offsets(self.osc, 0.0))
+        offsets = list(guard_offsets(self.osc, 0.0, 0.0))
         offsets[ACCEL_ZERO:] = (0.0,) * (N_GUARDS - ACCEL_ZERO)
         vals = parameter_values(self.osc, mode, gates, offsets)[:len(fam.pars)]
         return np.array(vals, dtype=float), bool(gates[ACCEL_ZERO])
 
-    def _set_mode(self, fam: _Family, mode: Mode, x: float) -> None:
+    def _set_mode(self, fam: _Family, mode: Mode, t: float, x: float) -> None:
         """Load the parameters of ``mode`` for a piece starting at ``x``: one array copy."""
         entry = fam.rows.get(mode)
         if entry is None:
@@ -211,7 +212,7 @@ class _Stepper:
         row, accel_zero_armed = entry
         fam.pars[:] = row
         if accel_zero_armed:
-            fam.pars[_P_OFFSETS + ACCEL_ZERO] = force_guard_offset(self.osc, x)
+            fam.pars[_P_OFFSETS + ACCEL_ZERO] = force_guard_offset(self.osc, t, x)
 
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
         if self.deadline is not None and self._out_of_time():
@@ -221,7 +222,7 @@ class _Stepper:
             return advance_stuck(self.osc, mode, t, x, t_end)
         which = mode.region != 0
         fam = self.families[which]
-        self._set_mode(fam, mode, x)
+        self._set_mode(fam, mode, t, x)
         ta = fam.ta
         ta.time = t
         fam.state[:] = (x, v, *fam.zeros)
@@ -306,8 +307,8 @@ class _LayeredStepper(_Stepper):
         self.delta = layer_thickness(osc)
         self.sigma_next = None  # sigma forced by a layer event (else decided from d)
 
-    def _set_mode(self, fam: _Family, mode: Mode, x: float) -> None:
-        super()._set_mode(fam, mode, x)
+    def _set_mode(self, fam: _Family, mode: Mode, t: float, x: float) -> None:
+        super()._set_mode(fam, mode, t, x)
         self._set_layer(fam, mode, x, self.sigma_next)
 
     def _set_layer(self, fam: _Family, mode: Mode, x: float, sigma: float | None = None) -> None:

@@ -174,9 +174,9 @@ def _guard_functions(osc: Oscillator, mode: Mode):
         # and the event finder then agree on what "reaching beta" means, and a guard on an
         # f_net that vanishes identically (F = 0 at equilibrium) is not the zero function,
         # which "crossed" everywhere and crawled through 250000 stick/release pairs.
-        ACCEL_ZERO: lambda t, y: s * accel(t, y[0], y[1], r, s) + force_guard_offset(osc, y[0]),
-        RELEASE_UP: lambda t, y: f_net(t, y[0]) - beta_s - force_guard_offset(osc, y[0]),
-        RELEASE_DOWN: lambda t, y: f_net(t, y[0]) + beta_s + force_guard_offset(osc, y[0]),
+        ACCEL_ZERO: lambda t, y: s * accel(t, y[0], y[1], r, s) + force_guard_offset(osc, t, y[0]),
+        RELEASE_UP: lambda t, y: f_net(t, y[0]) - beta_s - force_guard_offset(osc, t, y[0]),
+        RELEASE_DOWN: lambda t, y: f_net(t, y[0]) + beta_s + force_guard_offset(osc, t, y[0]),
     }
     del beta, zeta
     gates = guard_gates(mode, osc.rigid)

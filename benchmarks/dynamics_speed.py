@@ -1,0 +1,138 @@
+"""Speed of the dynamics toolkit (issue 11): bifurcation diagram, periodic orbit, Lyapunov, contact onset.
+
+Run: ``.venv/bin/python benchmarks/dynamics_speed.py [--quick] [--workers N] [--out DIR]``.
+Prints a markdown table and writes it to ``DIR/dynamics_speed.md`` (default
+``benchmarks/results``; ``--quick`` writes ``benchmarks/results/quick``).
+
+Targets (issue 11):
+
+* a bifurcation diagram of 400 parameter values x (200 transient + 50 recorded forcing
+  periods) of the contact case in under 60 s on 2 cores (wall time, process pool start-up
+  and heyoka compilation in the workers included);
+* a periodic orbit with its multipliers in under 50 ms after compile.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _timing import timed  # noqa: E402
+
+import impactosc as io  # noqa: E402
+from impactosc import dynamics as dy  # noqa: E402
+
+CONTACT = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
+DEN_HARTOG = io.Oscillator(F=0.3, Omega=0.8, beta=0.05, K=1e4)
+
+
+def _load() -> str:
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "n/a"
+
+
+def bifurcation_rows(quick: bool, workers: int):
+    n_values, n_tr, n_rec = (12, 10, 3) if quick else (400, 200, 50)
+    values = np.linspace(0.05, 1.0, n_values)
+    rows = []
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    for continuation in ("none", "both"):
+        t = time.perf_counter()
+        if quick:  # the smoke test: no process start-up
+            ds = dy.bifurcation_diagram(CONTACT, "F", values, transient_periods=n_tr, record_periods=n_rec,
+                                        continuation=continuation, executor="serial", progress=False)
+            where = "serial"
+        else:
+            with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+                ds = dy.bifurcation_diagram(CONTACT, "F", values, transient_periods=n_tr, record_periods=n_rec,
+                                            continuation=continuation, executor=pool, progress=False)
+            where = f"{workers} worker processes (start-up included)"
+        wall = time.perf_counter() - t
+        ok = int((ds["status"].values == 0).sum())
+        runs = ds["status"].size
+        rows.append((f"bifurcation diagram, contact case over F, {n_values} values x ({n_tr} + {n_rec}) periods, "
+                     f"continuation={continuation}, {where}",
+                     f"{wall:.2f} s", f"{ok}/{runs} runs ok; {wall / runs * workers * 1e3:.0f} ms per run per worker"))
+    return rows
+
+
+def orbit_rows(quick: bool):
+    reps = 1 if quick else 21
+    dy.periodic_orbit(CONTACT, 3, transient_periods=10)  # compile heyoka, warm the caches
+    guess_orbit = dy.periodic_orbit(CONTACT, 3, transient_periods=200)
+    dh = dy.periodic_orbit(DEN_HARTOG, 1, transient_periods=200)
+    # A guess off the orbit by 1e-3, as from a short transient or a neighbouring parameter.
+    guess = (guess_orbit.x + 1e-3, guess_orbit.v - 1e-3)
+    rows = []
+    med, n, orb = timed(lambda: dy.periodic_orbit(CONTACT, 3, guess=guess), reps, 60.0, 60.0)
+    rows.append(("periodic orbit (period 3, contact case) from a guess 1e-3 off: Newton + multipliers + events",
+                 f"{med * 1e3:.1f} ms", f"best {timed.best * 1e3:.1f} ms of {n}; {orb.iterations} iterations, "
+                 f"|mu| = {orb.spectral_radius:.4f} ({orb.stability})"))
+    med, n, orb = timed(lambda: dy.periodic_orbit(DEN_HARTOG, 1, guess=(dh.x + 1e-3, dh.v - 1e-3)), reps, 60.0, 60.0)
+    rows.append(("periodic orbit (Den Hartog, period 1) from a guess 1e-3 off", f"{med * 1e3:.1f} ms",
+                 f"best {timed.best * 1e3:.1f} ms of {n}; {orb.iterations} iterations"))
+    med, n, orb = timed(lambda: dy.periodic_orbit(CONTACT, 3, transient_periods=200), reps, 60.0, 60.0)
+    rows.append(("periodic orbit (period 3, contact case) from the end of a 200-period transient",
+                 f"{med * 1e3:.1f} ms",
+                 f"best {timed.best * 1e3:.1f} ms of {n}; {orb.iterations} iterations"))
+    return rows
+
+
+def other_rows(quick: bool):
+    rows = []
+    periods = 50 if quick else 1000
+    med, n, res = timed(lambda: dy.lyapunov_exponent(CONTACT, periods, transient_periods=100), 1 if quick else 3,
+                        120.0, 120.0)
+    rows.append((f"Lyapunov exponent, contact case, {periods} periods (+100 transient)", f"{med:.2f} s",
+                 f"lambda = {res.exponent:.6f}"))
+    Fc = dy.den_hartog_onset(0.8, 0.05)
+    med, n, res = timed(lambda: dy.contact_onset(DEN_HARTOG, "F", (0.8 * Fc, 1.1 * Fc), tol=1e-10, scan=4, orbit=1,
+                                                 x0=0.0, transient_periods=300), 1 if quick else 3, 120.0, 120.0)
+    rows.append(("contact onset, Den Hartog grazing boundary to 1e-10 (orbit continuation)", f"{med:.2f} s",
+                 f"error {abs(res.value - Fc):.1e}, {res.evaluations} orbits"))
+    drive = io.TapeDrive()
+    tol = 1e-7 if quick else 1e-9
+    med, n, res = timed(lambda: dy.contact_onset(drive, "clearance", (100e-6, 140e-6), tol=tol,
+                                                 transient_periods=0.25, record_periods=1, stop_at_contact=True),
+                        1 if quick else 3, 120.0, 120.0)
+    Lc = dy.quasi_static_critical_clearance(drive)
+    rows.append((f"contact onset, tape critical clearance to {tol * 1e9:g} nm (one design-chart point)", f"{med:.2f} s",
+                 f"{res.value * 1e6:.4f} um vs quasi-static {Lc * 1e6:.4f} um, {res.evaluations} runs"))
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="small sizes (smoke test)")
+    ap.add_argument("--workers", type=int, default=2, help="worker processes of the bifurcation diagram")
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args(argv)
+    out = args.out or Path(__file__).resolve().parent / "results" / ("quick" if args.quick else "")
+    out.mkdir(parents=True, exist_ok=True)
+    load0 = _load()
+    rows = orbit_rows(args.quick) + bifurcation_rows(args.quick, args.workers) + other_rows(args.quick)
+    lines = [f"# Dynamics toolkit speed (issue 11){' (quick)' if args.quick else ''}", "",
+             f"Machine: {os.cpu_count()} cores; load average at start {load0}, at end {_load()}.", "",
+             "| case | wall time | notes |", "| --- | ---: | --- |"]
+    lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
+    text = "\n".join(lines) + "\n"
+    (out / "dynamics_speed.md").write_text(text)
+    print(text)
+    if any(not math.isfinite(float(b.split()[0])) for _, b, _ in rows):
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

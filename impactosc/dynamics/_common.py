@@ -1,0 +1,192 @@
+"""What every dynamics tool shares: the parameter being varied, the forcing period, time shifts.
+
+The tools accept either an :class:`~impactosc.model.Oscillator` (nondimensional eq. 3) or a
+:class:`~impactosc.tape.TapeDrive` (SI units) as the *base* of a study; a *parameter* is one
+field of that base (or ``t_sin_half_theta`` of a drive, the abscissa of the paper's Fig. 8).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from fractions import Fraction
+
+import numpy as np
+
+from .. import _validation as _v
+from ..model import Oscillator
+from ..tape import FIELD_UNITS, TapeDrive
+
+#: Fields of an Oscillator that a study may vary (``flange`` and ``harmonics`` are structure).
+OSCILLATOR_PARAMETERS = ("F", "Omega", "beta", "K", "phase", "zeta", "beta_static", "exponent", "restitution")
+#: Fields of a TapeDrive that a study may vary, plus ``t_sin_half_theta`` (eq. 5, Fig. 8).
+TAPE_PARAMETERS = tuple(f.name for f in dataclasses.fields(TapeDrive) if f.name != "bending") + ("t_sin_half_theta",)
+
+#: (units, long name) of the TapeDrive parameters, for xarray attributes and plot labels.
+TAPE_UNITS = FIELD_UNITS
+_OSC_NAMES = {"F": "forcing amplitude F", "Omega": "forcing frequency Omega", "beta": "friction level beta",
+              "K": "flange stiffness ratio K", "phase": "forcing phase", "zeta": "damping ratio zeta",
+              "beta_static": "static friction level", "exponent": "flange law exponent p",
+              "restitution": "coefficient of restitution e"}
+
+
+def check_base(base) -> Oscillator | TapeDrive:
+    """``base`` must be an Oscillator or a TapeDrive."""
+    if not isinstance(base, Oscillator | TapeDrive):
+        raise TypeError(f"base must be an impactosc.Oscillator or an impactosc.TapeDrive, got {type(base).__name__}")
+    return base
+
+
+def parameter_names(base) -> tuple[str, ...]:
+    """The parameters a study of ``base`` may vary."""
+    return OSCILLATOR_PARAMETERS if isinstance(check_base(base), Oscillator) else TAPE_PARAMETERS
+
+
+def check_parameter(base, name) -> str:
+    """``name`` must be a parameter of ``base`` (see :func:`parameter_names`)."""
+    names = parameter_names(base)
+    if not isinstance(name, str) or name not in names:
+        raise ValueError(f"parameter must be one of {', '.join(names)} for a {type(base).__name__}, got {name!r}")
+    return name
+
+
+def with_parameter(base, name: str, value):
+    """A copy of ``base`` with parameter ``name`` set to ``value`` (validated by the class)."""
+    check_parameter(base, name)
+    if isinstance(base, Oscillator):
+        return dataclasses.replace(base, **{name: value})
+    if name == "t_sin_half_theta":
+        fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(TapeDrive)}
+        del fields["tension"]
+        return TapeDrive.from_t_sin_half_theta(value, **fields)
+    return base.replace(**{name: value})
+
+
+def parameter_value(base, name: str) -> float:
+    """The current value of parameter ``name`` of ``base``."""
+    check_parameter(base, name)
+    value = getattr(base, name)
+    if value is None:  # beta_static None means "equal to beta"
+        return float(base.beta_s)
+    return float(value)
+
+
+def parameter_attrs(base, name: str) -> dict:
+    """xarray attributes (units, long_name) of parameter ``name``."""
+    if isinstance(base, TapeDrive):
+        units, long = TAPE_UNITS[name]
+        return {"units": units, "long_name": long}
+    return {"units": "1", "long_name": _OSC_NAMES.get(name, name) + " (nondimensional, eq. 3)"}
+
+
+def oscillator_of(base) -> Oscillator:
+    """The nondimensional model of ``base`` (itself, or the drive's :meth:`TapeDrive.oscillator`)."""
+    return base if isinstance(check_base(base), Oscillator) else base.oscillator()
+
+
+def check_values(name: str, values) -> np.ndarray:
+    """A 1-D array of finite, distinct parameter values (NaN, inf and duplicates refused)."""
+    if isinstance(values, str | bytes) or np.ndim(values) != 1:
+        raise ValueError(f"{name} must be a 1-D sequence of numbers, got {values!r}")
+    out = []
+    for i, x in enumerate(values):
+        if isinstance(x, bool) or not isinstance(x, numbers.Real):
+            raise TypeError(f"{name}[{i}] must be a real number, got {x!r}")
+        if not math.isfinite(float(x)):
+            raise ValueError(f"{name}[{i}] must be finite, got {float(x)!r}: a grid may not hold NaN or inf")
+        out.append(float(x))
+    if not out:
+        raise ValueError(f"{name} is empty: give at least one value")
+    arr = np.array(out)
+    if np.unique(arr).size != arr.size:
+        raise ValueError(f"{name} has duplicate values: each value must appear once")
+    return arr
+
+
+# -- the forcing period ------------------------------------------------------------------
+_MAX_DENOMINATOR = 64
+
+
+def forcing_period(osc: Oscillator) -> float:
+    """The common period of every forcing harmonic, ``2 pi / Omega`` for one harmonic.
+
+    Harmonics whose frequency ratios are rational (denominators up to 64, to 1e-12) have a
+    common period; incommensurate ones (quasi-periodic forcing) have none.
+
+    Raises
+    ------
+    ValueError
+        If the forcing is constant (no period) or its harmonics are incommensurate.
+    """
+    freqs = [Om for F, Om, _ in osc.terms if F > 0.0 and Om > 0.0]
+    if not freqs:
+        raise ValueError("the forcing is constant (F = 0 or Omega = 0): there is no forcing period, so no "
+                         "stroboscopic map; give the oscillator a periodic forcing")
+    base = freqs[0]
+    ratios = []
+    for Om in freqs:
+        q = Om / base
+        fr = Fraction(q).limit_denominator(_MAX_DENOMINATOR)
+        if abs(float(fr) - q) > 1e-12 * max(1.0, q):
+            raise ValueError(f"the forcing frequencies {freqs} are incommensurate (ratio {q!r} is not a fraction "
+                             f"with denominator <= {_MAX_DENOMINATOR}): the forcing has no period")
+        ratios.append(fr)
+    den = math.lcm(*(fr.denominator for fr in ratios))
+    num = math.gcd(*(fr.numerator * (den // fr.denominator) for fr in ratios))
+    return 2.0 * math.pi * den / (base * num)
+
+
+def periods_in(osc: Oscillator, period, n) -> tuple[int, float]:
+    """``(n, n T)``: the number of forcing periods ``T`` in a map, given as ``n`` or as a ``period``.
+
+    Raises
+    ------
+    ValueError
+        If ``period`` is not a whole multiple of the forcing period (to 1e-9 relative).
+    """
+    T = forcing_period(osc)
+    if period is None:
+        n = _v.integer("n", n)
+        return n, n * T
+    period = _v.positive("period", period)
+    ratio = period / T
+    k = round(ratio)
+    if k < 1 or abs(ratio - k) > 1e-9 * max(1.0, ratio):
+        raise ValueError(f"period must be a whole multiple of the forcing period 2 pi/Omega = {T!r}, got "
+                         f"{period!r} = {ratio:.6g} forcing periods")
+    return int(k), k * T
+
+
+def advanced(osc: Oscillator, t: float) -> Oscillator:
+    """The oscillator seen from time ``t``: every forcing phase advanced by ``Omega_i t``.
+
+    A run of ``advanced(osc, t)`` from time 0 is the run of ``osc`` from time ``t`` (the
+    model is autonomous except for its forcing), so a map over ``[t, t + n T]`` is a run
+    that starts at 0. Phases are reduced modulo ``2 pi``.
+    """
+    if t == 0.0:
+        return osc
+    two_pi = 2.0 * math.pi
+    return dataclasses.replace(osc, phase=math.fmod(osc.phase + osc.Omega * t, two_pi),
+                               harmonics=tuple((F, Om, math.fmod(ph + Om * t, two_pi)) for F, Om, ph in osc.harmonics))
+
+
+def section_offset(osc: Oscillator, phase) -> float:
+    """First time ``t_s >= 0`` at which the forcing phase ``Omega t + osc.phase`` equals ``phase`` (mod 2 pi).
+
+    ``phase=None`` means the phase at ``t = 0`` (``t_s = 0``).
+    """
+    if phase is None:
+        return 0.0
+    phase = _v.real("phase", phase)
+    forcing_period(osc)  # a constant forcing has no phase
+    if osc.F == 0.0 or osc.Omega == 0.0:
+        raise ValueError("phase refers to the fundamental forcing term F cos(Omega t + phase), which is zero here")
+    d = (phase - osc.phase) % (2.0 * math.pi)
+    return d / osc.Omega
+
+
+def forcing_phase(osc: Oscillator, t):
+    """The forcing phase ``(Omega t + phase) mod 2 pi`` of the fundamental term at ``t``."""
+    return np.mod(osc.Omega * np.asarray(t, dtype=float) + osc.phase, 2.0 * math.pi)

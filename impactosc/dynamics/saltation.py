@@ -1,0 +1,110 @@
+"""Saltation matrices: how a perturbation crosses an event of the hybrid flow.
+
+At an event the flow switches from the vector field ``f-`` of one mode to ``f+`` of the
+next, on the guard surface ``h(X, V, t) = 0``, possibly through a reset ``(X, V) -> g(X, V)``
+(Newton's impact ``V -> -e V`` on a rigid flange). A perturbation ``d`` that arrives with the
+trajectory reaches the guard ``dt = -n.d / (n.f- + h_t)`` earlier or later, and leaves as
+``S d`` with the **saltation matrix** (Aizerman & Gantmacher 1958; Leine & Nijmeijer 2004;
+Bernardo et al., *Piecewise-smooth Dynamical Systems*, 2008)::
+
+    S = R + (f+ - R f-) n^T / (n.f- + h_t),
+
+``n = (dh/dX, dh/dV)``, ``h_t = dh/dt`` (the force guards move with the forcing) and
+``R = dg/d(X, V)`` the Jacobian of the reset (``diag(1, -e)`` at an impact, the identity
+otherwise: the engine's snap onto the guard surface moves a state that is already on it).
+
+Everything here comes from the model's definition: ``f`` from :meth:`Oscillator.acceleration`
+(its scalar twin), ``n`` and ``h_t`` from :func:`impactosc.engine.guard_gradient`, the modes
+before and after from the engine's transition rule. A new member of the model family
+therefore gets its saltation matrices without new code here. Special cases follow from
+the formula, they are not coded:
+
+* a continuous vector field across the guard (spring flange entry and exit, the internal
+  acceleration-zero re-arming, a release with ``beta_static == beta``) gives ``S = I``;
+* a stick (``V -> 0`` and the stuck mode's zero vector field) gives ``[[1, *], [0, 0]]``:
+  the ``V`` direction collapses, a multiplier of the orbit is exactly zero;
+* a reversal gives ``diag(1, a+/a-)``, the friction jump ratio of the accelerations;
+* an impact gives ``[[-e, 0], [(a+ + e a-)/V, -e]]``, determinant ``e^2``.
+
+A guard crossed tangentially (``n.f- + h_t = 0`` while ``f+ != R f-``: a grazing impact, a
+release at an extremum of the forcing) has no saltation matrix: the Poincare map is not
+differentiable there (its derivative is infinite, Nordmark 1991). :func:`saltation_matrix`
+then says so instead of dividing by zero.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from ..engine import AT_WALL, GUARD_NAMES, IMPACT, N_GUARDS, Mode, guard_gradient
+from ..model import Oscillator
+
+__all__ = ["Saltation", "saltation_matrix", "vector_field"]
+
+#: Relative size below which ``n.f- + h_t`` counts as zero (a tangential crossing).
+TANGENCY = 1e-12
+#: Relative size below which ``f+ - R f-`` counts as zero (a continuous vector field).
+CONTINUITY = 1e-13
+
+
+class Saltation(NamedTuple):
+    """One event's saltation matrix and what it did."""
+
+    t: float  #: event time
+    guard: str  #: guard name (``at_wall`` for the rigid wall's rest test)
+    kind: str | None  #: recorded event kind, None for internal transitions
+    matrix: tuple  #: ``(a, b, c, d)`` row-major, NaN entries when ``singular``
+    det: float  #: its determinant
+    singular: bool  #: tangential crossing: no saltation matrix exists
+
+
+def vector_field(osc: Oscillator, t: float, x: float, v: float, mode) -> tuple[float, float]:
+    """``(X', V')`` of ``mode`` at a scalar state (zero when stuck)."""
+    r, s = mode[0], mode[1]
+    if s == 0:
+        return 0.0, 0.0
+    return v, osc._accel_scalar(t, x, v, r, s)
+
+
+def saltation_matrix(osc: Oscillator, t: float, mode_before: Mode, guard: int, mode_after: Mode,
+                     x_before: float, v_before: float, x_after: float, v_after: float,
+                     kind: str | None) -> Saltation:
+    """The saltation matrix of one transition of :func:`impactosc.engine.transition`.
+
+    The arguments are those the engine passes to a recorder's ``on_transition``. The rigid
+    wall's rest test (``AT_WALL``) is a discrete decision at an instant, taken the same way
+    by every nearby trajectory that reaches the wall at rest: ``S = I``.
+    """
+    if guard == AT_WALL or not 0 <= guard < N_GUARDS:
+        return Saltation(t, "at_wall", kind, (1.0, 0.0, 0.0, 1.0), 1.0, False)
+    name = GUARD_NAMES[guard]
+    fx0, fv0 = vector_field(osc, t, x_before, v_before, mode_before)
+    fx1, fv1 = vector_field(osc, t, x_after, v_after, mode_after)
+    if kind == IMPACT:
+        e = osc.restitution
+        r11, r22 = 1.0, -e
+    else:
+        r11, r22 = 1.0, 1.0
+    # jump of the vector field across the event, after the reset
+    jx, jv = fx1 - r11 * fx0, fv1 - r22 * fv0
+    scale_f = max(abs(fx0), abs(fv0), abs(fx1), abs(fv1), 1e-300)
+    into_stick = mode_after[1] == 0 and mode_before[1] != 0
+    if abs(jx) <= CONTINUITY * scale_f and abs(jv) <= CONTINUITY * scale_f:
+        if into_stick:  # a stick where the vector field already vanished: V stays 0 all the same
+            return Saltation(t, name, kind, (r11, 0.0, 0.0, 0.0), 0.0, False)
+        return Saltation(t, name, kind, (r11, 0.0, 0.0, r22), r11 * r22, False)
+    (nx, nv), ht = guard_gradient(osc, mode_before, guard, t, x_before, v_before)
+    denom = nx * fx0 + nv * fv0 + ht
+    scale = abs(nx * fx0) + abs(nv * fv0) + abs(ht)
+    if not abs(denom) > TANGENCY * scale:
+        nan = float("nan")
+        return Saltation(t, name, kind, (nan, nan, nan, nan), nan, True)
+    a = r11 + jx * nx / denom
+    b = jx * nv / denom
+    c = jv * nx / denom
+    d = r22 + jv * nv / denom
+    if into_stick:
+        # Into a stuck mode V is 0 after the event for every nearby trajectory: the V row is
+        # exactly zero (the formula gives 1 - a-/a- up to rounding).
+        c = d = 0.0
+    return Saltation(t, name, kind, (a, b, c, d), a * d - b * c, False)
