@@ -55,6 +55,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Protocol
 
+from . import _rule
 from . import _validation as _v
 from ._chatter import ChatterTracker
 from .model import Oscillator
@@ -81,20 +82,31 @@ __all__ = [
     "drive",
 ]
 
-# Event kinds recorded in Solution.events
-CONTACT_START = "contact_start"
-CONTACT_END = "contact_end"
-REVERSAL = "reversal"
-STICK = "stick"
-RELEASE = "release"
-#: A rigid flange's instantaneous impact ``V -> -e V`` (a contact of zero duration).
-IMPACT = "impact"
-#: Impacts on a rigid flange accumulating in finite time (a Zeno point), resolved by a jump.
-CHATTER = "chatter"
-EVENT_KINDS = (CONTACT_START, CONTACT_END, REVERSAL, STICK, RELEASE, IMPACT, CHATTER)
+# Event kinds recorded in Solution.events, guard indices and directions: defined with the
+# rule itself (impactosc._rule), re-exported here.
+from ._rule import (
+    ACCEL_ZERO,
+    AT_WALL,
+    ENTER_LOWER,
+    ENTER_UPPER,
+    EVENT_KINDS,
+    GUARD_DIRECTIONS,
+    INTEGRITY_ULPS,  # noqa: F401 - re-exported: the allowance of missed_guard
+    KINEMATIC_GUARD_OFFSET,
+    LEAVE,
+    N_GUARDS,
+    NO_GUARD,
+    NO_KIND,
+    RELEASE_DOWN,
+    RELEASE_UP,
+    SLIP_END,
+)
 
-# Guard indices: the order is the contract between this module and the backends.
-ENTER_UPPER, ENTER_LOWER, LEAVE, SLIP_END, ACCEL_ZERO, RELEASE_UP, RELEASE_DOWN = range(7)
+CONTACT_START, CONTACT_END, REVERSAL, STICK, RELEASE = EVENT_KINDS[:5]
+#: A rigid flange's instantaneous impact ``V -> -e V`` (a contact of zero duration).
+IMPACT = EVENT_KINDS[5]
+#: Impacts on a rigid flange accumulating in finite time (a Zeno point), resolved by a jump.
+CHATTER = EVENT_KINDS[6]
 GUARD_NAMES = (
     "enter_upper",
     "enter_lower",
@@ -104,15 +116,6 @@ GUARD_NAMES = (
     "release_up",
     "release_down",
 )
-N_GUARDS = len(GUARD_NAMES)
-#: Direction of each guard: +1 fires on a rising crossing, -1 on a falling one.
-GUARD_DIRECTIONS = (1, -1, -1, -1, -1, 1, -1)
-
-#: The state has not reached a guard: the piece ended at the requested end time.
-NO_GUARD = -1
-#: Internal guard, never located by a backend: a mass at rest exactly against a rigid
-#: flange (after an impact with ``V -> 0``, or a chatter) is tested against the wall.
-AT_WALL = N_GUARDS
 
 
 class Mode(NamedTuple):
@@ -134,24 +137,15 @@ def guard_gates(mode: Mode, rigid: bool = False) -> tuple[float, ...]:
 
 def _compute_gates(mode: Mode, rigid: bool) -> tuple[float, ...]:
     r, s, armed = mode
-    moving = s != 0
-    if rigid and r != 0:
-        # Resting against the wall: the wall takes any push into it; only a pull away
-        # beyond static friction (f_net crossing -r beta_s) ends the rest.
-        return (0.0, 0.0, 0.0, 0.0, 0.0, float(not moving and r < 0), float(not moving and r > 0))
-    return (
-        float(moving and r == 0),
-        float(moving and r == 0),
-        float(moving and r != 0),
-        float(moving and armed),
-        float(moving and not armed),
-        float(not moving),
-        float(not moving),
-    )
+    return tuple(float(_rule.gate(rigid, r, s, int(armed), g)) for g in range(N_GUARDS))
 
 
 _ALL_MODES = [Mode(r, s, a) for r in (-1, 0, 1) for s in (-1, 0, 1) for a in (True, False)]
 _GATES = {rigid: {m: _compute_gates(m, rigid) for m in _ALL_MODES} for rigid in (False, True)}
+#: The Mode of every ``(region, motion, armed)`` triple the rule returns (armed as 0/1).
+_MODES = {(m.region, m.motion, int(m.armed)): m for m in _ALL_MODES}
+#: Event kind names by the rule's kind codes (``NO_KIND`` gives None).
+_KIND_NAMES = {**dict(enumerate(EVENT_KINDS)), NO_KIND: None}
 
 
 def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
@@ -161,33 +155,14 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     ``f_net`` when ``|f_net| > beta``. Exactly on the threshold it is released only if
     ``|f_net|`` is about to rise, and then with zero acceleration (``armed=False``, see the
     module docstring). ``f_net`` includes the flange spring (:meth:`Oscillator.net_force`).
+    "On the threshold" means within the rounding of ``f_net`` (:func:`_tie_tolerance`): a
+    release root at ``tau ~ 1e-87`` (``beta = 1e-173``, ``f_net = 0``) is beyond any event
+    finder. There ``X`` is frozen, so ``f_net`` changes only with the forcing: its first
+    derivative decides, and the second where the first is rounding noise (a stationary
+    point of the forcing, e.g. ``sin(pi) = 1.2e-16`` in floating point).
     """
-    f = osc._net_force_scalar(t, x)
-    b = osc.beta_s  # static friction decides sticking and breakaway
-    af = abs(f)
-    # Within the rounding of f_net of the threshold counts as on it: a release root at
-    # tau ~ 1e-87 (beta = 1e-173, f_net = 0) is beyond any event finder (heyoka's gives up).
-    tie = _tie_tolerance(osc, t, x, f)
-    if af < b - tie:
-        return 0, True
-    if af > b + tie:
-        return (1 if f > 0.0 else -1), True
-    # On the threshold (|f_net| == beta, possibly 0 == 0 without friction). X is frozen,
-    # so f_net changes only with the forcing: look at its first derivative, and at the
-    # second where the first is rounding noise (a stationary point of the forcing, e.g.
-    # sin(pi) = 1.2e-16 in floating point).
-    d1, d2, noise = osc._forcing_derivatives(t)
-    trend = d1 if abs(d1) > noise else d2
-    if abs(f) > tie:
-        if f * trend > 0.0:
-            return (1 if f > 0.0 else -1), False
-        return 0, True
-    if trend != 0.0:  # beta == 0 and f_net == 0: the mass moves the way f_net starts to point
-        return (1 if trend > 0.0 else -1), False
-    return 0, True
-
-
-_EPS = 2.0**-52
+    motion, armed = _rule.motion_at_rest(osc._p, float(t), float(x))
+    return motion, bool(armed)
 
 
 def _tie_tolerance(osc: Oscillator, t: float, x: float, f: float) -> float:
@@ -197,14 +172,12 @@ def _tie_tolerance(osc: Oscillator, t: float, x: float, f: float) -> float:
     error, and the phase is rounded to an ulp of its largest part: at ``Omega t ~ 200`` that
     is ~6e-15 F, far above an ulp of ``F`` (a force guard offset by less than it could start
     a piece on the wrong side of zero, and heyoka then dropped its next root: issue 14).
-    The spring terms and ``f_net`` itself are rounded to an ulp.
+    The spring terms and ``f_net`` itself are rounded to an ulp. The floor
+    (:data:`KINEMATIC_GUARD_OFFSET`) keeps a force guard from being the zero polynomial
+    when ``f_net`` vanishes identically (F = 0 at equilibrium): that guard "crossed"
+    everywhere and crawled through 250000 stick/release pairs in half a time unit.
     """
-    spring = abs(osc._spring_scalar(x))
-    forcing = sum(F * (1.0 + abs(Om * t) + abs(ph)) for F, Om, ph in osc.terms)
-    # The floor keeps a force guard from being the zero polynomial when f_net vanishes
-    # identically (F = 0 at equilibrium): that guard "crossed" everywhere and crawled
-    # through 250000 stick/release pairs in half a time unit.
-    return max(4.0 * _EPS * max(forcing, spring, abs(f)), KINEMATIC_GUARD_OFFSET)
+    return _rule.tie_tolerance(osc._p, float(t), float(x), float(f))
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
@@ -241,80 +214,32 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     exactly on it; ``kind`` is the event kind to record (``None`` for internal guards)
     and ``side`` is +1/-1 for flange events, 0 for friction events. ``v`` is the state after
     the transition: at an :data:`IMPACT` the recorded event keeps the incoming velocity.
+
+    The rule itself is :func:`impactosc._rule.transition`, the one copy every backend runs
+    (compiled with numba). In words, by guard:
+
+    * ``SLIP_END``: the stick test (:func:`motion_at_rest`) gives a ``stick``, a ``reversal``,
+      or, at a degenerate tangency where ``V`` and ``V'`` vanish together, a pause without
+      an event after which the motion goes on disarmed.
+    * ``ENTER_*``: a spring flange's ``contact_start``; a velocity against the motion is a
+      turning point passed by rounding and is snapped to 0. On a rigid flange, Newton's
+      impact law ``V -> -e V`` (Shaw & Holmes; Brach): an ``impact``; a mass that keeps no
+      speed is left at the wall, where :func:`pending_guard` applies the wall's rest test
+      (:data:`AT_WALL`). A *touch* (the wall reached at a turning point) is no impact: the
+      stick test at the wall gives a ``reversal`` away from it or a rest on it.
+    * ``LEAVE``: ``contact_end``.
+    * ``ACCEL_ZERO``: re-arms the slip end (no event), or, if the velocity is already back at
+      zero (the guard fires a rounding-level offset late), the slip ended here.
+    * ``RELEASE_*``: a ``release`` (disarmed); on a rigid wall the resting contact ends
+      (``contact_end``) and the mass slides away.
+    * ``AT_WALL``: a mass at rest against a rigid flange rests on it (``contact_start``) or,
+      pulled away beyond ``beta_s``, slides away at once (no event).
     """
-    r, s, armed = mode
-    if guard == SLIP_END:
-        s_new, armed_new = motion_at_rest(osc, t, x)
-        if s_new == 0:
-            return Mode(r, 0, True), x, 0.0, STICK, 0
-        if s_new == s:
-            # Degenerate tangency (V and V' vanish together): the mass pauses and goes on.
-            return Mode(r, s, False), x, 0.0, None, 0
-        return Mode(r, s_new, armed_new), x, 0.0, REVERSAL, 0
-    if guard in (ENTER_UPPER, ENTER_LOWER):
-        side = 1 if guard == ENTER_UPPER else -1
-        if osc.rigid:
-            return _impact(osc, t, side, v)
-        # A velocity against the motion is a turning point passed by rounding (see _settle).
-        return Mode(side, s, armed), float(side), v if s * v > 0.0 else 0.0, CONTACT_START, side
-    if guard == LEAVE:
-        return Mode(0, s, armed), float(r), v if s * v > 0.0 else 0.0, CONTACT_END, r
-    if guard == ACCEL_ZERO:
-        if s * v <= 0.0:
-            # The guard fires a rounding-level offset late (see guard_offsets): if the
-            # velocity is already back at zero, the slip ended here.
-            return transition(osc, Mode(r, s, True), SLIP_END, t, x, 0.0)
-        return Mode(r, s, True), x, v, None, 0
-    if guard in (RELEASE_UP, RELEASE_DOWN):
-        s_new = 1 if guard == RELEASE_UP else -1
-        if osc.rigid and r != 0:
-            # Pulled off the rigid wall: the resting contact ends, the mass slides away.
-            return Mode(0, s_new, False), float(r), 0.0, CONTACT_END, r
-        return Mode(r, s_new, False), x, 0.0, RELEASE, 0
-    if guard == AT_WALL:
-        return _rest_at_wall(osc, t, x)
-    raise ValueError(f"guard must be one of 0..{N_GUARDS}, got {guard!r}")
-
-
-def _impact(osc: Oscillator, t: float, side: int, v: float):
-    """Newton's impact law ``V -> -e V`` on the rigid flange ``side`` (Shaw & Holmes; Brach).
-
-    A rebound leaves the wall in the free region; a mass that keeps no speed (``e = 0``) is
-    left at the wall in the free region with motion 0, where :func:`pending_guard` applies
-    the wall's rest test (:data:`AT_WALL`) at once. A *touch* (the wall reached at a turning
-    point: ``V = 0``, or ``V`` pointing away by rounding) is no impact: it is the turning
-    point, decided by the stick test at the wall like any other (a reversal away from the
-    wall, or a rest on it), so that a backend that puts the apex a rounding error short of
-    the wall records the same reversal.
-    """
-    if side * v <= 0.0:
-        s_new, armed = motion_at_rest(osc, t, float(side))
-        if s_new == -side:
-            return Mode(0, s_new, armed), float(side), 0.0, REVERSAL, 0
-        return Mode(side, 0, True), float(side), 0.0, CONTACT_START, side
-    v_out = -osc.restitution * v
-    if side * v_out < -KINEMATIC_GUARD_OFFSET:
-        return Mode(0, -side, True), float(side), v_out, IMPACT, side
-    return Mode(0, 0, True), float(side), 0.0, IMPACT, side
-
-
-def _rest_at_wall(osc: Oscillator, t: float, x: float):
-    """A mass at rest exactly against a rigid flange: rest on it, or slide away at once.
-
-    The stick test with the static level decides: pulled away beyond ``beta_s`` the mass
-    leaves (no event: the impact that brought it here was recorded); otherwise, pushed into
-    the wall or held by friction, it rests against the wall (a resting contact starts).
-    """
-    side = 1 if x > 0.0 else -1
-    s_new, armed = motion_at_rest(osc, t, x)
-    if s_new == -side:
-        return Mode(0, s_new, armed), x, 0.0, None, side
-    return Mode(side, 0, True), x, 0.0, CONTACT_START, side
-
-
-#: Offset of the kinematic guards (X -+ 1, V): it only keeps an exactly snapped guard
-#: off zero at a piece start, where heyoka drops the guard's next root in the same step.
-KINEMATIC_GUARD_OFFSET = 1e-300
+    if not (isinstance(guard, int) and 0 <= guard <= N_GUARDS):
+        raise ValueError(f"guard must be one of 0..{N_GUARDS}, got {guard!r}")
+    r, s, a, x1, v1, kind, side = _rule.transition(osc._p, mode[0], mode[1], int(mode[2]), guard,
+                                                   float(t), float(x), float(v))
+    return _MODES[(r, s, a)], x1, v1, _KIND_NAMES[kind], side
 
 
 def force_guard_offset(osc: Oscillator, t: float, x: float) -> float:
@@ -328,7 +253,7 @@ def force_guard_offset(osc: Oscillator, t: float, x: float) -> float:
     ``Omega t`` has grown. The shift of a genuine crossing is of the order of the rounding
     of ``f_net``.
     """
-    return _tie_tolerance(osc, t, x, 0.0)
+    return _rule.tie_tolerance(osc._p, float(t), float(x), 0.0)
 
 
 def guard_offsets(osc: Oscillator, t: float, x: float) -> tuple[float, ...]:
@@ -384,29 +309,7 @@ def pending_guard(osc: Oscillator, mode: Mode, fired: int, t: float, x: float, v
     zone means it ends now. With a rigid flange a mass at rest on the wall is
     tested against it (:data:`AT_WALL`). Part of the transition rule, applied by :func:`drive`.
     """
-    r, s, _ = mode
-    if s == 0:
-        if osc.rigid and r == 0 and abs(x) >= 1.0:
-            return AT_WALL
-        return NO_GUARD
-    if s * v < 0.0:
-        return SLIP_END
-    if v == 0.0 and fired in (ENTER_UPPER, ENTER_LOWER, LEAVE) and motion_at_rest(osc, t, x)[0] != s:
-        return SLIP_END
-    if r == 0:
-        if s > 0 and x >= 1.0:
-            return ENTER_UPPER
-        if s < 0 and x <= -1.0:
-            return ENTER_LOWER
-    elif s == -r and r * x <= 1.0:
-        return LEAVE
-    return NO_GUARD
-
-
-#: Rounding allowance of the integrity checks of :func:`missed_guard`, in ulps of the
-#: scale of the quantity checked (far above the rounding of a closed form or of a Taylor
-#: polynomial evaluated at its root, far below any violation that changes the motion).
-INTEGRITY_ULPS = 64.0
+    return _rule.pending_guard(osc._p, mode[0], mode[1], fired, float(t), float(x), float(v))
 
 
 def missed_guard(osc: Oscillator, mode: Mode, guard: int, t0: float, x0: float, v0: float,
@@ -423,37 +326,9 @@ def missed_guard(osc: Oscillator, mode: Mode, guard: int, t0: float, x0: float, 
     or direction is caught however small the motion. A violation means a wrong answer would
     follow, so :func:`drive` stops.
     """
-    r, s, _ = mode
-    if s == 0:
-        if guard == NO_GUARD:
-            f = osc._net_force_scalar(t1, x1)
-            if osc.rigid and r != 0:
-                f = min(r * f, 0.0) * r  # the wall takes any push into it
-            if abs(f) > osc.beta_s + 2.0 * INTEGRITY_ULPS * _tie_tolerance(osc, t1, x1, f):
-                return "release_up" if f > 0 else "release_down"
-        return None
-    if s * v0 < 0.0:
-        return GUARD_NAMES[SLIP_END]
-    # The region test against |X| = 1 with an allowance of ulps of X (the cheap test first).
-    if r == 0:
-        far = abs(x0) if guard in (ENTER_UPPER, ENTER_LOWER) else max(abs(x0), abs(x1))
-        if far > 1.0 and far - 1.0 > INTEGRITY_ULPS * _EPS * max(abs(x0), abs(x1)):
-            return "enter_upper" if x1 > 0 else "enter_lower"
-    else:
-        near = r * x0 if guard == LEAVE else min(r * x0, r * x1)
-        if near < 1.0 and 1.0 - near > INTEGRITY_ULPS * _EPS * max(1.0, abs(x0), abs(x1)):
-            return GUARD_NAMES[LEAVE]
-    if guard != SLIP_END and s * v1 < 0.0:
-        # V is rounded like the largest velocity the piece can reach from its start: the
-        # start velocity plus the largest acceleration (the piece is monotonic in X, so the
-        # restoring force peaks at an end) over the piece, and over one ulp of t1.
-        spring = max(abs(osc._spring_scalar(x0)), abs(osc._spring_scalar(x1)))
-        amplitude = sum(F for F, _, _ in osc.terms)
-        accel = amplitude + osc.beta + 1.0 + spring + 2.0 * osc.zeta * max(abs(v0), abs(v1))
-        tol_v = INTEGRITY_ULPS * _EPS * (abs(v0) + accel * (t1 - t0 + abs(t1) * _EPS))
-        if s * v1 < -tol_v:
-            return GUARD_NAMES[SLIP_END]
-    return None
+    missed = _rule.missed_guard(osc._p, mode[0], mode[1], guard, float(t0), float(x0), float(v0),
+                                float(t1), float(x1), float(v1))
+    return None if missed == NO_GUARD else GUARD_NAMES[missed]
 
 
 def guard_value(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float) -> float:
@@ -542,6 +417,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
                                t, x, v)
     same_instant = 0
     advance = stepper.advance
+    p, missed_rule = osc._p, _rule.missed_guard
     stops = iter(sample_at)
     next_stop = next(stops, math.inf)
     while True:
@@ -566,10 +442,10 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
             message = getattr(stepper, "stop_message", "A limit set by the caller was reached.")
             recorder.finish(t1, x1, v1, mode, 1, message)
             return
-        missed = missed_guard(osc, mode, guard, t, x, v, t1, x1, v1)
-        if missed:
+        missed = missed_rule(p, mode[0], mode[1], guard, t, x, v, t1, x1, v1)
+        if missed != NO_GUARD:
             recorder.finish(t1, x1, v1, mode, -1,
-                            f"the {stepper_name(stepper)} backend missed a {missed} guard in the piece "
+                            f"the {stepper_name(stepper)} backend missed a {GUARD_NAMES[missed]} guard in the piece "
                             f"[{t!r}, {t1!r}] (mode {tuple(mode)}); results up to t={t!r} are kept. "
                             "This is a bug: please report it with the parameters.")
             return
@@ -634,9 +510,11 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
     recorded = False
     jump = None
     hook = getattr(recorder, "on_transition", None)
+    p = osc._p
     while guard != NO_GUARD:
         v_before, x_before, mode_before = v, x, mode
-        mode, x, v, kind, side = transition(osc, mode, guard, t, x, v)
+        r, s, a, x, v, code, side = _rule.transition(p, mode[0], mode[1], int(mode[2]), guard, t, x, v)
+        mode, kind = _MODES[(r, s, a)], _KIND_NAMES[code]
         if hook is not None:
             hook(t, mode_before, guard, mode, x_before, v_before, x, v, kind)
         if kind is not None:
@@ -648,7 +526,7 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
                 elif kind != REVERSAL:
                     chatter.interrupt()
                     jump = None
-        guard = pending_guard(osc, mode, guard, t, x, v)
+        guard = _rule.pending_guard(p, r, s, guard, t, x, v)
     return mode, x, v, recorded, jump
 
 

@@ -33,11 +33,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import KW_ONLY, dataclass
+from dataclasses import KW_ONLY, dataclass, field
 from typing import cast
 
 import numpy as np
 
+from . import _rule
 from . import _validation as _v
 
 __all__ = ["Oscillator", "FLANGE_LAWS"]
@@ -131,6 +132,8 @@ class Oscillator:
     exponent: float = 1.0
     restitution: float = 1.0
     harmonics: Sequence[Sequence[float]] = ()
+    #: The member as the transition rule's parameter vector (:func:`impactosc._rule.params`).
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -160,6 +163,7 @@ class Oscillator:
             raise ValueError(f"restitution applies to flange='rigid' only, got restitution={self.restitution!r} "
                              "with flange='spring'")
         put(self, "harmonics", _harmonic_terms(self.harmonics))
+        put(self, "_p", _rule.params(self))
 
     @classmethod
     def from_harmonics(cls, harmonics, beta: float, K: float, **family) -> Oscillator:
@@ -237,21 +241,13 @@ class Oscillator:
             out = out - F * Om * np.sin(Om * t + ph)
         return out
 
+    # The scalar forces are those of the transition rule (impactosc._rule): one copy, compiled.
     def _forcing_scalar(self, t: float) -> float:
-        f = self.F * math.cos(self.Omega * t + self.phase)
-        for F, Om, ph in self.harmonics:
-            f += F * math.cos(Om * t + ph)
-        return f
+        return _rule.forcing(self._p, t)
 
     def _forcing_derivatives(self, t: float) -> tuple[float, float, float]:
         """``(f', f'', noise)`` of the forcing at ``t``; ``noise`` bounds the rounding of ``f'``."""
-        d1 = d2 = noise = 0.0
-        for F, Om, ph in self.terms:
-            th = Om * t + ph
-            d1 -= F * Om * math.sin(th)
-            d2 -= F * Om * Om * math.cos(th)
-            noise += 8.0 * _EPS * F * Om * (1.0 + abs(th))
-        return d1, d2, noise
+        return _rule.forcing_derivatives(self._p, t)
 
     def forcing_rounding(self, t: float) -> float:
         """A bound on the rounding error of the forcing evaluated at ``t`` in double precision.
@@ -292,14 +288,10 @@ class Oscillator:
 
     def _spring_scalar(self, x: float) -> float:
         """Restoring force ``X + sgn(X) K d^p`` at a scalar ``x`` (the engine's hot path)."""
-        pen = abs(x) - 1.0
-        if pen > 0.0 and not self.rigid:
-            f = self.K * (pen if self.exponent == 1.0 else pen**self.exponent)
-            return x + math.copysign(f, x)
-        return x
+        return _rule.spring(self._p, x)
 
     def _net_force_scalar(self, t: float, x: float) -> float:
-        return self._forcing_scalar(t) - self._spring_scalar(x)
+        return _rule.net_force(self._p, t, x)
 
     def _region_force_scalar(self, x: float, region: int) -> float:
         """Flange force magnitude ``K d^p`` of the spring of ``region`` (0 free or rigid).
@@ -308,19 +300,11 @@ class Oscillator:
         region the penetration is ``region * x - 1`` as integrated (a power of a negative
         rounding residue is taken as 0).
         """
-        if region == 0 or self.rigid:
-            return 0.0
-        d = region * x - 1.0
-        if self.exponent == 1.0:
-            return self.K * d
-        return self.K * d**self.exponent if d > 0.0 else 0.0
+        return _rule.region_force(self._p, x, region)
 
     def _accel_scalar(self, t: float, x: float, v: float, region: int, motion: int) -> float:
         """:meth:`acceleration` at scalars: the vector field of a slipping mode."""
-        if motion == 0:
-            return 0.0
-        return (self._forcing_scalar(t) - x - region * self._region_force_scalar(x, region)
-                - 2.0 * self.zeta * v - self.beta * motion)
+        return _rule.accel(self._p, t, x, v, region, motion)
 
     # -- the vector field of every mode (one definition for backends and dynamics) -------
     def acceleration(self, t, x, v, region: int, motion: int):
