@@ -1,11 +1,12 @@
-"""heyoka against the compiled RK4, side by side in one process (issue 12), and the Fig. 7 grid.
+"""heyoka and the compiled closed form against the compiled RK4, side by side (issue 12), and the Fig. 7 grid.
 
 Run: ``.venv/bin/python benchmarks/speed.py [--quick] [--baseline REF ...] [--out DIR]``.
 
 1. The contact case (``F=0.5, Omega=1.1, beta=0.01, K=1e4``, ``x0=0.95``, ``t_end=400``,
    328 events): heyoka and the paper's RK4 at its default step (numba, compile excluded by a
    warm-up), both with ``record="events"`` and with ``simulate``'s default ``"full"`` (the
-   RK4's dense recording costs it twice its "events" time), the exact backend, scipy (DOP853,
+   RK4's dense recording costs it twice its "events" time), the exact backend's compiled event
+   loop in every recording mode and its Python driver (``compiled=False``), scipy (DOP853,
    every fifth round) and every ``--baseline``, interleaved round by round; medians of the
    wall time and of the CPU time of the thread (``time.thread_time``, which other people's
    processes on a shared machine inflate less).
@@ -13,10 +14,13 @@ Run: ``.venv/bin/python benchmarks/speed.py [--quick] [--baseline REF ...] [--ou
    ``max_events``): events/s of heyoka, exact and the baselines, and the RK4's steps/s on a
    run of the same length, interleaved likewise. The yardstick of the target is
    heyoka's events/s divided by the RK4's steps/s of the same round.
+2b. The compiled closed form on a long run of the contact case (``t_end=1e5``, ~8e4 events):
+   events/s, and its mean flange force against the Python driver and heyoka.
 3. The paper's Fig. 7 grid (``impactosc.paper.fig7_grid``: 90 points, 1 s of tape each) with
-   heyoka: ``impactosc.sweep`` on the default process pool twice (the first sweep starts the
-   pool and loads the integrators in its workers), then the 90 points one after the other
-   in this process (CPU time, events and Taylor steps; also for each baseline).
+   heyoka and with the exact backend (its compiled loop): ``impactosc.sweep`` on the default
+   process pool twice each (the first sweep starts the pool and loads the integrators in
+   its workers), then the 90 points one after the other in this process (CPU time, events
+   and Taylor steps; also for each baseline, and for the compiled loop).
 4. heyoka's batch mode on the longest piece of a Fig. 7 point (a creep of ~3700 steps with no
    event): the integrator of free slipping as ``taylor_adaptive`` and as
    ``taylor_adaptive_batch`` with every lane on the same piece, time per step and lane.
@@ -100,7 +104,12 @@ def contact(pkgs: dict, rounds: int) -> dict:
             runs[(label, record)] = (lambda p=pkg, o=o, r=record: p.simulate(o, 400.0, 0.95, 0.0, record=r), 1)
         runs[("rk4 (default dt)", record)] = (lambda r=record: io.simulate(osc, 400.0, 0.95, 0.0, backend="rk4",
                                                                           record=r), 1)
-    runs[("exact", "events")] = (lambda: io.simulate(osc, 400.0, 0.95, 0.0, backend="exact", record="events"), 1)
+    for record in ("stats", "events", "full"):
+        runs[("exact (compiled loop)", record)] = (
+            lambda r=record: io.simulate(osc, 400.0, 0.95, 0.0, backend="exact", record=r, compiled=True), 1)
+    runs[("exact (Python driver)", "events")] = (
+        lambda: io.simulate(osc, 400.0, 0.95, 0.0, backend="exact", record="events", compiled=False), 1)
+    runs[("rk4 (default dt)", "stats")] = (lambda: io.simulate(osc, 400.0, 0.95, 0.0, backend="rk4", record="stats"), 1)
     runs[("scipy DOP853 (rtol 1e-10)", "events")] = (
         lambda: io.simulate(osc, 400.0, 0.95, 0.0, backend="scipy", method="DOP853", rtol=1e-10, atol=1e-10,
                             record="events"), 5)
@@ -131,7 +140,10 @@ def stickslip(pkgs: dict, rounds: int, n_events: int, n_exact: int) -> dict:
     for label, pkg in pkgs.items():
         o = pkg.Oscillator(**STICKSLIP)
         runs[label] = lambda p=pkg, o=o: p.simulate(o, HUGE_T, 0.95, 0.0, record="stats", max_events=n_events)
-    runs["exact"] = lambda: io.simulate(osc, HUGE_T, 0.95, 0.0, backend="exact", record="stats", max_events=n_exact)
+    runs["exact (compiled loop)"] = lambda: io.simulate(osc, HUGE_T, 0.95, 0.0, backend="exact", record="stats",
+                                                        max_events=n_events, compiled=True)
+    runs["exact (Python driver)"] = lambda: io.simulate(osc, HUGE_T, 0.95, 0.0, backend="exact", record="stats",
+                                                        max_events=n_exact, compiled=False)
     first = runs["heyoka"]()
     t_rk4 = first.t_final  # the RK4 runs as long as heyoka's run of n_events
     runs["rk4 (default dt)"] = lambda: io.simulate(osc, t_rk4, 0.95, 0.0, backend="rk4", record="stats")
@@ -159,6 +171,29 @@ def stickslip(pkgs: dict, rounds: int, n_events: int, n_exact: int) -> dict:
     return dict(rows=rows, ratios=ratios, load=(l0, l1), rounds=rounds)
 
 
+# -- 2b. the compiled closed form in the contact regime ---------------------------------------------
+def compiled_rate(rounds: int, t_end: float) -> dict:
+    """Events/s of the exact backend's compiled loop on a long contact-regime run, and its accuracy.
+
+    The mean flange force is compared with the Python driver of the same closed forms and
+    with heyoka at its default tolerance, on the same run.
+    """
+    osc = io.Oscillator(**CONTACT)
+    fast = lambda: io.simulate(osc, t_end, 0.95, 0.0, backend="exact", record="stats", compiled=True)  # noqa: E731
+    first = fast()
+    l0 = load()
+    samples = [clock(fast)[:2] for _ in range(rounds)]
+    l1 = load()
+    slow = io.simulate(osc, t_end, 0.95, 0.0, backend="exact", record="stats", compiled=False)
+    hey = io.simulate(osc, t_end, 0.95, 0.0, record="stats")
+    events = int(sum(first.counts.values()))
+    wall, cpu = med([w for w, _ in samples]), med([c for _, c in samples])
+    force = first.mean_flange_force(1)
+    return dict(t_end=t_end, events=events, n=rounds, wall=wall, cpu=cpu, events_per_s=events / wall,
+                events_per_cpu_s=events / cpu, mean_force=force, python_driver=slow.mean_flange_force(1),
+                heyoka=hey.mean_flange_force(1), load=(l0, l1))
+
+
 # -- 3. the Fig. 7 grid ----------------------------------------------------------------------------
 def fig7(pkgs: dict, quick: bool, serial: bool) -> dict:
     from impactosc.paper import fig7_grid
@@ -167,13 +202,14 @@ def fig7(pkgs: dict, quick: bool, serial: bool) -> dict:
     grid = fig7_grid(base, quick=quick)
     duration = 0.05 if quick else 1.0
     out = {"points": int(np.prod([len(v) for v in grid.values()])), "duration": duration, "sweeps": [], "serial": []}
-    for label in ("first sweep (starts the pool)", "second sweep (warm pool)"):
+    for backend, label in (("heyoka", "first sweep (starts the pool)"), ("heyoka", "second sweep (warm pool)"),
+                           ("exact", "first sweep"), ("exact", "second sweep (warm pool)")):
         l0 = load()
-        wall, _, ds = clock(lambda: io.sweep(base, grid, duration=duration, progress=False))
+        wall, _, ds = clock(lambda b=backend: io.sweep(base, grid, duration=duration, backend=b, progress=False))
         events = float((2 * ds.impacts + ds.sticks + ds.releases + ds.reversals).sum())
-        out["sweeps"].append(dict(run=label, wall=wall, ok=int((ds.status == 0).sum()), events=events,
-                                  load=(l0, load())))
-        print(f"  fig7 {label}: {wall:.1f} s", flush=True)
+        out["sweeps"].append(dict(run=label, backend=backend, wall=wall, ok=int((ds.status == 0).sum()),
+                                  events=events, load=(l0, load())))
+        print(f"  fig7 {backend} {label}: {wall:.1f} s", flush=True)
     if not serial:
         return out
     for label, pkg in pkgs.items():
@@ -192,6 +228,18 @@ def fig7(pkgs: dict, quick: bool, serial: bool) -> dict:
             steps += int(sol.n_steps)
         out["serial"].append(dict(backend=label, wall=wall, cpu=cpu, events=events, steps=steps, load=(l0, load())))
         print(f"  fig7 serial {label}: {cpu:.1f} s CPU", flush=True)
+    paper = importlib.import_module("impactosc.paper")
+    drives = [paper.resolve_drive(base, pt) for _, pt in paper._points(grid)]
+    l0 = load()
+    cpu = wall = 0.0
+    events = 0
+    for d in drives:
+        w, c, sol = clock(lambda d=d: io.simulate(d.oscillator(), d.seconds_to_lambda(duration), 0.95, 0.0,
+                                                  backend="exact", record="stats"))
+        wall, cpu, events = wall + w, cpu + c, events + int(sum(sol.counts.values()))
+    out["serial"].append(dict(backend="exact (compiled loop)", wall=wall, cpu=cpu, events=events, steps=len(drives),
+                              load=(l0, load())))
+    print(f"  fig7 serial exact: {cpu:.1f} s CPU", flush=True)
     return out
 
 
@@ -263,7 +311,7 @@ def batch_mode(sizes=(2, 4, 8), repeats: int = 9) -> dict:
 
 
 # -- report ------------------------------------------------------------------------------------------
-def report(args, c, s, f, b, load0, info) -> str:
+def report(args, c, s, cr, f, b, load0, info) -> str:
     L = ["# heyoka against the compiled RK4 (issue 12)", "",
          f"Generated by `benchmarks/speed.py{' --quick' if args.quick else ''}"
          f"{''.join(f' --baseline {b}' for b in args.baseline)}` on {time.strftime('%Y-%m-%d %H:%M')}, "
@@ -301,13 +349,22 @@ def report(args, c, s, f, b, load0, info) -> str:
     L += ["", f"## The paper's Fig. 7 grid with heyoka ({f['points']} points x {f['duration']:g} s of tape)", "",
           "| run | wall [s] | points ok | events | load |", "| --- | ---: | ---: | ---: | --- |"]
     for r in f["sweeps"]:
-        L.append(f"| `impactosc.sweep`, default pool ({os.cpu_count()} workers), {r['run']} | {r['wall']:.1f} | "
-                 f"{r['ok']} | {r['events']:,.0f} | {r['load'][0]:.2f} -> {r['load'][1]:.2f} |")
+        L.append(f"| `impactosc.sweep(backend={r['backend']!r})`, default pool ({os.cpu_count()} workers), "
+                 f"{r['run']} | {r['wall']:.1f} | {r['ok']} | {r['events']:,.0f} | "
+                 f"{r['load'][0]:.2f} -> {r['load'][1]:.2f} |")
     for r in f["serial"]:
+        steps = ("" if r["backend"].startswith("exact")
+                 else f"{r['steps'] / max(r['events'], 1):.1f} Taylor steps/event, ")
         L.append(f"| {r['backend']}, the points one after the other in this process: CPU {r['cpu']:.1f} s, "
-                 f"{r['steps'] / max(r['events'], 1):.1f} Taylor steps/event, "
-                 f"{r['events'] / r['cpu']:,.0f} events/CPU s "
+                 f"{steps}{r['events'] / r['cpu']:,.0f} events/CPU s "
                  f"| {r['wall']:.1f} | | {r['events']:,} | {r['load'][0]:.2f} -> {r['load'][1]:.2f} |")
+    L += ["", f"## The compiled closed form in the contact regime (contact case to t_end={cr['t_end']:g}, "
+          "record=\"stats\")", "",
+          f"{cr['n']} runs, load {cr['load'][0]:.2f} -> {cr['load'][1]:.2f}: {cr['events']:,} events in "
+          f"{cr['wall'] * 1e3:.1f} ms wall ({cr['cpu'] * 1e3:.1f} ms CPU), **{cr['events_per_s']:,.0f} events/s** "
+          f"({cr['events_per_cpu_s']:,.0f} per CPU s). Mean upper flange force {cr['mean_force']!r}; "
+          f"the Python driver of the same closed forms {cr['python_driver']!r}; heyoka (default tolerance) "
+          f"{cr['heyoka']!r}."]
     if b["rows"]:
         L += ["", "## heyoka's batch mode (the integrator of free slipping, the longest piece of a Fig. 7 point)", "",
               f"A creep piece from t={b['piece']['t0']:.6g} to {b['piece']['t1']:.6g} with no event, every lane on it.",
@@ -329,9 +386,25 @@ def report(args, c, s, f, b, load0, info) -> str:
     hs = next(r for r in s["rows"] if r["backend"] == "heyoka")
     L.append(f"| stick-slip: about 2.5e5 events/s on an idle machine | {hs['events_per_cpu_s']:,.0f} events per CPU s "
              f"| {'met' if hs['events_per_cpu_s'] >= 2.5e5 else 'missed'} |")
+    ex = {r["record"]: r for r in c["rows"] if r["backend"] == "exact (compiled loop)"}
+    ex_ratio = {rec: (rk[rec]["wall"] / r["wall"], rk[rec]["cpu"] / r["cpu"]) for rec, r in ex.items() if rec in rk}
+    L.append(f"| compiled closed form: >= 1e6 events/s in the contact regime | {cr['events_per_s']:,.0f} events/s "
+             f"({cr['events_per_cpu_s']:,.0f} per CPU s) | {'met' if cr['events_per_s'] >= 1e6 else 'missed'} |")
+    L.append("| compiled closed form: contact case >= 100x faster than the RK4 at its default step | "
+             + "; ".join(f"record={rec}: {w:.1f}x (wall), {cpu:.1f}x (CPU)" for rec, (w, cpu) in ex_ratio.items())
+             + f" | {'met' if ex_ratio and min(min(v) for v in ex_ratio.values()) >= 100 else 'missed'} |")
+    gap = max(abs(cr["mean_force"] - cr["python_driver"]), abs(cr["mean_force"] - cr["heyoka"]))
+    L.append(f"| compiled closed form: mean flange force within 1e-12 of the reference | "
+             f"{abs(cr['mean_force'] - cr['python_driver']):.1e} from the Python driver, "
+             f"{abs(cr['mean_force'] - cr['heyoka']):.1e} from heyoka | {'met' if gap <= 1e-12 else 'missed'} |")
+    sweeps = {(r["backend"], r["run"]): r["wall"] for r in f["sweeps"]}
     if f["sweeps"]:
-        L.append(f"| Fig. 7 grid with heyoka: how long | {f['sweeps'][-1]['wall']:.1f} s (warm pool), "
-                 f"{f['sweeps'][0]['wall']:.1f} s (first sweep) | reported |")
+        hw = [w for (b, _), w in sweeps.items() if b == "heyoka"]
+        ew = [w for (b, _), w in sweeps.items() if b == "exact"]
+        L.append(f"| Fig. 7 grid under 5 s on {os.cpu_count()} cores with the fastest exact path | "
+                 f"{ew[-1]:.1f} s (warm pool), {ew[0]:.1f} s (first sweep) | {'met' if ew[-1] < 5 else 'missed'} |")
+        L.append(f"| Fig. 7 grid with heyoka: how long | {hw[-1]:.1f} s (warm pool), {hw[0]:.1f} s (first sweep) "
+                 "| reported |")
     return "\n".join(L) + "\n"
 
 
@@ -363,14 +436,16 @@ def main(argv=None) -> int:
     c = contact(pkgs, rounds)
     print("stick-slip regime", flush=True)
     s = stickslip(pkgs, max(2, rounds // 4), n_events, max(500, n_events // 4))
+    print("compiled closed form", flush=True)
+    cr = compiled_rate(3 if args.quick else 9, 2e3 if args.quick else 1e5)
     print("Fig. 7 grid", flush=True)
     f = (fig7(pkgs, args.quick, "serial" not in skip) if "fig7" not in skip
          else {"points": 0, "duration": math.nan, "sweeps": [], "serial": []})
     print("batch mode", flush=True)
     b = batch_mode(repeats=3 if args.quick else 9) if "batch" not in skip else {"rows": []}
-    text = report(args, c, s, f, b, load0, info)
+    text = report(args, c, s, cr, f, b, load0, info)
     (out / "speed.md").write_text(text)
-    raw = {"contact": c, "stickslip": s, "fig7": f, "batch": b, "info": info}
+    raw = {"contact": c, "stickslip": s, "compiled": cr, "fig7": f, "batch": b, "info": info}
     (out / "speed.json").write_text(json.dumps(raw, indent=1))
     print("\n" + text)
     return 0

@@ -182,6 +182,26 @@ def gate(rigid, region, motion, armed, guard):
     return not moving
 
 
+@njit
+def initial_mode(p, t, x, v):
+    """Mode ``(region, motion, armed)`` at the initial time (see :func:`impactosc.engine.initial_mode`)."""
+    if v > 0.0:
+        motion, armed = 1, 1
+    elif v < 0.0:
+        motion, armed = -1, 1
+    else:
+        motion, armed = motion_at_rest(p, t, x)
+    if p[P_RIGID] != 0.0:
+        region = 0
+    elif x > 1.0 or (x == 1.0 and motion > 0):
+        region = 1
+    elif x < -1.0 or (x == -1.0 and motion < 0):
+        region = -1
+    else:
+        region = 0
+    return region, motion, armed
+
+
 # -- the transition rule -----------------------------------------------------------------
 @njit
 def _slip_end(p, r, s, t, x):

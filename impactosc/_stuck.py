@@ -17,7 +17,9 @@ import math
 
 import numpy as np
 
-from .engine import GUARD_DIRECTIONS, NO_GUARD, RELEASE_DOWN, RELEASE_UP, Mode, guard_gates
+from ._jit import njit
+from ._rule import GUARD_DIRECTIONS, NO_GUARD, RELEASE_DOWN, RELEASE_UP
+from .engine import Mode, guard_gates
 from .model import Oscillator
 
 __all__ = ["release_time", "advance_stuck", "evaluate_stuck"]
@@ -47,12 +49,24 @@ def release_time(osc: Oscillator, region: int, t0: float, x: float, t_end: float
     spring = x + region * osc._region_force_scalar(x, region)
     if osc.harmonics:
         return _release_time_sum(osc, t0, t_end, spring, gates)
-    F, Om, phase, beta = osc.F, osc.Omega, osc.phase, osc.beta_s
+    return release_one_harmonic(osc.F, osc.Omega, osc.phase, osc.beta_s, spring,
+                                bool(gates[RELEASE_UP]), bool(gates[RELEASE_DOWN]), t0, t_end)
+
+
+@njit
+def release_one_harmonic(F, Om, phase, beta, spring, up, down, t0, t_end):
+    """:func:`release_time` for one harmonic ``F cos(Omega t + phase)``: an arccos, polished.
+
+    ``up`` and ``down`` say which release guards are armed; ``spring`` is the restoring
+    force in ``f_net`` at the stuck position. Compiled (:mod:`impactosc._jit`): the exact
+    backend's event loop calls it too.
+    """
     th0 = (Om * t0 + phase) % _TWO_PI
     best_t, best_guard = math.inf, NO_GUARD
-    for guard, offset in ((RELEASE_UP, beta), (RELEASE_DOWN, -beta)):
-        if not gates[guard]:
+    for guard in (RELEASE_UP, RELEASE_DOWN):
+        if not (up if guard == RELEASE_UP else down):
             continue
+        offset = beta if guard == RELEASE_UP else -beta
         q = (spring + offset) / F
         if not -1.0 < q < 1.0:
             continue  # |q| >= 1: never reached, or only touched (a tangency is no crossing)
@@ -64,7 +78,7 @@ def release_time(osc: Oscillator, region: int, t0: float, x: float, t_end: float
         t1 = t0 + dtheta / Om
         if not t1 < t_end:  # beyond the run (or inf for a subnormal Omega): nothing to polish
             continue
-        t1 = _polish(osc, t1, t0, spring + offset)
+        t1 = _polish(F, Om, phase, t1, t0, spring + offset)
         if t1 < best_t:
             best_t, best_guard = t1, guard
     if best_t >= t_end:
@@ -74,7 +88,7 @@ def release_time(osc: Oscillator, region: int, t0: float, x: float, t_end: float
 
 def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, gates) -> tuple[float, int]:
     """:func:`release_time` for a sum of harmonics: bracketed crossings, window by window."""
-    from .backends.exact import _first_rising, _refine  # the rigorous bracketing root finder
+    from .backends._exact_roots import first_rising, refine, search_failed  # the rigorous root finder
 
     terms = [(F, Om, ph) for F, Om, ph in osc.terms if F > 0.0]
     const = sum(F * math.cos(ph) for F, Om, ph in terms if Om == 0.0)
@@ -96,7 +110,7 @@ def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, g
             continue  # never reached (a tangency at |level| = amplitude is no crossing)
         d = GUARD_DIRECTIONS[guard]
 
-        def fun(tau, d=d, level=level):
+        def fun(_state, tau, d=d, level=level):
             t = t0 + tau
             f = const - level
             df = 0.0
@@ -107,14 +121,15 @@ def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, g
             return d * f, d * df
 
         a = 0.0
-        ha, da = fun(0.0)
+        ha, da = fun(None, 0.0)
         while a < horizon and t0 + a < best_t:
             b = min(horizon, a + window)
             hmin = 4.0 * _EPS * (abs(t0) + b)
-            bracket, (hb, db) = _first_rising(fun, a, ha, da, b, m2, m3, hmin)
-            if bracket is not None:
-                lo, hi, hlo, hhi = bracket
-                t1 = t0 + _refine(fun, lo, hi, hlo, hhi, t0)
+            found, lo, hi, hlo, hhi, hb, db, status = first_rising(fun, None, a, ha, da, b, m2, m3, hmin)
+            if status:
+                raise search_failed(a, b, ha, hb, m2, m3)
+            if found:
+                t1 = t0 + refine(fun, None, lo, hi, hlo, hhi, t0)
                 if t1 < best_t:
                     best_t, best_guard = t1, guard
                 break
@@ -124,7 +139,8 @@ def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, g
     return best_t, best_guard
 
 
-def _polish(osc: Oscillator, t: float, t0: float, level: float) -> float:
+@njit
+def _polish(F, Om, phase, t, t0, level):
     """Newton steps on ``F cos(Omega t + phase) - level`` as the engine evaluates it.
 
     The arccos is exact in phase, but ``Omega t + phase`` is rounded when the engine and
@@ -132,7 +148,6 @@ def _polish(osc: Oscillator, t: float, t0: float, level: float) -> float:
     the root of that rounded function. Steps larger than a phase error can explain (near
     a tangency, where the root is ill-conditioned anyway) are not taken.
     """
-    F, Om, phase = osc.F, osc.Omega, osc.phase
     for _ in range(2):
         th = Om * t + phase
         g = F * math.cos(th) - level

@@ -189,21 +189,8 @@ def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
     free region: a start on the wall is resolved at once by :func:`pending_guard` (an impact
     when moving into it, the wall's rest test when at rest).
     """
-    if v > 0.0:
-        motion, armed = 1, True
-    elif v < 0.0:
-        motion, armed = -1, True
-    else:
-        motion, armed = motion_at_rest(osc, t, x)
-    if osc.rigid:
-        region = 0
-    elif x > 1.0 or (x == 1.0 and motion > 0):
-        region = 1
-    elif x < -1.0 or (x == -1.0 and motion < 0):
-        region = -1
-    else:
-        region = 0
-    return Mode(region, motion, armed)
+    r, s, armed = _rule.initial_mode(osc._p, float(t), float(x), float(v))
+    return _MODES[(r, s, armed)]
 
 
 def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: float):

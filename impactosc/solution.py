@@ -258,9 +258,9 @@ class Solution(SolutionFramesMixin):
         self._contact_time = dict(rec.contact_time)
         self._max_pen = dict(rec.max_pen)
         self._evaluator = rec.evaluator
-        self._events = (np.rec.array(rec.events, dtype=EVENT_DTYPE) if rec.events
+        self._events = (np.rec.array(rec.events, dtype=EVENT_DTYPE) if len(rec.events)
                         else np.recarray((0,), dtype=EVENT_DTYPE)) if rec.keep_events else None
-        self._impacts = (np.rec.array(rec.impacts, dtype=IMPACT_DTYPE) if rec.impacts
+        self._impacts = (np.rec.array(rec.impacts, dtype=IMPACT_DTYPE) if len(rec.impacts)
                          else np.recarray((0,), dtype=IMPACT_DTYPE)) if rec.keep_events else None
         self._segments = np.array(rec.segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
         self._tails = tuple(rec.tails)

@@ -85,10 +85,14 @@ def test_speed_quick(tmp_path):
     md = (tmp_path / "speed.md").read_text()
     raw = json.loads((tmp_path / "speed.json").read_text())
     backends = {r["backend"] for r in raw["contact"]["rows"]}
-    assert {"heyoka", "rk4 (default dt)", "exact"} <= backends
+    assert {"heyoka", "rk4 (default dt)", "exact (compiled loop)", "exact (Python driver)"} <= backends
     for r in raw["contact"]["rows"] + raw["stickslip"]["rows"]:
         assert r["events"] > 0 and math.isfinite(r["wall"]) and r["wall"] > 0, r
     assert math.isfinite(raw["stickslip"]["ratios"]["heyoka"])
-    assert "## Targets (issue 12)" in md
+    compiled = raw["compiled"]
+    assert compiled["events"] > 0 and compiled["events_per_s"] > 0
+    # The compiled loop and the Python driver run the same closed forms: the same mean force.
+    assert compiled["mean_force"] == compiled["python_driver"]
+    assert "## Targets (issue 12)" in md and "compiled closed form: >= 1e6 events/s" in md
     nums = _table_numbers(md)
     assert nums and all(math.isfinite(float(c.replace(",", ""))) for c in nums)

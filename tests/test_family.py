@@ -383,3 +383,11 @@ def test_subnormal_frequencies_in_a_harmonic_sum_do_not_break_the_release_search
     osc = Oscillator(1.0, 2.2e-313, 0.1, 1.0, harmonics=[(0.1, 3e-313, 0.0)])
     for backend in ("heyoka", "scipy", "exact"):
         assert simulate(osc, 10.0, 1.0, 0.0, backend=backend).status == 0
+
+
+def test_damping_loss_is_never_a_gain_on_tiny_pieces():
+    # Found by the energy identity property: scipy's quadrature state int V^2 ended a tiny
+    # piece at -1.7e-42, so damping_work came out negative.
+    osc = Oscillator(0.0, 0.3125, 0.3, 100.0, zeta=0.125, harmonics=[(0.3, 0.625, 0.4)])
+    sol = simulate(osc, 15.0, 1e-16, 0.0, backend="scipy", record="stats", rtol=1e-12, atol=1e-14)
+    assert sol.status == 0 and sol.damping_work >= 0.0

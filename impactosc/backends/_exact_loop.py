@@ -1,0 +1,287 @@
+"""The exact backend's event loop, compiled: :func:`impactosc.engine.drive` without Python per event.
+
+Issue #12 item 2. For eq. 3 (one harmonic, no damping, a linear spring flange; any static
+friction) every piece is a closed form (:mod:`._exact_piece`) and every release an arccos
+(:func:`impactosc._stuck.release_one_harmonic`), so the whole loop runs in numba: the
+pieces, the guard search, the transition rule (:mod:`impactosc._rule`, the copy every
+backend calls) and the recording of statistics, events, contacts and segments.
+
+The loop is :func:`impactosc.engine.drive` step for step (same order of rule calls, same
+stop conditions and messages); ``tests/test_exact_compiled.py`` checks that the two drivers
+give the same solution, field by field. What it does not run goes to the Python driver:
+rigid flanges (the chatter resolution is Python), damping and harmonic sums (their pieces
+are Python), sample times, and transition hooks (:mod:`impactosc.dynamics`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, cast
+
+import numpy as np
+
+from .. import _rule
+from .._jit import njit
+from .._rule import (
+    CONTACT_END,
+    CONTACT_START,
+    EVENT_KINDS,
+    KINEMATIC_GUARD_OFFSET,
+    NO_GUARD,
+    NO_KIND,
+    P_BETA_S,
+    P_K,
+    P_RIGID,
+    P_TERMS,
+    RELEASE_DOWN,
+    RELEASE_UP,
+)
+from .._stuck import release_one_harmonic
+from ..engine import GUARD_NAMES, MAX_EVENTS_AT_ONE_INSTANT, Mode
+from ..model import Oscillator
+from ..solution import EVENT_DTYPE, IMPACT_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
+from ._exact_piece import SEARCH_FAILED, advance_slip, mode_constants
+
+__all__ = ["run", "unsupported"]
+
+# Accumulators (float): impulse, impulse^2, contact time and peak penetration per flange
+# (upper, lower), forcing work, slip path, int V^2.
+(A_IMP_UP, A_IMP_LO, A_SQ_UP, A_SQ_LO, A_CT_UP, A_CT_LO, A_PEN_UP, A_PEN_LO, A_WORK, A_SLIP, A_VSQ) = range(11)
+# Counters (int): events by kind (0..6), then entries per flange, events, pieces, steps.
+C_ENTRIES_UP, C_ENTRIES_LO, C_EVENTS, C_PIECES, C_STEPS = range(7, 12)
+# The open contact: start, side, entry velocity, peak penetration, impulse, complete.
+O_START, O_SIDE, O_VIN, O_PEN, O_IMP, O_COMPLETE = range(6)
+# How the loop ended (the messages are the engine's, written in Python from these codes).
+DONE, EVENT_LIMIT, FAILED, NON_FINITE, MISSED, SAME_INSTANT = range(6)
+
+
+def unsupported(osc: Oscillator, sample_at) -> str | None:
+    """Why the compiled loop cannot run ``osc`` (with these sample times), or None."""
+    if osc.rigid:
+        return "rigid flanges (their chatter is resolved in Python)"
+    if osc.zeta or osc.harmonics:
+        return "damping or harmonic sums (their closed forms are Python)"
+    if osc.exponent != 1.0:
+        return "power-law flanges"
+    if sample_at:
+        return "sample times"
+    return None
+
+
+@njit
+def _append(table, n, row):
+    """Write ``row`` at ``n`` in ``table``, doubling it when full; returns the table."""
+    if n >= table.shape[0]:
+        grown = np.empty((2 * table.shape[0], table.shape[1]))
+        grown[:n] = table[:n]
+        table = grown
+    for j in range(row.shape[0]):
+        table[n, j] = row[j]
+    return table
+
+
+@njit
+def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments):
+    """Run eq. 3 from ``(x0, v0)``; returns the final state, the records and how the loop ended."""
+    rigid = p[P_RIGID] != 0.0
+    F, Om, phase, beta_s, K = p[P_TERMS], p[P_TERMS + 1], p[P_TERMS + 2], p[P_BETA_S], p[P_K]
+    constant = F == 0.0 or Om == 0.0
+    mcs = np.empty((3, 3, 12))
+    for r in (-1, 0, 1):
+        for s in (-1, 1):
+            mcs[r + 1, s + 1] = mode_constants(p, r, s)
+    acc = np.zeros(11)
+    cnt = np.zeros(12, dtype=np.int64)
+    events = np.empty((64 if keep_events else 1, 5))
+    contacts = np.empty((16 if keep_events else 1, 9))
+    segments = np.empty((64 if keep_segments else 1, 8))
+    n_ev = n_co = n_seg = 0
+    row5, row8, row9 = np.empty(5), np.empty(8), np.empty(9)
+    op = np.zeros(6)
+    is_open = False
+    info = np.zeros(3)  # missed guard / failing times, for the messages
+
+    t, x, v = 0.0, x0, (0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0)
+    r, s, a = _rule.initial_mode(p, t, x, v)
+    if r != 0:  # a run that starts inside a flange: a contact in progress, not an event
+        op[O_START], op[O_SIDE], op[O_VIN], op[O_PEN], op[O_IMP], op[O_COMPLETE] = t, r, v, r * x - 1.0, 0.0, 0.0
+        is_open = True
+    start = (r, s, a)
+    if keep_segments:
+        row8[0], row8[1], row8[2], row8[3], row8[4], row8[5], row8[6], row8[7] = t, x, v, r, s, a, 0.0, 0.0
+        segments = _append(segments, n_seg, row8)
+        n_seg += 1
+    guard = _rule.pending_guard(p, r, s, NO_GUARD, t, x, v)
+    same_instant = 0
+    status = DONE
+    settling = True  # the start on a boundary is settled like any transition, without a piece
+    t1, x1, v1 = t, x, v
+    while True:
+        if not settling:
+            # -- one piece ------------------------------------------------------------
+            if s == 0:
+                # A stuck mass: released in closed form (impactosc._stuck), one evaluation.
+                if constant:
+                    t1, guard = t_end, NO_GUARD
+                else:
+                    spring = x + r * _rule.region_force(p, x, r)
+                    up = _rule.gate(rigid, r, s, a, RELEASE_UP)
+                    down = _rule.gate(rigid, r, s, a, RELEASE_DOWN)
+                    t1, guard = release_one_harmonic(F, Om, phase, beta_s, spring, up, down, t, t_end)
+                tau = t1 - t
+                force = _rule.region_force(p, x, r)
+                x1, v1, q, q2, w, vv = x, 0.0, force * tau, force * force * tau, 0.0, 0.0
+            else:
+                t1, x1, v1, guard, q, q2, w, vv, failed = advance_slip(p, mcs[r + 1, s + 1], r, s, a, t, x, v, t_end)
+                if failed == SEARCH_FAILED:
+                    status = FAILED
+                    break
+            if not (math.isfinite(x1) and math.isfinite(v1) and math.isfinite(t1)):
+                status, info[0] = NON_FINITE, t1
+                break
+            # The piece's statistics (a spring flange: impactosc.solution._Recorder.piece).
+            if r != 0:
+                k = 0 if r > 0 else 1
+                acc[A_IMP_UP + k] += q
+                acc[A_SQ_UP + k] += q2
+                acc[A_CT_UP + k] += t1 - t
+                pen = max(r * x, r * x1) - 1.0  # pieces are monotonic in X: the deepest point is an end
+                if pen > acc[A_PEN_UP + k]:
+                    acc[A_PEN_UP + k] = pen
+                if is_open:
+                    op[O_IMP] += q
+                    if pen > op[O_PEN]:
+                        op[O_PEN] = pen
+            if s != 0:
+                acc[A_SLIP] += abs(x1 - x)
+            acc[A_WORK] += w
+            acc[A_VSQ] += vv
+            cnt[C_STEPS] += 1
+            cnt[C_PIECES] += 1
+            missed = _rule.missed_guard(p, r, s, guard, t, x, v, t1, x1, v1)
+            if missed != NO_GUARD:
+                status, info[0], info[1] = MISSED, missed, t
+                t, x, v = t1, x1, v1
+                break
+            if guard == NO_GUARD:
+                t, x, v = t1, x1, v1
+                break
+        # -- the transitions at t1 (impactosc.engine._settle) ------------------------------
+        recorded = False
+        while guard != NO_GUARD:
+            r, s, a, x1, v1, kind, side = _rule.transition(p, r, s, a, guard, t1, x1, v1)
+            if kind != NO_KIND:
+                recorded = True
+                cnt[kind] += 1
+                cnt[C_EVENTS] += 1
+                if keep_events:
+                    row5[0], row5[1], row5[2], row5[3], row5[4] = t1, kind, x1, v1, side
+                    events = _append(events, n_ev, row5)
+                    n_ev += 1
+                if kind == CONTACT_START:
+                    cnt[C_ENTRIES_UP if side > 0 else C_ENTRIES_LO] += 1
+                    op[O_START], op[O_SIDE], op[O_VIN] = t1, side, v1
+                    op[O_PEN], op[O_IMP], op[O_COMPLETE] = 0.0, 0.0, 1.0
+                    is_open = True
+                elif kind == CONTACT_END and is_open:
+                    if keep_events:
+                        pen = max(op[O_PEN], 0.0)
+                        row9[0], row9[1], row9[2], row9[3], row9[4] = op[O_START], t1, op[O_SIDE], op[O_VIN], v1
+                        row9[5], row9[6], row9[7], row9[8] = pen, K * pen, op[O_IMP], op[O_COMPLETE]
+                        contacts = _append(contacts, n_co, row9)
+                        n_co += 1
+                    is_open = False
+            guard = _rule.pending_guard(p, r, s, guard, t1, x1, v1)
+        if settling:  # the start: no segment, no limits (as in the Python driver)
+            t, x, v = t1, x1, v1
+            settling = False
+            continue
+        same_instant = same_instant + 1 if t1 == t else 0
+        t, x, v = t1, x1, v1
+        if keep_segments:
+            row8[0], row8[1], row8[2], row8[3], row8[4], row8[5] = t, x, v, r, s, a
+            row8[6], row8[7] = acc[A_IMP_UP], acc[A_IMP_LO]
+            segments = _append(segments, n_seg, row8)
+            n_seg += 1
+        if recorded and cnt[C_EVENTS] >= max_events:
+            status = EVENT_LIMIT
+            break
+        if same_instant > MAX_EVENTS_AT_ONE_INSTANT:
+            status, info[0] = SAME_INSTANT, same_instant
+            break
+    if is_open:  # a contact in progress at the end: incomplete, no exit velocity
+        if keep_events:
+            pen = max(op[O_PEN], 0.0)
+            row9[0], row9[1], row9[2], row9[3], row9[4] = op[O_START], t, op[O_SIDE], op[O_VIN], math.nan
+            row9[5], row9[6], row9[7], row9[8] = pen, K * pen, op[O_IMP], 0.0
+            contacts = _append(contacts, n_co, row9)
+            n_co += 1
+    final = np.array([t, x, v])
+    modes = np.array([start[0], start[1], start[2], r, s, a], dtype=np.int64)
+    return (final, modes, status, info, acc, cnt, events[:n_ev].copy(), contacts[:n_co].copy(),
+            segments[:n_seg].copy())
+
+
+def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int) -> Solution:
+    """Run eq. 3 with the compiled loop; the :class:`~impactosc.solution.Solution` of the Python driver."""
+    from .exact import _Stepper
+
+    keep_events, keep_segments = record != "stats", record == "full"
+    final, modes, status, info, acc, cnt, events, contacts, segments = _loop(
+        osc._p, float(t_end), float(x0), float(v0), int(max_events), keep_events, keep_segments)
+    t, x, v = (float(a) for a in final)
+    start = Mode(int(modes[0]), int(modes[1]), bool(modes[2]))
+    mode = Mode(int(modes[3]), int(modes[4]), bool(modes[5]))
+    rec = _Recorder(record, "exact", _Stepper(osc).evaluate)
+    rec.osc, rec.rigid = osc, False
+    rec.t0, rec.x0, rec.v0, rec.mode0 = 0.0, float(x0), (0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else float(v0)), start
+    rec.counts = {kind: int(cnt[i]) for i, kind in enumerate(EVENT_KINDS)}
+    rec.entries = {1: int(cnt[C_ENTRIES_UP]), -1: int(cnt[C_ENTRIES_LO])}
+    rec.n_events, rec.pieces, rec.steps = int(cnt[C_EVENTS]), int(cnt[C_PIECES]), int(cnt[C_STEPS])
+    rec.impulse = {1: float(acc[A_IMP_UP]), -1: float(acc[A_IMP_LO])}
+    rec.impulse_sq = {1: float(acc[A_SQ_UP]), -1: float(acc[A_SQ_LO])}
+    rec.contact_time = {1: float(acc[A_CT_UP]), -1: float(acc[A_CT_LO])}
+    rec.max_pen = {1: float(acc[A_PEN_UP]), -1: float(acc[A_PEN_LO])}
+    rec.forcing_work, rec.slip_path, rec.v_squared = float(acc[A_WORK]), float(acc[A_SLIP]), float(acc[A_VSQ])
+    # The recorder's tables are lists of rows; Solution takes any sequence of rows, and
+    # record arrays built here in one go cost nothing per event.
+    if keep_events:
+        table = _table(EVENT_DTYPE, events, ("t", "kind", "x", "v", "side"))
+        table["kind"] = np.asarray(EVENT_KINDS)[events[:, 1].astype(np.int64)]
+        table["count"] = 1
+        rec.events = cast(Any, table)
+        rec.impacts = cast(Any, _table(IMPACT_DTYPE, contacts, IMPACT_DTYPE.names or ()))
+    if keep_segments:
+        rec.segments = cast(Any, _table(SEGMENT_DTYPE, segments, SEGMENT_DTYPE.names or ()))
+    rec.finish(t, x, v, mode, *_outcome(status, info, t, mode, max_events))
+    return Solution(rec, t_end)
+
+
+def _table(dtype: np.dtype, rows: np.ndarray, names) -> np.recarray:
+    """The float rows of the compiled loop as a record array of ``dtype`` (columns ``names`` in order)."""
+    out = np.recarray((rows.shape[0],), dtype=dtype)
+    for j, name in enumerate(names):
+        if name != "kind":
+            out[name] = rows[:, j]
+    return out
+
+
+def _outcome(status: int, info: np.ndarray, t: float, mode: Mode, max_events: int) -> tuple[int, str]:
+    """``(status, message)`` of the Solution: the Python driver's, word for word."""
+    if status == DONE:
+        return 0, "The end time was reached."
+    if status == EVENT_LIMIT:
+        return 1, (f"The event limit max_events={max_events} was reached at t={t!r}; "
+                   "results up to that time are kept.")
+    if status == FAILED:
+        return -1, (f"the exact backend failed after t={t!r}: FloatingPointError: "
+                    f"the guard search of the piece from t={t!r} did not converge")
+    if status == NON_FINITE:
+        return -1, f"integration produced a non-finite state at t={float(info[0])!r}"
+    if status == MISSED:
+        start = float(info[1])
+        return -1, (f"the exact backend missed a {GUARD_NAMES[int(info[0])]} guard in the piece "
+                    f"[{start!r}, {t!r}] (mode {tuple(mode)}); results up to t={start!r} are kept. "
+                    "This is a bug: please report it with the parameters.")
+    return -1, (f"{int(info[0])} consecutive events at t={t!r} without time advancing; "
+                "stopped to avoid an endless loop.")

@@ -1,0 +1,145 @@
+"""The exact backend's compiled event loop against its Python driver (issue #12 item 2).
+
+Both drivers run the one transition rule (impactosc._rule) and the one compiled closed
+form (impactosc.backends._exact_piece); the compiled loop also records in compiled code.
+So the two must give the same Solution, bit for bit, in every recording mode: any
+difference is a recording or driving bug in the compiled copy of the loop.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from impactosc import Oscillator, simulate
+from impactosc.backends import _exact_loop, exact
+
+pytestmark = pytest.mark.skipif(not exact.HAVE_NUMBA, reason="the compiled loop needs numba")
+
+CONTACT = Oscillator(0.5, 1.1, 0.01, 1e4)
+
+CASES = [
+    (CONTACT, 400.0, 0.95, 0.0, {}),
+    (Oscillator(2.0, 0.01, 0.01, 1e4), 700.0, 0.95, 0.0, {}),  # stick-slip creep into the flanges
+    (Oscillator(0.3, 0.7, 0.1, 50.0, beta_static=0.25), 300.0, 0.0, 0.0, {}),  # static > kinetic
+    (Oscillator(1.0, 2.0, 1.0, 1e6), 60.0, 0.2, 0.0, {}),  # F == beta: ties at every release
+    (Oscillator(0.5, 1.1, 0.01, 1e4), 50.0, 1.01, -0.3, {}),  # starts inside the upper flange
+    (Oscillator(0.5, 1.1, 0.01, 1e4), 50.0, -1.0, -0.5, {}),  # starts on the lower boundary, moving in
+    (Oscillator(0.2, 0.0, 0.1, 5.0), 20.0, 0.5, 0.0, {}),  # constant force: stuck for ever
+    (Oscillator(0.5, 1.0, 0.0, 1e4), 200.0, 0.0, 0.3, {}),  # frictionless, free resonance
+    (Oscillator(3.0, 0.5, 1e8, 1e4), 30.0, 0.0, 2.0, {}),  # huge beta: stuck at once
+    (CONTACT, 400.0, 0.95, 0.0, {"max_events": 57}),  # stops at the event limit
+]
+
+
+def _pair(osc, t_end, x0, v0, record, max_events=10_000_000):
+    fast = simulate(osc, t_end, x0, v0, backend="exact", record=record, max_events=max_events, compiled=True)
+    slow = simulate(osc, t_end, x0, v0, backend="exact", record=record, max_events=max_events, compiled=False)
+    return fast, slow
+
+
+def _assert_same(fast, slow):
+    for name in ("status", "message", "t_final", "x_final", "v_final", "final_mode", "counts", "n_steps",
+                 "n_pieces", "forcing_work", "friction_work", "damping_work", "impact_loss", "record"):
+        assert getattr(fast, name) == getattr(slow, name), name
+    for side in (1, -1):
+        assert fast.contact_entries(side) == slow.contact_entries(side)
+        for stat in ("flange_impulse", "mean_flange_force", "rms_flange_force", "contact_time", "max_penetration",
+                     "max_flange_force"):
+            a, b = getattr(fast, stat)(side), getattr(slow, stat)(side)
+            assert a == b or (math.isnan(a) and math.isnan(b)), (stat, side, a, b)
+    if fast.record != "stats":
+        for table in ("events", "impacts"):
+            a, b = getattr(fast, table), getattr(slow, table)
+            assert a.dtype == b.dtype and len(a) == len(b), table
+            for name in a.dtype.names:
+                np.testing.assert_array_equal(a[name], b[name], err_msg=f"{table}.{name}")
+    if fast.record == "full":
+        a, b = fast._segments, slow._segments
+        assert len(a) == len(b)
+        for name in a.dtype.names:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=f"segments.{name}")
+        times = np.linspace(0.0, fast.t_final, 997)
+        for got, want in zip(fast.sample(times), slow.sample(times), strict=True):
+            np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("record", ["stats", "events", "full"])
+@pytest.mark.parametrize("osc, t_end, x0, v0, kw", CASES)
+def test_compiled_loop_equals_python_driver(osc, t_end, x0, v0, kw, record):
+    fast, slow = _pair(osc, t_end, x0, v0, record, **kw)
+    _assert_same(fast, slow)
+
+
+def test_compiled_contact_case_keeps_the_reference_mean_force():
+    # The paper's contact case: 47 contacts a flange, mean force of the closed-form reference.
+    sol = simulate(CONTACT, 400.0, backend="exact", record="stats")
+    assert sol.contact_entries(1) == 47 and sol.contact_entries(-1) == 47
+    assert abs(sol.mean_flange_force(1) - 0.180165173509774) < 1e-12
+
+
+def test_event_limit_and_status_are_those_of_the_driver():
+    fast, slow = _pair(CONTACT, 400.0, 0.95, 0.0, "events", max_events=57)
+    assert fast.status == 1 and sum(fast.counts.values()) == 57
+    assert fast.message == slow.message and "max_events=57" in fast.message
+
+
+def test_compiled_option_is_checked():
+    rigid = Oscillator(0.5, 0.7, 0.1, 1.0, flange="rigid", restitution=0.5)
+    with pytest.raises(ValueError, match="compiled=True: the compiled event loop does not run rigid"):
+        simulate(rigid, 10.0, 0.0, 0.0, backend="exact", compiled=True)
+    with pytest.raises(ValueError, match="does not run sample times"):
+        simulate(CONTACT, 10.0, backend="exact", compiled=True, sample_at=[1.0])
+    with pytest.raises(TypeError, match="compiled must be None, True or False, got 'yes'"):
+        simulate(CONTACT, 10.0, backend="exact", compiled="yes")
+    # compiled=None falls back to the Python driver where the loop does not apply.
+    assert simulate(rigid, 10.0, 0.0, 0.0, backend="exact").status == 0
+    assert _exact_loop.unsupported(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.1), ()) is not None
+
+
+def test_without_numba_the_python_driver_runs_with_a_one_line_hint(monkeypatch):
+    monkeypatch.setattr(exact, "HAVE_NUMBA", False)
+    monkeypatch.setattr("impactosc._jit._warned", False)
+    with pytest.warns(RuntimeWarning, match=r"numba is not installed: .*pip install 'impactosc\[fast\]'"):
+        sol = simulate(CONTACT, 100.0, backend="exact", record="stats")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # once per process, not once per run
+        again = simulate(CONTACT, 100.0, backend="exact", record="stats")
+    assert sol.counts == again.counts == simulate(CONTACT, 100.0, backend="exact", record="stats").counts
+
+
+@settings(max_examples=40, deadline=None)
+@given(F=st.floats(0.0, 3.0), Omega=st.floats(0.0, 3.0), beta=st.floats(0.0, 1.0),
+       K=st.sampled_from([1.0, 50.0, 1e4]), static=st.floats(0.0, 0.5),
+       x0=st.floats(-1.2, 1.2), v0=st.floats(-2.0, 2.0), record=st.sampled_from(["stats", "events", "full"]))
+def test_compiled_loop_equals_python_driver_property(F, Omega, beta, K, static, x0, v0, record):
+    osc = Oscillator(F, Omega, beta, K, beta_static=beta + static)
+    fast, slow = _pair(osc, 40.0, x0, v0, record, max_events=20_000)
+    _assert_same(fast, slow)
+
+
+def test_closed_form_of_int_y_squared_matches_gauss_legendre():
+    # int Y^2 (the flange force's square) in closed form where it is well conditioned,
+    # against the 16-node rule on the stable form, over random pieces of every mode.
+    from impactosc.backends import _exact_piece as piece
+
+    rng = np.random.default_rng(12)
+    used = 0
+    for _ in range(600):
+        osc = Oscillator(rng.uniform(0, 3), float(rng.choice([0.0, rng.uniform(0, 3), 1.0, 100.0])),
+                         10 ** rng.uniform(-4, 1), 10 ** rng.uniform(0, 6), rng.uniform(-3, 3))
+        r, s = int(rng.choice([-1, 0, 1])), int(rng.choice([-1, 1]))
+        mc = piece.mode_constants(osc._p, r, s)
+        x0 = r + rng.uniform(0, 0.01) * r if r else rng.uniform(-1, 1)
+        ps = piece.piece_state(mc, rng.uniform(0, 1e3), x0, rng.uniform(-2, 2))
+        tau = 10 ** rng.uniform(-6, 1)
+        rule = piece.int_squares(mc, ps, tau)[0]
+        closed = piece.int_y_squared(mc, ps, tau)
+        used += closed != rule
+        assert abs(closed - rule) <= 1e-12 * rule
+    assert used > 200  # the closed form is taken on most pieces, not only the fallback
