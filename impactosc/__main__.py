@@ -13,6 +13,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 DRIVE_OPTIONS = {
     # option: (TapeDrive field, type, help)
@@ -184,7 +185,7 @@ def _parse_grid_option(item: str) -> tuple[str, list]:
     return key, [_parse_grid_value(key, v) for v in parts]
 
 
-def _read_toml(path: str) -> tuple[dict, dict]:
+def _read_toml(path: str) -> tuple[dict[str, list[Any]], dict[str, Any]]:
     import tomllib
 
     try:
@@ -207,7 +208,8 @@ def _read_toml(path: str) -> tuple[dict, dict]:
 def _sweep(args) -> int:
     import impactosc as io
 
-    grid, base_fields = {}, {}
+    grid: dict[str, list[Any]] = {}  # sweep field -> its values
+    base_fields: dict[str, Any] = {}  # TapeDrive keyword arguments of the base drive
     if args.toml:
         grid, base_fields = _read_toml(args.toml)
     for item in args.grid or []:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 
@@ -59,6 +60,19 @@ SEGMENT_DTYPE = np.dtype(
 
 #: Evaluates one smooth piece: (mode, t_start, x_start, v_start, times) -> (x, v, impulse).
 PieceEvaluator = Callable[[Mode, float, float, float, np.ndarray], tuple]
+
+_T = TypeVar("_T")
+
+
+def _kept(value: _T | None, what: str) -> _T:
+    """``value``, which the recording mode keeps; its caller has checked that mode (``Solution._need``).
+
+    ``None`` here is a broken invariant (a table the mode keeps was not recorded), not a
+    user error, hence the ``RuntimeError``.
+    """
+    if value is None:
+        raise RuntimeError(f"Solution: {what} was not recorded although this run's record mode keeps it")
+    return value
 
 
 class _Recorder:
@@ -178,7 +192,7 @@ class _Recorder:
         return x, v, motion
 
     def _close(self, t: float, v: float) -> None:
-        start, side, v_in, pen, imp, complete = self._open
+        start, side, v_in, pen, imp, complete = _kept(self._open, "the open contact being closed")
         if self.rigid:
             peak, pen = pen, 0.0  # a resting contact keeps its peak wall force in the slot
         else:
@@ -293,7 +307,7 @@ class Solution(SolutionFramesMixin):
         their accumulation point (the infinitely many remaining ones are not events).
         """
         self._need("events", "Solution.events")
-        return self._events
+        return _kept(self._events, "the event table")
 
     @property
     def impacts(self) -> np.recarray:
@@ -306,7 +320,7 @@ class Solution(SolutionFramesMixin):
         not ended).
         """
         self._need("events", "Solution.impacts")
-        return self._impacts
+        return _kept(self._impacts, "the impact table")
 
     # -- contact statistics, streamed in every recording mode -----------------------------
     @staticmethod
@@ -380,7 +394,7 @@ class Solution(SolutionFramesMixin):
 
     # -- dense output ------------------------------------------------------------------
     def _segment_index(self, t: np.ndarray) -> np.ndarray:
-        return np.searchsorted(self._segments["t"], t, side="right") - 1
+        return np.searchsorted(_kept(self._segments, "the piece starts")["t"], t, side="right") - 1
 
     def _evaluate(self, t: np.ndarray):
         """State and piece impulse at times ``t`` (already validated to lie in the run).
@@ -394,7 +408,7 @@ class Solution(SolutionFramesMixin):
         return x[where], v[where], q[where], k[where]
 
     def _evaluate_distinct(self, t: np.ndarray):
-        seg = self._segments
+        seg = _kept(self._segments, "the piece starts")
         k = self._segment_index(t)
         x = np.empty_like(t)
         v = np.empty_like(t)
@@ -407,7 +421,8 @@ class Solution(SolutionFramesMixin):
             sel = (k == j) & ~at_start & ~at_end
             s = seg[j]
             mode = Mode(int(s["region"]), int(s["motion"]), bool(s["armed"]))
-            xs, vs, qs = self._evaluator(mode, float(s["t"]), float(s["x"]), float(s["v"]), t[sel])
+            evaluator = _kept(self._evaluator, "the piece evaluator")
+            xs, vs, qs = evaluator(mode, float(s["t"]), float(s["x"]), float(s["v"]), t[sel])
             x[sel], v[sel], q[sel] = xs, vs, qs
         for jump in self._tails:
             # Inside the tail of a chatter the last flight's piece would run through the wall:
@@ -450,7 +465,7 @@ class Solution(SolutionFramesMixin):
             return self._impulse[side]
         t_arr = np.array([t])
         _, _, q, k = self._evaluate(t_arr)
-        seg = self._segments[k[0]]
+        seg = _kept(self._segments, "the piece starts")[k[0]]
         cum = float(seg["impulse_upper" if side == 1 else "impulse_lower"])
         cum += float(q[0]) if int(seg["region"]) == side else 0.0
         for jump in self._tails:  # the impacts of a chatter tail before t

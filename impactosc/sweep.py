@@ -447,5 +447,7 @@ def _warn_failures(plan: dict, ds: xr.Dataset) -> None:
 
 
 # When the package root does ``from .sweep import sweep``, the name ``impactosc.sweep`` is
-# the function, so ``impactosc.sweep.load`` must also work on the function.
-sweep.load = load_sweep
+# the function, so ``impactosc.sweep.load`` must also work on the function. A function
+# attribute is dynamic by nature; setting it through ``__dict__`` (what attribute assignment
+# does) says so to type checkers, which know no ``load`` on a function type.
+sweep.__dict__["load"] = load_sweep

@@ -326,6 +326,19 @@ class TapeDrive:
                              f"is defined, got {d!r}")
         return d
 
+    @property
+    def _diameter(self) -> float:
+        """``pack_diameter`` as the number it always is once constructed.
+
+        The field is typed ``float | None`` because ``None`` is the constructor's "mid pack";
+        ``__post_init__`` replaces it with that number, so ``None`` here is a broken invariant.
+        """
+        d = self.pack_diameter
+        if d is None:
+            raise RuntimeError("TapeDrive.pack_diameter is None after construction; __post_init__ sets it "
+                               "to mid pack, so this instance was built without it")
+        return d
+
     # -- construction helpers ----------------------------------------------------------
     def replace(self, **changes) -> TapeDrive:
         """A copy with some fields changed, validated again (``dataclasses.replace``).
@@ -411,7 +424,7 @@ class TapeDrive:
 
         It is the forcing frequency of eq. 2: the run-out repeats once per reel turn.
         """
-        return 2.0 * self.speed / self.pack_diameter
+        return 2.0 * self.speed / self._diameter
 
     def runout_at(self, diameter: float) -> float:
         """Axial reel run-out in m at pack diameter ``diameter`` (m), from the linear law (Fig. 6)."""
@@ -422,7 +435,7 @@ class TapeDrive:
     @property
     def runout(self) -> float:
         """Axial reel run-out at the current pack diameter in m (linear law, Fig. 6)."""
-        return self.runout_at(self.pack_diameter)
+        return self.runout_at(self._diameter)
 
     @property
     def forcing_amplitude(self) -> float:
@@ -506,7 +519,7 @@ class TapeDrive:
         """A short multi-line summary of the operating point and the derived numbers, with units."""
         lines = [
             f"TapeDrive: V = {self.speed:g} m/s, T = {self.tension:g} N, theta = {self.wrap_angle:g} deg, "
-            f"D = {self.pack_diameter * 1e3:.4g} mm (hub {self.hub_diameter * 1e3:.4g}, "
+            f"D = {self._diameter * 1e3:.4g} mm (hub {self.hub_diameter * 1e3:.4g}, "
             f"full {self.full_pack_diameter * 1e3:.4g} mm)",
             f"  tape: w = {self.width * 1e3:.4g} mm, h = {self.thickness * 1e6:.4g} um, "
             f"l = {self.free_length * 1e3:.4g} mm, E = {self.youngs_modulus:.4g} Pa, "

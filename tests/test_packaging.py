@@ -53,6 +53,12 @@ def test_citation_cites_the_software_and_the_paper():
     assert paper["type"] == "article" and paper["authors"] and paper["publisher"]["name"] == "ASME"
 
 
+def test_license_file_is_the_declared_mit_license():
+    text = (ROOT / "LICENSE").read_text()
+    assert PYPROJECT["project"]["license"]["text"] == "MIT"
+    assert text.startswith("MIT License\n") and "Copyright (c) 2026 the impactosc developers" in text
+
+
 def test_package_is_marked_typed():
     assert (ROOT / "impactosc" / "py.typed").is_file()
 
@@ -88,11 +94,12 @@ def test_sdist_and_wheel_hold_the_whole_package(dist):
     assert sdist.name == f"impactosc-{impactosc.__version__}.tar.gz"
     with tarfile.open(sdist) as tar:
         in_sdist = {name.split("/", 1)[1] for name in tar.getnames() if "/" in name}
-    assert _package_files() | {"pyproject.toml", "README.md", "CHANGELOG.md", "CITATION.cff"} <= in_sdist
+    assert _package_files() | {"pyproject.toml", "README.md", "CHANGELOG.md", "CITATION.cff", "LICENSE"} <= in_sdist
     with zipfile.ZipFile(wheel) as zf:
         in_wheel = set(zf.namelist())
         metadata = zf.read(f"impactosc-{impactosc.__version__}.dist-info/METADATA").decode()
     assert _package_files() <= in_wheel, f"missing from the wheel: {sorted(_package_files() - in_wheel)}"
+    assert f"impactosc-{impactosc.__version__}.dist-info/licenses/LICENSE" in in_wheel
     assert not any("__pycache__" in name or name.startswith(("tests/", "docs/")) for name in in_wheel)
     assert f"Version: {impactosc.__version__}" in metadata
 
