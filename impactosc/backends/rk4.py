@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -75,6 +75,7 @@ from ..engine import EVENT_KINDS, Mode, check_run_arguments, initial_mode
 from ..model import Oscillator
 from ..solution import Solution, _Recorder
 
+_prange: Any  # numba.prange, or range without numba
 try:
     import numba
 
