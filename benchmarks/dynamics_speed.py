@@ -47,22 +47,23 @@ def bifurcation_rows(quick: bool, workers: int):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    for continuation in ("none", "both"):
+    # heyoka, then the exact backend (eq. 3 runs its compiled event loop, samples included).
+    for backend, continuation in (("heyoka", "none"), ("heyoka", "both"), ("exact", "none"), ("exact", "both")):
         t = time.perf_counter()
+        kw = dict(transient_periods=n_tr, record_periods=n_rec, continuation=continuation, progress=False,
+                  backend=backend)
         if quick:  # the smoke test: no process start-up
-            ds = dy.bifurcation_diagram(CONTACT, "F", values, transient_periods=n_tr, record_periods=n_rec,
-                                        continuation=continuation, executor="serial", progress=False)
+            ds = dy.bifurcation_diagram(CONTACT, "F", values, executor="serial", **kw)
             where = "serial"
         else:
             with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-                ds = dy.bifurcation_diagram(CONTACT, "F", values, transient_periods=n_tr, record_periods=n_rec,
-                                            continuation=continuation, executor=pool, progress=False)
+                ds = dy.bifurcation_diagram(CONTACT, "F", values, executor=pool, **kw)
             where = f"{workers} worker processes (start-up included)"
         wall = time.perf_counter() - t
         ok = int((ds["status"].values == 0).sum())
         runs = ds["status"].size
-        rows.append((f"bifurcation diagram, contact case over F, {n_values} values x ({n_tr} + {n_rec}) periods, "
-                     f"continuation={continuation}, {where}",
+        rows.append((f"bifurcation diagram ({backend}), contact case over F, {n_values} values x "
+                     f"({n_tr} + {n_rec}) periods, continuation={continuation}, {where}",
                      f"{wall:.2f} s", f"{ok}/{runs} runs ok; {wall / runs * workers * 1e3:.0f} ms per run per worker"))
     return rows
 

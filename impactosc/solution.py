@@ -278,7 +278,7 @@ class Solution(SolutionFramesMixin):
                          else np.recarray((0,), dtype=IMPACT_DTYPE)) if rec.keep_events else None
         self._segments = np.array(rec.segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
         self._tails = tuple(rec.tails)
-        self.samples = (np.rec.array(rec.samples, dtype=SAMPLE_DTYPE) if rec.samples
+        self.samples = (np.rec.array(rec.samples, dtype=SAMPLE_DTYPE) if len(rec.samples)
                         else np.recarray((0,), dtype=SAMPLE_DTYPE))
 
     # -- status ------------------------------------------------------------------------

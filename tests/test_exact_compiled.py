@@ -34,12 +34,16 @@ CASES = [
     (Oscillator(0.5, 1.0, 0.0, 1e4), 200.0, 0.0, 0.3, {}),  # frictionless, free resonance
     (Oscillator(3.0, 0.5, 1e8, 1e4), 30.0, 0.0, 2.0, {}),  # huge beta: stuck at once
     (CONTACT, 400.0, 0.95, 0.0, {"max_events": 57}),  # stops at the event limit
+    # Stroboscopic samples (every forcing period, with repeats, 0 and t_end): time events.
+    (CONTACT, 200.0, 0.95, 0.0, {"sample_at": [0.0, *np.arange(1, 35) * 2 * math.pi / 1.1, 100.0, 100.0, 200.0]}),
+    (Oscillator(2.0, 0.01, 0.01, 1e4), 700.0, 0.95, 0.0, {"sample_at": np.linspace(0.0, 700.0, 71)}),
 ]
 
 
-def _pair(osc, t_end, x0, v0, record, max_events=10_000_000):
-    fast = simulate(osc, t_end, x0, v0, backend="exact", record=record, max_events=max_events, compiled=True)
-    slow = simulate(osc, t_end, x0, v0, backend="exact", record=record, max_events=max_events, compiled=False)
+def _pair(osc, t_end, x0, v0, record, max_events=10_000_000, sample_at=None):
+    kw = dict(record=record, max_events=max_events, sample_at=sample_at)
+    fast = simulate(osc, t_end, x0, v0, backend="exact", compiled=True, **kw)
+    slow = simulate(osc, t_end, x0, v0, backend="exact", compiled=False, **kw)
     return fast, slow
 
 
@@ -53,6 +57,9 @@ def _assert_same(fast, slow):
                      "max_flange_force"):
             a, b = getattr(fast, stat)(side), getattr(slow, stat)(side)
             assert a == b or (math.isnan(a) and math.isnan(b)), (stat, side, a, b)
+    assert fast.samples.dtype == slow.samples.dtype and len(fast.samples) == len(slow.samples)
+    for name in fast.samples.dtype.names:
+        np.testing.assert_array_equal(fast.samples[name], slow.samples[name], err_msg=f"samples.{name}")
     if fast.record != "stats":
         for table in ("events", "impacts"):
             a, b = getattr(fast, table), getattr(slow, table)
@@ -93,13 +100,12 @@ def test_compiled_option_is_checked():
     rigid = Oscillator(0.5, 0.7, 0.1, 1.0, flange="rigid", restitution=0.5)
     with pytest.raises(ValueError, match="compiled=True: the compiled event loop does not run rigid"):
         simulate(rigid, 10.0, 0.0, 0.0, backend="exact", compiled=True)
-    with pytest.raises(ValueError, match="does not run sample times"):
-        simulate(CONTACT, 10.0, backend="exact", compiled=True, sample_at=[1.0])
     with pytest.raises(TypeError, match="compiled must be None, True or False, got 'yes'"):
         simulate(CONTACT, 10.0, backend="exact", compiled="yes")
     # compiled=None falls back to the Python driver where the loop does not apply.
     assert simulate(rigid, 10.0, 0.0, 0.0, backend="exact").status == 0
-    assert _exact_loop.unsupported(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.1), ()) is not None
+    assert _exact_loop.unsupported(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.1)) is not None
+    assert _exact_loop.unsupported(CONTACT) is None
 
 
 def test_without_numba_the_python_driver_runs_with_a_one_line_hint(monkeypatch):
@@ -116,10 +122,11 @@ def test_without_numba_the_python_driver_runs_with_a_one_line_hint(monkeypatch):
 @settings(max_examples=40, deadline=None)
 @given(F=st.floats(0.0, 3.0), Omega=st.floats(0.0, 3.0), beta=st.floats(0.0, 1.0),
        K=st.sampled_from([1.0, 50.0, 1e4]), static=st.floats(0.0, 0.5),
-       x0=st.floats(-1.2, 1.2), v0=st.floats(-2.0, 2.0), record=st.sampled_from(["stats", "events", "full"]))
-def test_compiled_loop_equals_python_driver_property(F, Omega, beta, K, static, x0, v0, record):
+       x0=st.floats(-1.2, 1.2), v0=st.floats(-2.0, 2.0), record=st.sampled_from(["stats", "events", "full"]),
+       samples=st.lists(st.floats(0.0, 40.0), max_size=5))
+def test_compiled_loop_equals_python_driver_property(F, Omega, beta, K, static, x0, v0, record, samples):
     osc = Oscillator(F, Omega, beta, K, beta_static=beta + static)
-    fast, slow = _pair(osc, 40.0, x0, v0, record, max_events=20_000)
+    fast, slow = _pair(osc, 40.0, x0, v0, record, max_events=20_000, sample_at=samples)
     _assert_same(fast, slow)
 
 

@@ -10,7 +10,9 @@ The loop is :func:`impactosc.engine.drive` step for step (same order of rule cal
 stop conditions and messages); ``tests/test_exact_compiled.py`` checks that the two drivers
 give the same solution, field by field. What it does not run goes to the Python driver:
 rigid flanges (the chatter resolution is Python), damping and harmonic sums (their pieces
-are Python), sample times, and transition hooks (:mod:`impactosc.dynamics`).
+are Python), and transition hooks (:mod:`impactosc.dynamics`' tangent runs, which drive
+the Python loop themselves). Sample times (``sample_at``, stroboscopic sections) are
+time events of the compiled loop as of the Python one.
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ from .._rule import (
 from .._stuck import release_one_harmonic
 from ..engine import GUARD_NAMES, MAX_EVENTS_AT_ONE_INSTANT, Mode
 from ..model import Oscillator
-from ..solution import EVENT_DTYPE, IMPACT_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
+from ..solution import EVENT_DTYPE, IMPACT_DTYPE, SAMPLE_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
 from ._exact_piece import SEARCH_FAILED, advance_slip, mode_constants
 
 __all__ = ["run", "unsupported"]
@@ -55,16 +57,14 @@ O_START, O_SIDE, O_VIN, O_PEN, O_IMP, O_COMPLETE = range(6)
 DONE, EVENT_LIMIT, FAILED, NON_FINITE, MISSED, SAME_INSTANT = range(6)
 
 
-def unsupported(osc: Oscillator, sample_at) -> str | None:
-    """Why the compiled loop cannot run ``osc`` (with these sample times), or None."""
+def unsupported(osc: Oscillator) -> str | None:
+    """Why the compiled loop cannot run ``osc``, or None."""
     if osc.rigid:
         return "rigid flanges (their chatter is resolved in Python)"
     if osc.zeta or osc.harmonics:
         return "damping or harmonic sums (their closed forms are Python)"
     if osc.exponent != 1.0:
         return "power-law flanges"
-    if sample_at:
-        return "sample times"
     return None
 
 
@@ -81,8 +81,12 @@ def _append(table, n, row):
 
 
 @njit
-def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments):
-    """Run eq. 3 from ``(x0, v0)``; returns the final state, the records and how the loop ended."""
+def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
+    """Run eq. 3 from ``(x0, v0)``; returns the final state, the records and how the loop ended.
+
+    ``stops`` are the sorted sample times (time events: a piece ends there, the state is
+    recorded and the motion goes on in the same mode).
+    """
     rigid = p[P_RIGID] != 0.0
     F, Om, phase, beta_s, K = p[P_TERMS], p[P_TERMS + 1], p[P_TERMS + 2], p[P_BETA_S], p[P_K]
     constant = F == 0.0 or Om == 0.0
@@ -95,7 +99,9 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments):
     events = np.empty((64 if keep_events else 1, 5))
     contacts = np.empty((16 if keep_events else 1, 9))
     segments = np.empty((64 if keep_segments else 1, 8))
-    n_ev = n_co = n_seg = 0
+    samples = np.empty((max(stops.shape[0], 1), 5))
+    n_ev = n_co = n_seg = n_sa = 0
+    next_stop = stops[0] if stops.shape[0] > 0 else math.inf
     row5, row8, row9 = np.empty(5), np.empty(8), np.empty(9)
     op = np.zeros(6)
     is_open = False
@@ -118,21 +124,28 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments):
     t1, x1, v1 = t, x, v
     while True:
         if not settling:
+            while next_stop <= t:  # a sample time reached exactly (at the start, or at an event)
+                samples[n_sa, 0], samples[n_sa, 1], samples[n_sa, 2] = next_stop, x, v
+                samples[n_sa, 3], samples[n_sa, 4] = r, s
+                n_sa += 1
+                next_stop = stops[n_sa] if n_sa < stops.shape[0] else math.inf
+            t_target = next_stop if next_stop < t_end else t_end
             # -- one piece ------------------------------------------------------------
             if s == 0:
                 # A stuck mass: released in closed form (impactosc._stuck), one evaluation.
                 if constant:
-                    t1, guard = t_end, NO_GUARD
+                    t1, guard = t_target, NO_GUARD
                 else:
                     spring = x + r * _rule.region_force(p, x, r)
                     up = _rule.gate(rigid, r, s, a, RELEASE_UP)
                     down = _rule.gate(rigid, r, s, a, RELEASE_DOWN)
-                    t1, guard = release_one_harmonic(F, Om, phase, beta_s, spring, up, down, t, t_end)
+                    t1, guard = release_one_harmonic(F, Om, phase, beta_s, spring, up, down, t, t_target)
                 tau = t1 - t
                 force = _rule.region_force(p, x, r)
                 x1, v1, q, q2, w, vv = x, 0.0, force * tau, force * force * tau, 0.0, 0.0
             else:
-                t1, x1, v1, guard, q, q2, w, vv, failed = advance_slip(p, mcs[r + 1, s + 1], r, s, a, t, x, v, t_end)
+                t1, x1, v1, guard, q, q2, w, vv, failed = advance_slip(p, mcs[r + 1, s + 1], r, s, a, t, x, v,
+                                                                     t_target)
                 if failed == SEARCH_FAILED:
                     status = FAILED
                     break
@@ -163,7 +176,21 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments):
                 status, info[0], info[1] = MISSED, missed, t
                 t, x, v = t1, x1, v1
                 break
+            if guard == NO_GUARD and t_target < t_end:
+                # A sample time: a time event, not a transition. Same mode, same guards armed.
+                t, x, v = t1, x1, v1
+                if keep_segments:
+                    row8[0], row8[1], row8[2], row8[3], row8[4], row8[5] = t, x, v, r, s, a
+                    row8[6], row8[7] = acc[A_IMP_UP], acc[A_IMP_LO]
+                    segments = _append(segments, n_seg, row8)
+                    n_seg += 1
+                continue
             if guard == NO_GUARD:
+                while next_stop <= t1:  # a sample time at t_end itself
+                    samples[n_sa, 0], samples[n_sa, 1], samples[n_sa, 2] = next_stop, x1, v1
+                    samples[n_sa, 3], samples[n_sa, 4] = r, s
+                    n_sa += 1
+                    next_stop = stops[n_sa] if n_sa < stops.shape[0] else math.inf
                 t, x, v = t1, x1, v1
                 break
         # -- the transitions at t1 (impactosc.engine._settle) ------------------------------
@@ -219,16 +246,18 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments):
     final = np.array([t, x, v])
     modes = np.array([start[0], start[1], start[2], r, s, a], dtype=np.int64)
     return (final, modes, status, info, acc, cnt, events[:n_ev].copy(), contacts[:n_co].copy(),
-            segments[:n_seg].copy())
+            segments[:n_seg].copy(), samples[:n_sa].copy())
 
 
-def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int) -> Solution:
+def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
+        sample_at=()) -> Solution:
     """Run eq. 3 with the compiled loop; the :class:`~impactosc.solution.Solution` of the Python driver."""
     from .exact import _Stepper
 
     keep_events, keep_segments = record != "stats", record == "full"
-    final, modes, status, info, acc, cnt, events, contacts, segments = _loop(
-        osc._p, float(t_end), float(x0), float(v0), int(max_events), keep_events, keep_segments)
+    final, modes, status, info, acc, cnt, events, contacts, segments, samples = _loop(
+        osc._p, float(t_end), float(x0), float(v0), int(max_events), keep_events, keep_segments,
+        np.asarray(sample_at, dtype=float))
     t, x, v = (float(a) for a in final)
     start = Mode(int(modes[0]), int(modes[1]), bool(modes[2]))
     mode = Mode(int(modes[3]), int(modes[4]), bool(modes[5]))
@@ -253,6 +282,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         rec.impacts = cast(Any, _table(IMPACT_DTYPE, contacts, IMPACT_DTYPE.names or ()))
     if keep_segments:
         rec.segments = cast(Any, _table(SEGMENT_DTYPE, segments, SEGMENT_DTYPE.names or ()))
+    rec.samples = cast(Any, _table(SAMPLE_DTYPE, samples, SAMPLE_DTYPE.names or ()))
     rec.finish(t, x, v, mode, *_outcome(status, info, t, mode, max_events))
     return Solution(rec, t_end)
 

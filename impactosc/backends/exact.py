@@ -314,12 +314,12 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     max_events : int
         Stop after this many recorded events.
     sample_at : tuple of float
-        Sorted sample times (time events; they run on the Python driver).
+        Sorted sample times (time events).
     compiled : bool or None
         ``None`` (default): run the whole event loop compiled (:mod:`._exact_loop`) where it
-        applies, i.e. for eq. 3 with any static friction and no ``sample_at``, when numba is
-        installed; otherwise the Python driver :func:`impactosc.engine.drive`, with a
-        one-line hint when only numba is missing. ``False`` forces the Python driver (same
+        applies, i.e. for eq. 3 with any static friction, when numba is installed; otherwise
+        the Python driver :func:`impactosc.engine.drive`, with a one-line hint when only
+        numba is missing. ``False`` forces the Python driver (same
         transition rule, same pieces, same results); ``True`` requires the compiled loop
         and raises if it does not apply.
 
@@ -340,13 +340,13 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         raise TypeError(f"compiled must be None, True or False, got {compiled!r}")
     from . import _exact_loop
 
-    why_not = _exact_loop.unsupported(osc, sample_at)
+    why_not = _exact_loop.unsupported(osc)
     if compiled and why_not:
         raise ValueError(f"compiled=True: the compiled event loop does not run {why_not}; "
                          "use compiled=None to fall back to the Python driver")
     if compiled is not False and not why_not:
         if HAVE_NUMBA:
-            return _exact_loop.run(osc, t_end, x0, v0, record=record, max_events=max_events)
+            return _exact_loop.run(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=sample_at)
         if compiled:
             raise ValueError("compiled=True needs numba: pip install 'impactosc[fast]'")
         warn_no_numba("the exact backend's event loop")
