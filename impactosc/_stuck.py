@@ -18,7 +18,10 @@ import math
 import numpy as np
 
 from ._jit import njit
-from ._rule import GUARD_DIRECTIONS, NO_GUARD, RELEASE_DOWN, RELEASE_UP
+from ._rule import GUARD_DIRECTIONS, NO_GUARD, P_TERMS, RELEASE_DOWN, RELEASE_UP
+from .backends._exact_roots import SEARCH_FAILED
+from .backends._exact_roots import first_rising_jit as first_rising
+from .backends._exact_roots import refine_jit as refine
 from .engine import Mode, guard_gates
 from .model import Oscillator
 
@@ -87,56 +90,93 @@ def release_one_harmonic(F, Om, phase, beta, spring, up, down, t0, t_end):
 
 
 def _release_time_sum(osc: Oscillator, t0: float, t_end: float, spring: float, gates) -> tuple[float, int]:
-    """:func:`release_time` for a sum of harmonics: bracketed crossings, window by window."""
-    from .backends._exact_roots import first_rising, refine, search_failed  # the rigorous root finder
+    """:func:`release_time` for a sum of harmonics (:func:`release_sum`, compiled)."""
+    t1, guard, status = release_sum(osc._p, spring, osc.beta_s, bool(gates[RELEASE_UP]),
+                                    bool(gates[RELEASE_DOWN]), t0, t_end)
+    if status:
+        raise FloatingPointError(f"the release search of the mass stuck from t={t0!r} did not converge")
+    return t1, guard
 
-    terms = [(F, Om, ph) for F, Om, ph in osc.terms if F > 0.0]
-    const = sum(F * math.cos(ph) for F, Om, ph in terms if Om == 0.0)
-    waves = [(F, Om, ph) for F, Om, ph in terms if Om > 0.0]
-    amplitude = sum(F for F, _, _ in waves)
-    m2 = sum(F * Om**2 for F, Om, _ in waves)
-    m3 = sum(F * Om**3 for F, Om, _ in waves)
-    slowest = min(Om for _, Om, _ in waves)
-    fastest = max(Om for _, Om, _ in waves)
-    ratios = [Om / slowest for _, Om, _ in waves]
-    periodic = all(math.isfinite(r) and abs(r - round(r)) <= 1e-12 * r for r in ratios)
+
+@njit
+def _h_release(st, tau):
+    """``d (forcing(t0 + tau) - level)`` and its derivative; ``st`` holds
+    ``[t0, d, const - level, n, (F_i, Omega_i, phase_i) of the n waves]``."""
+    t = st[0] + tau
+    f = st[2]
+    df = 0.0
+    for i in range(int(st[3])):
+        j = 4 + 3 * i
+        F, Om, ph = st[j], st[j + 1], st[j + 2]
+        th = Om * t + ph
+        f += F * math.cos(th)
+        df -= F * Om * math.sin(th)
+    d = st[1]
+    return d * f, d * df
+
+
+@njit
+def release_sum(p, spring, beta_s, up, down, t0, t_end):
+    """First release of a stuck mass forced by a sum of harmonics: ``(t1, guard, status)``.
+
+    The crossings of ``forcing(t) = spring +- beta_s`` are bracketed by the exact backend's
+    rigorous root finder (:mod:`impactosc.backends._exact_roots`), window by window (one
+    period of the fastest wave); when every frequency is an integer multiple of the
+    lowest, one period without a crossing proves there is none. ``status`` is
+    ``SEARCH_FAILED`` when a search gave up. Compiled (:mod:`impactosc._jit`).
+    """
+    n_all = (p.shape[0] - P_TERMS) // 3
+    st = np.zeros(4 + 3 * n_all)
+    const = amplitude = m2 = m3 = 0.0
+    slowest, fastest = math.inf, 0.0
+    n = 0
+    for i in range(n_all):
+        F, Om, ph = p[P_TERMS + 3 * i], p[P_TERMS + 3 * i + 1], p[P_TERMS + 3 * i + 2]
+        if not F > 0.0:
+            continue
+        if Om == 0.0:
+            const += F * math.cos(ph)
+            continue
+        j = 4 + 3 * n
+        st[j], st[j + 1], st[j + 2] = F, Om, ph
+        n += 1
+        amplitude += F
+        m2 += F * Om**2
+        m3 += F * Om**3
+        slowest, fastest = min(slowest, Om), max(fastest, Om)
+    periodic = True
+    for i in range(n):
+        ratio = st[4 + 3 * i + 1] / slowest
+        if not (math.isfinite(ratio) and abs(ratio - round(ratio)) <= 1e-12 * ratio):
+            periodic = False
     horizon = t_end - t0
     if periodic:  # no crossing within one period of the slowest harmonic: none ever
         horizon = min(horizon, 2.0 * math.pi / slowest * (1.0 + 1e-12) + 2.0 * math.pi / fastest)
     window = 2.0 * math.pi / fastest
+    st[0], st[3] = t0, float(n)
     best_t, best_guard = math.inf, NO_GUARD
-    for guard, level in ((RELEASE_UP, spring + osc.beta_s), (RELEASE_DOWN, spring - osc.beta_s)):
-        if not gates[guard] or abs(level - const) >= amplitude:
+    for guard in (RELEASE_UP, RELEASE_DOWN):
+        level = spring + beta_s if guard == RELEASE_UP else spring - beta_s
+        if not (up if guard == RELEASE_UP else down) or abs(level - const) >= amplitude:
             continue  # never reached (a tangency at |level| = amplitude is no crossing)
-        d = GUARD_DIRECTIONS[guard]
-
-        def fun(_state, tau, d=d, level=level):
-            t = t0 + tau
-            f = const - level
-            df = 0.0
-            for F, Om, ph in waves:
-                th = Om * t + ph
-                f += F * math.cos(th)
-                df -= F * Om * math.sin(th)
-            return d * f, d * df
-
+        st[1], st[2] = float(GUARD_DIRECTIONS[guard]), const - level
         a = 0.0
-        ha, da = fun(None, 0.0)
+        ha, da = _h_release(st, 0.0)
         while a < horizon and t0 + a < best_t:
             b = min(horizon, a + window)
             hmin = 4.0 * _EPS * (abs(t0) + b)
-            found, lo, hi, hlo, hhi, hb, db, status = first_rising(fun, None, a, ha, da, b, m2, m3, hmin)
-            if status:
-                raise search_failed(a, b, ha, hb, m2, m3)
+            found, lo, hi, hlo, hhi, hb, db, status = first_rising(_h_release, st, a, ha, da, b, m2, m3, hmin)
+            if status == SEARCH_FAILED:
+                return t0, NO_GUARD, status
             if found:
-                t1 = t0 + refine(fun, None, lo, hi, hlo, hhi, t0)
+                t1 = t0 + refine(_h_release, st, lo, hi, hlo, hhi, t0)
                 if t1 < best_t:
                     best_t, best_guard = t1, guard
                 break
             a, ha, da = b, hb, db
     if best_t >= t_end:
-        return t_end, NO_GUARD
-    return best_t, best_guard
+        return t_end, NO_GUARD, 0
+    return best_t, best_guard, 0
 
 
 @njit

@@ -1,17 +1,18 @@
 """The exact backend's event loop, compiled: :func:`impactosc.engine.drive` without Python per event.
 
-Issue #12 item 2. For eq. 3 (one harmonic, no damping, a linear spring flange; any static
-friction) every piece is a closed form (:mod:`._exact_piece`) and every release an arccos
-(:func:`impactosc._stuck.release_one_harmonic`), so the whole loop runs in numba: the
-pieces, the guard search, the transition rule (:mod:`impactosc._rule`, the copy every
-backend calls) and the recording of statistics, events, contacts and segments.
+Issue #12 item 2. For every linear member with a spring flange (eq. 3, static friction,
+damping, harmonic sums) every piece is a closed form (:mod:`._exact_piece`,
+:mod:`._exact_family`) and every release a closed form or a bracketed root
+(:mod:`impactosc._stuck`), so the whole loop runs in numba: the pieces, the guard search,
+the transition rule (:mod:`impactosc._rule`, the copy every backend calls) and the
+recording of statistics, events, contacts, segments and samples.
 
 The loop is :func:`impactosc.engine.drive` step for step (same order of rule calls, same
 stop conditions and messages); ``tests/test_exact_compiled.py`` checks that the two drivers
 give the same solution, field by field. What it does not run goes to the Python driver:
-rigid flanges (the chatter resolution is Python), damping and harmonic sums (their pieces
-are Python), and transition hooks (:mod:`impactosc.dynamics`' tangent runs, which drive
-the Python loop themselves). Sample times (``sample_at``, stroboscopic sections) are
+rigid flanges (their chatter resolution, :mod:`impactosc._chatter`, and the wall's force
+integrals are Python) and transition hooks (:mod:`impactosc.dynamics`' tangent runs, which
+drive the Python loop themselves). Sample times (``sample_at``, stroboscopic sections) are
 time events of the compiled loop as of the Python one.
 """
 
@@ -35,14 +36,17 @@ from .._rule import (
     P_K,
     P_RIGID,
     P_TERMS,
+    P_ZETA,
     RELEASE_DOWN,
     RELEASE_UP,
 )
-from .._stuck import release_one_harmonic
+from .._stuck import release_one_harmonic, release_sum
 from ..engine import GUARD_NAMES, MAX_EVENTS_AT_ONE_INSTANT, Mode
 from ..model import Oscillator
 from ..solution import EVENT_DTYPE, IMPACT_DTYPE, SAMPLE_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
-from ._exact_piece import SEARCH_FAILED, advance_slip, mode_constants
+from ._exact_family import advance_family
+from ._exact_family import mode_constants as family_constants
+from ._exact_piece import M_SIZE, SEARCH_FAILED, advance_slip, mode_constants
 
 __all__ = ["run", "unsupported"]
 
@@ -61,8 +65,6 @@ def unsupported(osc: Oscillator) -> str | None:
     """Why the compiled loop cannot run ``osc``, or None."""
     if osc.rigid:
         return "rigid flanges (their chatter is resolved in Python)"
-    if osc.zeta or osc.harmonics:
-        return "damping or harmonic sums (their closed forms are Python)"
     if osc.exponent != 1.0:
         return "power-law flanges"
     return None
@@ -89,11 +91,18 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
     """
     rigid = p[P_RIGID] != 0.0
     F, Om, phase, beta_s, K = p[P_TERMS], p[P_TERMS + 1], p[P_TERMS + 2], p[P_BETA_S], p[P_K]
-    constant = F == 0.0 or Om == 0.0
-    mcs = np.empty((3, 3, 12))
+    n_terms = (p.shape[0] - P_TERMS) // 3
+    constant = True  # impactosc.Oscillator.constant_forcing
+    for i in range(n_terms):
+        if p[P_TERMS + 3 * i] != 0.0 and p[P_TERMS + 3 * i + 1] != 0.0:
+            constant = False
+    # Damping or a harmonic sum: the pieces of _exact_family; eq. 3 keeps its own.
+    family = p[P_ZETA] != 0.0 or n_terms > 1
+    size = family_constants(p, 0, 1).shape[0] if family else M_SIZE
+    mcs = np.empty((3, 3, size))
     for r in (-1, 0, 1):
         for s in (-1, 1):
-            mcs[r + 1, s + 1] = mode_constants(p, r, s)
+            mcs[r + 1, s + 1] = family_constants(p, r, s) if family else mode_constants(p, r, s)
     acc = np.zeros(11)
     cnt = np.zeros(12, dtype=np.int64)
     events = np.empty((64 if keep_events else 1, 5))
@@ -133,19 +142,27 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
             # -- one piece ------------------------------------------------------------
             if s == 0:
                 # A stuck mass: released in closed form (impactosc._stuck), one evaluation.
+                spring = x + r * _rule.region_force(p, x, r)
+                up = _rule.gate(rigid, r, s, a, RELEASE_UP)
+                down = _rule.gate(rigid, r, s, a, RELEASE_DOWN)
                 if constant:
                     t1, guard = t_target, NO_GUARD
-                else:
-                    spring = x + r * _rule.region_force(p, x, r)
-                    up = _rule.gate(rigid, r, s, a, RELEASE_UP)
-                    down = _rule.gate(rigid, r, s, a, RELEASE_DOWN)
+                elif n_terms == 1:
                     t1, guard = release_one_harmonic(F, Om, phase, beta_s, spring, up, down, t, t_target)
+                else:
+                    t1, guard, failed = release_sum(p, spring, beta_s, up, down, t, t_target)
+                    if failed == SEARCH_FAILED:
+                        status = FAILED
+                        break
                 tau = t1 - t
                 force = _rule.region_force(p, x, r)
                 x1, v1, q, q2, w, vv = x, 0.0, force * tau, force * force * tau, 0.0, 0.0
             else:
-                t1, x1, v1, guard, q, q2, w, vv, failed = advance_slip(p, mcs[r + 1, s + 1], r, s, a, t, x, v,
-                                                                     t_target)
+                if family:
+                    out = advance_family(p, mcs[r + 1, s + 1], r, s, a, t, x, v, t_target)
+                else:
+                    out = advance_slip(p, mcs[r + 1, s + 1], r, s, a, t, x, v, t_target)
+                t1, x1, v1, guard, q, q2, w, vv, failed = out
                 if failed == SEARCH_FAILED:
                     status = FAILED
                     break

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .._jit import njit
+from .._jit import njit, njit_inline
 from .._rule import (
     ACCEL_ZERO,
     ENTER_LOWER,
@@ -36,7 +36,7 @@ from ._exact_roots import SEARCH_FAILED
 from ._exact_roots import first_rising_jit as first_rising
 from ._exact_roots import refine_jit as refine
 
-__all__ = ["mode_constants", "advance_slip", "evaluate_slip"]
+__all__ = ["mode_constants", "advance_slip", "advance_piece", "evaluate_slip"]
 
 _EPS = 2.0**-52
 _TWO_PI = 2.0 * math.pi
@@ -53,13 +53,18 @@ _X_MINUS_SIN_COEFFS = np.array([1.0 / math.factorial(2 * k + 3) for k in reverse
 # Mode constants: Y = X - ref, w^2 = 1 + K r^2, cY = -r - beta s (flange) or -beta s (free).
 M_REF, M_W, M_W2, M_CY, M_YP, M_F, M_OM, M_SIG, M_DLT, M_K, M_BETA, M_PHASE = range(12)
 M_SIZE = 12
-# Piece state: the start, the homogeneous amplitudes, the phase at the start, the bound
-# amplitudes, the inlined trigonometric constants (S_W .. S_WW2BH) and the guard shape.
-(S_T0, S_X0, S_V0, S_Y0, S_AH, S_BH, S_ABOUT, S_C0, S_S0, S_HOM, S_AMP, S_G,
- S_W, S_OM, S_HSIG, S_HDLT, S_IDLT, S_ISIG, S_FC, S_FSO, S_O2, S_W2AH, S_W2BH, S_WW2AH, S_WW2BH,
- S_DIR, S_SCALE, S_LEVEL, S_END_ORDER) = range(29)
-#: The mode constants are copied behind the piece state (one array for the guard functions).
-S_MC = 29
+# The common header of every piece state (this eq. 3 piece and the damped / harmonic-sum
+# piece of _exact_family), read by the one piece algorithm advance_piece: the start, the
+# guard shape the search is on, the search window and the constants of the integrals.
+(H_T0, H_X0, H_V0, H_Y0, H_DIR, H_SCALE, H_LEVEL, H_END_ORDER, H_WINDOW, H_REF, H_K, H_BETA, H_ZETA) = range(13)
+H_SIZE = 13
+S_T0, S_X0, S_V0, S_Y0, S_DIR, S_SCALE, S_LEVEL, S_END_ORDER = H_T0, H_X0, H_V0, H_Y0, H_DIR, H_SCALE, H_LEVEL, \
+    H_END_ORDER
+# Then the eq. 3 piece: the homogeneous amplitudes, the phase at the start, the bound
+# amplitudes, the inlined trigonometric constants (S_W .. S_WW2BH), and the mode constants.
+(S_AH, S_BH, S_ABOUT, S_C0, S_S0, S_HOM, S_AMP, S_G, S_W, S_OM, S_HSIG, S_HDLT, S_IDLT, S_ISIG, S_FC, S_FSO, S_O2,
+ S_W2AH, S_W2BH, S_WW2AH, S_WW2BH) = range(H_SIZE, H_SIZE + 21)
+S_MC = H_SIZE + 21
 S_SIZE = S_MC + M_SIZE
 
 
@@ -111,6 +116,8 @@ def piece_state(mc, t0, x0, v0):
     ps[S_W2AH], ps[S_W2BH], ps[S_WW2AH], ps[S_WW2BH] = w2 * Ah, w2 * Bh, w * w2 * Ah, w * w2 * Bh
     ps[S_DIR] = ps[S_SCALE] = ps[S_END_ORDER] = 1.0
     ps[S_LEVEL] = 0.0
+    ps[H_WINDOW] = _TWO_PI / w
+    ps[H_REF], ps[H_K], ps[H_BETA], ps[H_ZETA] = mc[M_REF], mc[M_K], mc[M_BETA], 0.0
     ps[S_MC:] = mc
     return ps
 
@@ -363,58 +370,76 @@ def _h_position(ps, tau):
 
 
 @njit
-def _end_guard(mc, ps, T, t0):
-    """The first ``tau`` in ``(0, T]`` where the end guard fires: ``(found, tau, status)``.
-
-    ``h`` is a sum of sinusoids at ``w`` and ``Omega`` (times ``tau`` at resonance),
-    searched in windows of one fast period, which keep the derivative bounds tight (they
-    grow with ``tau`` at resonance) and the bisection shallow when the piece is short.
-    """
-    window = _TWO_PI / mc[M_W]
-    k = int(ps[S_END_ORDER])  # h is the k-th derivative of Y
-    a = 0.0
-    ha, da = _h_end(ps, 0.0)
-    while a < T:
-        b = min(T, a + window)
-        M2, M3 = bounds(mc, ps, b, k)
-        hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
-        found, lo, hi, hlo, hhi, hb, db, status = first_rising(_h_end, ps, a, ha, da, b, M2, M3, hmin)
-        if status == SEARCH_FAILED:
-            return False, b, status
-        if found:
-            return True, refine(_h_end, ps, lo, hi, hlo, hhi, t0), 0
-        a, ha, da = b, hb, db
-    return False, T, 0
+def _state_at(ps, tau):
+    return yvp(ps[S_MC:], ps, tau)
 
 
 @njit
-def advance_slip(p, mc, r, s, armed, t0, x0, v0, t_end):
-    """One slipping piece of eq. 3 from ``(t0, x0, v0)`` to its first armed guard or ``t_end``.
+def _int_y(ps, tau, dp):
+    return int_y(ps[S_MC:], ps, tau, dp)
+
+
+@njit
+def _squares(ps, tau, need_y, need_v):
+    mc = ps[S_MC:]
+    y2 = int_y_squared(mc, ps, tau) if need_y else 0.0
+    v2 = int_squares(mc, ps, tau)[1] if need_v else 0.0
+    return y2, v2
+
+
+@njit
+def _bounds(ps, start, tmax, k):
+    return bounds(ps[S_MC:], ps, tmax, k)  # valid on [0, tmax], so on [start, tmax]
+
+
+def _advance_piece(p, ps, r, s, armed, t_end, h_end, h_position, state_at, int_y_of, squares_of, bounds_of):
+    """One slipping piece from the start in ``ps`` to its first armed guard or ``t_end``.
+
+    The one piece algorithm of the exact backend, for every closed form: the functions
+    (``h_end``, ``h_position``: the guards; ``state_at``: ``(Y, V, P', Y - y0)``; ``int_y_of``,
+    ``squares_of``: the integrals; ``bounds_of``: the derivative bounds) are those of the
+    piece's family, and ``ps`` starts with the common header (``H_*``). Compiled inlined
+    into :func:`advance_slip` and ``_exact_family.advance_family`` (see
+    :func:`impactosc._jit.njit_inline`).
 
     Returns ``(t1, x1, v1, guard, impulse, impulse_sq, forcing_work, v_squared, status)``
-    (the integrals of :class:`impactosc.engine.PieceStepper`; ``v_squared`` is 0: eq. 3 has
-    no damping to weigh it). ``status`` is :data:`SEARCH_FAILED` when the guard search gave
-    up (the state returned is then the start).
+    (the integrals of :class:`impactosc.engine.PieceStepper`). ``status`` is
+    :data:`SEARCH_FAILED` when the guard search gave up (the state returned is then the start).
 
-    The end guard (``SLIP_END`` when armed, else ``ACCEL_ZERO``) comes first. Up to it ``X``
-    is monotonic (``s V >= 0``), so a flange guard is crossed iff its values at the two ends
-    differ in sign, and at most one of them is: a grazing contact (a flange crossing just
-    before a turning point) is found whenever the turning point lies beyond the flange.
+    The end guard (``SLIP_END`` when armed, else ``ACCEL_ZERO``) comes first, searched in
+    windows (one fast period: tight derivative bounds, a shallow bisection when the piece is
+    short). Up to it ``X`` is monotonic (``s V >= 0``), so a flange guard is crossed iff its
+    values at the two ends differ in sign, and at most one of them is: a grazing contact (a
+    flange crossing just before a turning point) is found whenever the turning point lies
+    beyond the flange.
     """
+    t0, x0, v0 = ps[H_T0], ps[H_X0], ps[H_V0]
     rigid = p[P_RIGID] != 0.0
-    ps = piece_state(mc, t0, x0, v0)
     T = t_end - t0
     end_guard = SLIP_END if gate(rigid, r, s, armed, SLIP_END) else ACCEL_ZERO
-    ps[S_DIR] = GUARD_DIRECTIONS[end_guard] * s  # h = d * (V or V'), rising through 0
-    ps[S_END_ORDER] = 1.0 if end_guard == SLIP_END else 2.0
-    found, tau_end, status = _end_guard(mc, ps, T, t0)
-    if status != 0:
-        return t0, x0, v0, NO_GUARD, 0.0, 0.0, 0.0, 0.0, status
+    ps[H_DIR] = GUARD_DIRECTIONS[end_guard] * s  # h = d * (V or V'), rising through 0
+    ps[H_END_ORDER] = 1.0 if end_guard == SLIP_END else 2.0
+    k = int(ps[H_END_ORDER])  # h is the k-th derivative of Y
+    found = False
+    tau_end = T
+    a = 0.0
+    ha, da = h_end(ps, 0.0)
+    while a < T:
+        b = min(T, a + ps[H_WINDOW])
+        M2, M3 = bounds_of(ps, a, b, k)
+        hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
+        hit, lo, hi, hlo, hhi, hb, db, status = first_rising(h_end, ps, a, ha, da, b, M2, M3, hmin)
+        if status == SEARCH_FAILED:
+            return t0, x0, v0, NO_GUARD, 0.0, 0.0, 0.0, 0.0, status
+        if hit:
+            found, tau_end = True, refine(h_end, ps, lo, hi, hlo, hhi, t0)
+            break
+        a, ha, da = b, hb, db
     guard = end_guard if found else NO_GUARD
     t1 = t0 + tau_end if found else t_end
     tau1 = t1 - t0  # the exact offset of the float t1 the engine will see
-    y1, v1, dp1, dy = yvp(mc, ps, tau1)
-    y0 = ps[S_Y0]
+    y1, v1, dp1, dy = state_at(ps, tau1)
+    y0 = ps[H_Y0]
     for fg in (ENTER_UPPER, ENTER_LOWER, LEAVE):
         if not gate(rigid, r, s, armed, fg):
             continue
@@ -424,28 +449,40 @@ def advance_slip(p, mc, r, s, armed, t0, x0, v0, t_end):
         h0 = scale * (y0 - level)
         h1 = scale * (y1 - level)
         if h0 < 0.0 <= h1:
-            ps[S_SCALE], ps[S_LEVEL] = scale, level
-            tau_f = refine(_h_position, ps, 0.0, tau1, h0, h1, t0)
+            ps[H_SCALE], ps[H_LEVEL] = scale, level
+            tau_f = refine(h_position, ps, 0.0, tau1, h0, h1, t0)
             guard = fg
             t1 = t0 + tau_f
             tau1 = t1 - t0
-            y1, v1, dp1, dy = yvp(mc, ps, tau1)
+            y1, v1, dp1, dy = state_at(ps, tau1)
             break
     # The state and the integrals at the end of the piece.
-    x1 = mc[M_REF] + y1
+    ref, K, zeta = ps[H_REF], ps[H_K], ps[H_ZETA]
+    x1 = ref + y1
+    y2, vv = squares_of(ps, tau1, r != 0, zeta > 0.0)
     q = q2 = 0.0
-    K = mc[M_K]
     if r != 0:
-        y2 = int_y_squared(mc, ps, tau1)
         # r Y >= 0 all through a flange piece: a negative integral is rounding.
-        q = max(K * r * int_y(mc, ps, tau1, dp1), 0.0)
+        q = max(K * r * int_y_of(ps, tau1, dp1), 0.0)
         q2 = K * K * y2
-    # Energy balance: int V forcing = Delta E + beta s Delta X, E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
-    de = 0.5 * (v1 - v0) * (v1 + v0) + 0.5 * dy * (2.0 * mc[M_REF] + y1 + y0)
+    # Energy balance: int V forcing = Delta E + beta s Delta X + 2 zeta int V^2,
+    # E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
+    de = 0.5 * (v1 - v0) * (v1 + v0) + 0.5 * dy * (2.0 * ref + y1 + y0)
     if r != 0:
         de += 0.5 * K * dy * (y1 + y0)
-    work = de + mc[M_BETA] * s * dy
-    return t1, x1, v1, guard, q, q2, work, 0.0, 0
+    work = de + ps[H_BETA] * s * dy + 2.0 * zeta * vv
+    return t1, x1, v1, guard, q, q2, work, vv, 0
+
+
+#: The compiled piece algorithm, inlined into each family's advance function.
+advance_piece = njit_inline(_advance_piece)
+
+
+@njit
+def advance_slip(p, mc, r, s, armed, t0, x0, v0, t_end):
+    """One slipping piece of eq. 3 from ``(t0, x0, v0)``: :func:`_advance_piece` on its closed form."""
+    ps = piece_state(mc, t0, x0, v0)
+    return advance_piece(p, ps, r, s, armed, t_end, _h_end, _h_position, _state_at, _int_y, _squares, _bounds)
 
 
 @njit

@@ -78,22 +78,14 @@ import numpy as np
 from .._jit import HAVE_NUMBA, warn_no_numba
 from .._stuck import advance_stuck, evaluate_stuck
 from ..engine import (
-    ACCEL_ZERO,
-    ENTER_LOWER,
-    ENTER_UPPER,
-    GUARD_DIRECTIONS,
-    LEAVE,
-    NO_GUARD,
-    SLIP_END,
     Mode,
     drive,
-    guard_gates,
 )
 from ..model import Oscillator
 from ..solution import Solution, _Recorder
+from . import _exact_family as _family
 from . import _exact_piece as _piece
-from ._exact_family import FamilyConstants, FamilyPiece, near_resonance
-from ._exact_roots import first_rising, refine, search_failed
+from ._exact_family import near_resonance
 
 __all__ = ["run"]
 
@@ -146,8 +138,42 @@ class _SlipPiece:
         return _piece.bounds(self.mc.arr, self.ps, tmax, k)
 
 
+class _FamilyPiece:
+    """Python view of one compiled damped / harmonic-sum piece (:mod:`._exact_family`)."""
+
+    __slots__ = ("fm", "t0", "x0", "v0", "y0", "ps")
+
+    def __init__(self, fm: np.ndarray, t0: float, x0: float, v0: float):
+        self.fm, self.t0, self.x0, self.v0 = fm, t0, x0, v0
+        self.ps = _family.piece_state(fm, t0, x0, v0)
+        self.y0 = x0 - float(fm[_family.F_REF])
+
+    def va(self, tau: float):
+        """``(V, Y'')`` at a scalar ``tau``."""
+        return _family.va(self.ps, tau)
+
+    def aj(self, tau: float):
+        """``(Y'', Y''')`` at a scalar ``tau``."""
+        return _family.aj(self.ps, tau)
+
+    def yv(self, tau):
+        """``(Y, V)`` at a scalar ``tau`` or an array of them."""
+        if isinstance(tau, np.ndarray):
+            xs, vs, _ = _family.evaluate_family(self.fm, self.t0, self.x0, self.v0, tau.ravel())
+            return (xs - self.fm[_family.F_REF]).reshape(tau.shape), vs.reshape(tau.shape)
+        return _family.state_at(self.ps, tau)[:2]
+
+    def bounds(self, tmax: float, k: int, start: float = 0.0) -> tuple[float, float]:
+        """Upper bounds of ``|Y^(k+2)|`` and ``|Y^(k+3)|`` over ``[start, tmax]``."""
+        return _family.bounds(self.ps, start, tmax, k)
+
+
 class _Stepper:
-    """Closed-form pieces for :func:`impactosc.engine.drive` (see ``engine.PieceStepper``)."""
+    """Closed-form pieces for :func:`impactosc.engine.drive` (see ``engine.PieceStepper``).
+
+    Every piece is the compiled one (:mod:`._exact_piece` for eq. 3, :mod:`._exact_family`
+    for damping and harmonic sums), the one the compiled event loop runs too.
+    """
 
     def __init__(self, osc: Oscillator):
         self.osc = osc
@@ -158,17 +184,18 @@ class _Stepper:
     def _mode_constants(self, r: int, s: int) -> Any:
         mc = self.consts.get((r, s))
         if mc is None:
-            kind = FamilyConstants if self.family else _ModeConstants
-            mc = self.consts[(r, s)] = kind(self.osc, r, s)
+            if self.family:
+                mc = _family.mode_constants(self.osc._p, r, s)
+            else:
+                mc = _ModeConstants(self.osc, r, s)
+            self.consts[(r, s)] = mc
         return mc
 
-    def _slip_piece(self, mode: Mode, t0: float, x0: float, v0: float) -> _SlipPiece | FamilyPiece:
+    def _slip_piece(self, mode: Mode, t0: float, x0: float, v0: float) -> _SlipPiece | _FamilyPiece:
+        mc = self._mode_constants(mode.region, mode.motion)
         if self.family:
-            return self._family_piece(mode, t0, x0, v0)
-        return _SlipPiece(self._mode_constants(mode.region, mode.motion), t0, x0, v0)
-
-    def _family_piece(self, mode: Mode, t0: float, x0: float, v0: float) -> FamilyPiece:
-        return FamilyPiece(self._mode_constants(mode.region, mode.motion), t0, x0, v0)
+            return _FamilyPiece(mc, t0, x0, v0)
+        return _SlipPiece(mc, t0, x0, v0)
 
     # -- one piece -----------------------------------------------------------------------
     def advance(self, mode: Mode, t: float, x: float, v: float, t_end: float):
@@ -182,96 +209,15 @@ class _Stepper:
             # The release of a stuck mass is shared by every backend (impactosc._stuck);
             # a stuck piece counts as one closed-form evaluation here too.
             return (*advance_stuck(self.osc, mode, t, x, t_end)[:-1], 1)
-        if self.family:
-            return self._advance_family(mode, t, x, v, t_end)
-        # Eq. 3: the compiled piece, the one the compiled event loop runs too.
         mc = self._mode_constants(r, s)
-        t1, x1, v1, guard, q, q2, w, vv, status = _piece.advance_slip(self.osc._p, mc.arr, r, s, int(armed),
-                                                                       t, x, v, t_end)
+        if self.family:
+            out = _family.advance_family(self.osc._p, mc, r, s, int(armed), t, x, v, t_end)
+        else:
+            out = _piece.advance_slip(self.osc._p, mc.arr, r, s, int(armed), t, x, v, t_end)
+        t1, x1, v1, guard, q, q2, w, vv, status = out
         if status:
             raise FloatingPointError(f"the guard search of the piece from t={t!r} did not converge")
         return t1, x1, v1, guard, q, q2, w, vv, 1
-
-    def _advance_family(self, mode: Mode, t0: float, x0: float, v0: float, t_end: float):
-        """A damped or harmonic-sum piece: the algorithm of :func:`._exact_piece.advance_slip`
-        on the closed forms of :mod:`._exact_family`, run as Python."""
-        p = self._family_piece(mode, t0, x0, v0)
-        mc: Any = p.mc
-        s, r = mode.motion, mode.region
-        gates = guard_gates(mode, self.osc.rigid)
-        T = t_end - t0
-
-        # 1. The end guard: s V falling (armed) or s V' falling (after a release).
-        end_guard = SLIP_END if gates[SLIP_END] else ACCEL_ZERO
-        d = GUARD_DIRECTIONS[end_guard] * s  # h = d * (V or V'), rising through 0
-        if end_guard == SLIP_END:
-            def fun(_state, tau, va=p.va):
-                vv, aa = va(tau)
-                return d * vv, d * aa
-            k = 1  # h is the first derivative of Y
-        else:
-            def fun(_state, tau, aj=p.aj):
-                aa, jj = aj(tau)
-                return d * aa, d * jj
-            k = 2
-        tau_end, guard = T, NO_GUARD
-        # Windows of one fast period keep the derivative bounds tight (they grow with tau
-        # at resonance) and the bisection shallow when the piece is short.
-        window = _TWO_PI / mc.fastest
-        a = 0.0
-        ha, da = fun(None, 0.0)
-        while a < T:
-            b = min(T, a + window)
-            M2, M3 = p.bounds(b, k, a)
-            hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
-            found, lo, hi, hlo, hhi, hb, db, status = first_rising(fun, None, a, ha, da, b, M2, M3, hmin)
-            if status:
-                raise search_failed(a, b, ha, hb, M2, M3)
-            if found:
-                tau_end, guard = refine(fun, None, lo, hi, hlo, hhi, t0), end_guard
-                break
-            a, ha, da = b, hb, db
-        t1 = t_end if guard == NO_GUARD else t0 + tau_end
-        tau1 = t1 - t0  # the exact offset of the float t1 the engine will see
-        y1, v1, dp1, dy = p._yvp(tau1)
-
-        # 2. X is monotonic on [0, tau1] (s V >= 0 there), so a flange guard is crossed iff
-        #    its values at the two ends differ in sign, and at most one of them is.
-        for fg in (ENTER_UPPER, ENTER_LOWER, LEAVE):
-            if not gates[fg]:
-                continue
-            # h = scale (Y - level): X - 1 and X + 1 when free (Y = X), r X - 1 = r Y in a flange.
-            level = 0.0 if fg == LEAVE else (1.0 if fg == ENTER_UPPER else -1.0)
-            scale = GUARD_DIRECTIONS[fg] * (r if fg == LEAVE else 1)
-            h0 = scale * (p.y0 - level)
-            h1 = scale * (y1 - level)
-            if h0 < 0.0 <= h1:
-                def gfun(_state, tau, yv=p.yv, scale=scale, level=level):
-                    yy, vv = yv(tau)
-                    return scale * (yy - level), scale * vv
-                tau_f = refine(gfun, None, 0.0, tau1, h0, h1, t0)
-                guard = fg
-                t1 = t0 + tau_f
-                tau1 = t1 - t0
-                y1, v1, dp1, dy = p._yvp(tau1)
-                break
-
-        # 3. The state and the integrals at the end of the piece.
-        x1 = mc.ref + y1
-        q = q2 = 0.0
-        y2, vv = p.int_squares(tau1)
-        if r:
-            # r Y >= 0 all through a flange piece: a negative integral is rounding.
-            q = max(mc.K * r * p.int_y(tau1, dp1), 0.0)
-            q2 = mc.K * mc.K * y2
-        # Energy balance: int V forcing = Delta E + beta s Delta X + 2 zeta int V^2,
-        # E = V^2/2 + X^2/2 + K Y^2/2 [r != 0].
-        y0 = p.y0
-        de = 0.5 * (v1 - v0) * (v1 + v0) + 0.5 * dy * (2.0 * mc.ref + y1 + y0)
-        if r:
-            de += 0.5 * mc.K * dy * (y1 + y0)
-        work = de + mc.beta * s * dy + 2.0 * self.osc.zeta * vv
-        return t1, x1, v1, guard, q, q2, work, vv, 1
 
     # -- dense output --------------------------------------------------------------------
     def evaluate(self, mode: Mode, t0: float, x: float, v: float, times: np.ndarray):
@@ -286,15 +232,12 @@ class _Stepper:
             vs = np.zeros(tau.shape)
             qs = self.osc.K * (r * x - 1.0) * tau if r else np.zeros(tau.shape)
             return xs, vs, qs
-        if not self.family:
-            mc = self._mode_constants(r, mode.motion)
+        mc = self._mode_constants(r, mode.motion)
+        if self.family:
+            xs, vs, qs = _family.evaluate_family(mc, t0, x, v, np.ravel(tau))
+        else:
             xs, vs, qs = _piece.evaluate_slip(mc.arr, t0, x, v, np.ravel(tau))
-            return xs.reshape(tau.shape), vs.reshape(tau.shape), qs.reshape(tau.shape)
-        p = self._family_piece(mode, t0, x, v)
-        ys, vs, _, _ = p._yvp(tau)
-        xs = p.mc.ref + ys
-        qs = np.maximum(p.mc.K * r * p.int_y(tau), 0.0) if r else np.zeros(tau.shape)
-        return xs, vs, qs
+        return xs.reshape(tau.shape), vs.reshape(tau.shape), qs.reshape(tau.shape)
 
 
 def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
@@ -317,7 +260,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         Sorted sample times (time events).
     compiled : bool or None
         ``None`` (default): run the whole event loop compiled (:mod:`._exact_loop`) where it
-        applies, i.e. for eq. 3 with any static friction, when numba is installed; otherwise
+        applies, i.e. for every member with a spring flange, when numba is installed; otherwise
         the Python driver :func:`impactosc.engine.drive`, with a one-line hint when only
         numba is missing. ``False`` forces the Python driver (same
         transition rule, same pieces, same results); ``True`` requires the compiled loop
