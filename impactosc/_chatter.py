@@ -49,8 +49,94 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
+
+from ._jit import njit
+from ._rule import P_BETA, P_BETA_S, P_RESTITUTION, P_ZETA, forcing_derivatives, net_force
+
 #: Relative accuracy (of ``max(1, |t|)``) of the accumulation time at which a jump is taken.
 TIME_TOLERANCE = 1e-12
+
+# The fields of a jump as the compiled event loop keeps it (a row of floats), in the order
+# of ChatterJump.
+(J_T_INF, J_SIDE, J_IMPACTS, J_IMPULSE, J_PATH, J_LOSS, J_ERROR, J_T0, J_SPEED, J_E, J_A_OUT, J_A_IN) = range(12)
+J_SIZE = 12
+
+
+@njit
+def predict_jump(p, t, side, speed, count, out):
+    """The jump after an impact of ``speed`` on ``side`` at ``t``, written into ``out``; True if taken.
+
+    ``count`` is the number of impacts of the sequence so far, this one included. See the
+    module docstring for the model and the criterion.
+    """
+    e, beta, beta_s = p[P_RESTITUTION], p[P_BETA], p[P_BETA_S]
+    push = side * net_force(p, t, float(side))
+    a_out, a_in = push + beta, push - beta
+    if not (a_in > 0.0 and push > beta_s and speed > 0.0 and e > 0.0):
+        return False  # no return to the wall (or no rebound: e = 0 rests at once)
+    rho = e * math.sqrt(a_in / a_out)
+    if not rho < 1.0:
+        return False  # e = 1 without friction: nothing is lost, the impacts do not accumulate
+    flight = e * speed * (1.0 / a_out + 1.0 / math.sqrt(a_out * a_in))
+    t_rem = flight / (1.0 - rho)
+    d1, d2, _ = forcing_derivatives(p, t)
+    drift = abs(d1) * t_rem + 0.5 * abs(d2) * t_rem * t_rem
+    height = (e * speed) ** 2 / (2.0 * a_out)
+    if not push - drift - height > beta_s:
+        return False  # the push may fall to the static level: the mass could stick at an apex
+    delta = (drift + height + 2.0 * p[P_ZETA] * e * speed) / a_in
+    error = delta * t_rem
+    if error > TIME_TOLERANCE * max(1.0, abs(t)):
+        return False
+    u2 = speed * speed
+    out[J_T_INF], out[J_SIDE], out[J_IMPACTS] = t + t_rem, float(side), float(count)
+    out[J_IMPULSE] = (1.0 + e) * speed * rho / (1.0 - rho)
+    out[J_PATH] = e * e * u2 / (a_out * (1.0 - rho * rho))
+    out[J_LOSS] = (1.0 - e * e) * u2 * rho * rho / (2.0 * (1.0 - rho * rho))
+    out[J_ERROR], out[J_T0], out[J_SPEED], out[J_E], out[J_A_OUT], out[J_A_IN] = error, t, speed, e, a_out, a_in
+    return True
+
+
+@njit
+def jump_state(jump, t):
+    """:meth:`ChatterJump.state_at` of the jump ``jump`` (a row of floats): ``(x, v, motion, impulse, path, loss)``."""
+    side, e, a_out, a_in = int(jump[J_SIDE]), jump[J_E], jump[J_A_OUT], jump[J_A_IN]
+    if t >= jump[J_T_INF]:
+        return float(side), 0.0, 0, jump[J_IMPULSE], jump[J_PATH], jump[J_LOSS]
+    rho = e * math.sqrt(a_in / a_out)
+    c = e * (1.0 / a_out + 1.0 / math.sqrt(a_out * a_in))
+    u, t0 = jump[J_SPEED], jump[J_T0]
+    # The k-th flight starts at t0 + c u (1 - rho^k) / (1 - rho): invert for k.
+    span = (t - t0) * (1.0 - rho) / (c * u)
+    k = 0
+    if span > 0.0 and rho > 0.0:
+        k = int(math.log1p(-min(span, 1.0 - 1e-16)) / math.log(rho))
+    start = t0 + c * u * (1.0 - rho**k) / (1.0 - rho)
+    if start > t and k > 0:  # rounding of the logarithm
+        k -= 1
+        start = t0 + c * u * (1.0 - rho**k) / (1.0 - rho)
+    uk = u * rho**k  # impact speed that started flight k
+    w = e * uk  # its rebound speed
+    height = w * w / (2.0 * a_out)
+    tau = max(t - start, 0.0)
+    t_up = w / a_out
+    if tau <= t_up:
+        dist, away = w * tau - 0.5 * a_out * tau * tau, w - a_out * tau
+        travelled = dist
+    else:
+        fall = min(tau - t_up, math.sqrt(2.0 * height / a_in))
+        dist, away = height - 0.5 * a_in * fall * fall, -a_in * fall
+        travelled = 2.0 * height - dist
+    dist = max(dist, 0.0)
+    r2 = rho * rho
+    geo1 = (1.0 - rho**k) / (1.0 - rho)  # 1 + rho + ... + rho^(k-1)
+    geo2 = (1.0 - r2**k) / (1.0 - r2)
+    impulse = (1.0 + e) * u * rho * geo1
+    loss = 0.5 * (1.0 - e * e) * u * u * r2 * geo2
+    path = e * e * u * u / a_out * geo2 + travelled
+    motion = -side if away > 0.0 else side
+    return side - side * dist, -side * away, motion, impulse, path, loss
 
 
 class ChatterJump(NamedTuple):
@@ -69,6 +155,11 @@ class ChatterJump(NamedTuple):
     a_out: float  #: deceleration moving away from the wall, ``p + beta``
     a_in: float  #: acceleration back towards it, ``p - beta``
 
+    @classmethod
+    def from_row(cls, row) -> ChatterJump:
+        """The jump of a row of :func:`predict_jump` (the compiled loop's record)."""
+        return cls(float(row[J_T_INF]), int(row[J_SIDE]), int(row[J_IMPACTS]), *(float(v) for v in row[J_IMPULSE:]))
+
     def state_at(self, t: float):
         """The local model's state at ``t`` in ``[t0, t_inf]``, and the tail's totals up to ``t``.
 
@@ -77,40 +168,7 @@ class ChatterJump(NamedTuple):
         slip path and impact loss of the impacts and flights of the tail before ``t``. At
         ``t >= t_inf`` these are the jump's totals and the mass is at rest on the wall.
         """
-        side, e, a_out, a_in = self.side, self.restitution, self.a_out, self.a_in
-        if t >= self.t_inf:
-            return float(side), 0.0, 0, self.impulse, self.path, self.loss
-        rho = e * math.sqrt(a_in / a_out)
-        c = e * (1.0 / a_out + 1.0 / math.sqrt(a_out * a_in))
-        u = self.speed
-        # The k-th flight starts at t0 + c u (1 - rho^k) / (1 - rho): invert for k.
-        span = (t - self.t0) * (1.0 - rho) / (c * u)
-        k = 0 if not span > 0.0 else int(math.log1p(-min(span, 1.0 - 1e-16)) / math.log(rho)) if rho > 0.0 else 0
-        start = self.t0 + c * u * (1.0 - rho**k) / (1.0 - rho)
-        if start > t and k > 0:  # rounding of the logarithm
-            k -= 1
-            start = self.t0 + c * u * (1.0 - rho**k) / (1.0 - rho)
-        uk = u * rho**k  # impact speed that started flight k
-        w = e * uk  # its rebound speed
-        height = w * w / (2.0 * a_out)
-        tau = max(t - start, 0.0)
-        t_up = w / a_out
-        if tau <= t_up:
-            dist, away = w * tau - 0.5 * a_out * tau * tau, w - a_out * tau
-            travelled = dist
-        else:
-            fall = min(tau - t_up, math.sqrt(2.0 * height / a_in))
-            dist, away = height - 0.5 * a_in * fall * fall, -a_in * fall
-            travelled = 2.0 * height - dist
-        dist = max(dist, 0.0)
-        r2 = rho * rho
-        geo1 = (1.0 - rho**k) / (1.0 - rho)  # 1 + rho + ... + rho^(k-1)
-        geo2 = (1.0 - r2**k) / (1.0 - r2)
-        impulse = (1.0 + e) * u * rho * geo1
-        loss = 0.5 * (1.0 - e * e) * u * u * r2 * geo2
-        path = e * e * u * u / a_out * geo2 + travelled
-        motion = -side if away > 0.0 else side
-        return side - side * dist, -side * away, motion, impulse, path, loss
+        return jump_state(np.array(self, dtype=float), float(t))
 
 
 class ChatterTracker:
@@ -133,41 +191,10 @@ class ChatterTracker:
 
     def impact(self, t: float, side: int, speed: float) -> ChatterJump | None:
         """Record an impact of ``speed`` (> 0) on ``side`` at ``t``; return a jump or ``None``."""
-        osc = self.osc
         if side != self.side:
             self.side, self.count = side, 0
         self.count += 1
-        e = osc.restitution
-        p = side * osc._net_force_scalar(t, float(side))
-        a_out, a_in = p + osc.beta, p - osc.beta
-        if not (a_in > 0.0 and p > osc.beta_s and speed > 0.0 and e > 0.0):
-            return None  # no return to the wall (or no rebound: e = 0 rests at once)
-        rho = e * math.sqrt(a_in / a_out)
-        if not rho < 1.0:
-            return None  # e = 1 without friction: nothing is lost, the impacts do not accumulate
-        flight = e * speed * (1.0 / a_out + 1.0 / math.sqrt(a_out * a_in))
-        t_rem = flight / (1.0 - rho)
-        d1, d2, _ = osc._forcing_derivatives(t)
-        drift = abs(d1) * t_rem + 0.5 * abs(d2) * t_rem * t_rem
-        height = (e * speed) ** 2 / (2.0 * a_out)
-        if not p - drift - height > osc.beta_s:
-            return None  # the push may fall to the static level: the mass could stick at an apex
-        delta = (drift + height + 2.0 * osc.zeta * e * speed) / a_in
-        error = delta * t_rem
-        if error > TIME_TOLERANCE * max(1.0, abs(t)):
+        row = np.empty(J_SIZE)
+        if not predict_jump(self.osc._p, float(t), int(side), float(speed), self.count, row):
             return None
-        u2 = speed * speed
-        return ChatterJump(
-            t_inf=t + t_rem,
-            side=side,
-            impacts=self.count,
-            impulse=(1.0 + e) * speed * rho / (1.0 - rho),
-            path=e * e * u2 / (a_out * (1.0 - rho * rho)),
-            loss=(1.0 - e * e) * u2 * rho * rho / (2.0 * (1.0 - rho * rho)),
-            error=error,
-            t0=t,
-            speed=speed,
-            restitution=e,
-            a_out=a_out,
-            a_in=a_in,
-        )
+        return ChatterJump.from_row(row)

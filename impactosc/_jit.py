@@ -26,7 +26,7 @@ except ImportError:  # pragma: no cover - exercised only where numba is absent
     HAVE_NUMBA = False
 
 #: The modules whose functions numba compiles and caches; they call one another.
-COMPILED_MODULES = ("_rule.py", "_stuck.py", "backends/_exact_roots.py", "backends/_exact_piece.py",
+COMPILED_MODULES = ("_rule.py", "_stuck.py", "_chatter.py", "backends/_exact_roots.py", "backends/_exact_piece.py",
                     "backends/_exact_family.py", "backends/_exact_loop.py")
 
 
@@ -36,7 +36,7 @@ def _drop_stale_caches() -> None:
     numba keys a function's cache on its own file only: a compiled caller (the exact
     backend's loop) would keep the old copy of a callee edited in another file, and the
     compiled and Python drivers would quietly disagree. One fingerprint of all the sources,
-    kept beside the caches, catches that (it costs reading six files at import).
+    kept beside the caches, catches that (it costs reading seven files at import).
     """
     root = Path(__file__).resolve().parent
     try:

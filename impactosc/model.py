@@ -345,47 +345,15 @@ class Oscillator:
         The wall takes the push ``P(t) = max(side * f_net(t, side), 0)``; a pull away that
         friction holds leaves it unloaded. Returns ``(int P dt, int P^2 dt, max P)``. The
         roots of ``side * f_net`` are bracketed on a grid finer than a quarter period of the
-        fastest harmonic and refined, so each integral is over a smooth stretch (composite
-        16-node Gauss-Legendre, error far below rounding). The maximum is taken at the ends
-        and at the maxima of the push inside (roots of the forcing rate, refined the same
-        way), not at the quadrature nodes.
+        fastest harmonic and refined to an ulp, so each integral is over a smooth stretch
+        (composite 16-node Gauss-Legendre, error far below rounding). The maximum is taken
+        at the ends and at the maxima of the push inside (roots of the forcing rate, refined
+        the same way), not at the quadrature nodes. Compiled, with the exact backend's
+        compiled loop (:func:`impactosc._stuck.wall_force_integrals`).
         """
-        if not t1 > t0:
-            return 0.0, 0.0, 0.0
-        from scipy.optimize import brentq
+        from ._stuck import wall_force_integrals
 
-        fastest = max((Om for F, Om, _ in self.terms if F > 0.0), default=0.0)
-        n = max(1, math.ceil((t1 - t0) * fastest / (0.25 * math.pi)))
-        grid = np.linspace(t0, t1, n + 1)
-
-        def push(t):
-            return side * self.forcing(t) - 1.0  # side * f_net at X = side (rigid: no spring)
-
-        def rise(t):
-            return side * float(self.forcing_rate(t))
-
-        g = push(grid)
-        rate = side * self.forcing_rate(grid)
-        cuts = [t0]
-        for i in np.flatnonzero(g[:-1] * g[1:] < 0.0):
-            cuts.append(brentq(push, grid[i], grid[i + 1], xtol=1e-15, rtol=4 * _EPS))
-        cuts += [float(t) for t in grid[1:-1][g[1:-1] == 0.0]]  # a root on the grid itself
-        cuts = sorted(cuts) + [t1]
-        tops = [t0, t1] + [brentq(rise, grid[i], grid[i + 1], xtol=1e-15, rtol=4 * _EPS)
-                           for i in np.flatnonzero((rate[:-1] > 0.0) & (rate[1:] < 0.0))]
-        total = total_sq = 0.0
-        for a, b in zip(cuts[:-1], cuts[1:], strict=True):
-            if not b > a:
-                continue
-            m = max(1, math.ceil((b - a) * fastest / math.pi))
-            h = (b - a) / m
-            nodes = a + h * (np.arange(m)[:, None] + 0.5 * (_GL_NODES[None, :] + 1.0))
-            vals = np.maximum(push(nodes.ravel()), 0.0)
-            weights = 0.5 * h * np.tile(_GL_WEIGHTS, m)
-            total += float(weights @ vals)
-            total_sq += float(weights @ (vals * vals))
-        peak = max(0.0, float(g.max()), float(push(np.array(tops)).max()))
-        return total, total_sq, peak
+        return wall_force_integrals(self._p, int(side), float(t0), float(t1))
 
     # -- energy -------------------------------------------------------------------------
     def flange_potential(self, x):
@@ -420,4 +388,3 @@ class Oscillator:
 
 
 _EPS = 2.0**-52
-_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)

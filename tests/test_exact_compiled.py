@@ -17,12 +17,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from impactosc import Oscillator, simulate
-from impactosc.backends import _exact_loop, exact
+from impactosc.backends import exact
 from impactosc.backends._exact_family import near_resonance
 
 pytestmark = pytest.mark.skipif(not exact.HAVE_NUMBA, reason="the compiled loop needs numba")
 
 CONTACT = Oscillator(0.5, 1.1, 0.01, 1e4)
+RIGID = Oscillator(2.0, 0.0, 0.1, 1.0, flange="rigid", restitution=0.8)
 
 CASES = [
     (CONTACT, 400.0, 0.95, 0.0, {}),
@@ -45,6 +46,12 @@ CASES = [
     (Oscillator(0.3, 0.7, 0.05, 50.0, zeta=math.sqrt(51.0)), 60.0, 1.01, 0.0, {}),  # critically damped in contact
     (Oscillator.from_harmonics([(0.6, 0.05, 0.0), (0.3, 0.1, 1.0), (0.1, 0.15, 0.2)], beta=0.2, K=1e3,
                                beta_static=0.3), 800.0, 0.0, 0.0, {"sample_at": np.linspace(0.0, 800.0, 17)}),
+    # Rigid flanges: impacts, chatter (a jump to the accumulation point), rest on the wall and release.
+    (RIGID, 30.0, 0.0, 0.0, {"sample_at": np.linspace(0.0, 30.0, 301)}),  # samples inside the tails too
+    (Oscillator(2.0, 0.3, 0.1, 1.0, flange="rigid", restitution=0.8), 60.0, 0.0, 0.0, {}),  # rest, pulled off
+    (Oscillator(2.0, 0.3, 0.1, 1.0, flange="rigid", restitution=0.0), 60.0, 0.0, 1.0, {}),  # plastic impacts
+    (Oscillator(0.9, 1.3, 0.02, 1.0, flange="rigid", restitution=1.0, zeta=0.01), 80.0, 0.3, 0.0, {}),
+    (Oscillator(2.0, 0.0, 0.1, 1.0, flange="rigid", restitution=0.95), 2.0, 0.0, 0.0, {}),  # ends inside a tail
 ]
 
 
@@ -105,19 +112,25 @@ def test_event_limit_and_status_are_those_of_the_driver():
 
 
 def test_compiled_option_is_checked():
-    rigid = Oscillator(0.5, 0.7, 0.1, 1.0, flange="rigid", restitution=0.5)
-    with pytest.raises(ValueError, match="compiled=True: the compiled event loop does not run rigid"):
-        simulate(rigid, 10.0, 0.0, 0.0, backend="exact", compiled=True)
     with pytest.raises(TypeError, match="compiled must be None, True or False, got 'yes'"):
         simulate(CONTACT, 10.0, backend="exact", compiled="yes")
-    # compiled=None falls back to the Python driver where the loop does not apply.
-    assert simulate(rigid, 10.0, 0.0, 0.0, backend="exact").status == 0
-    assert _exact_loop.unsupported(Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)) is not None
-    assert _exact_loop.unsupported(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.1, harmonics=[(0.1, 2.0)])) is None
+    with pytest.raises(ValueError, match="the exact backend does not support a power-law flange"):
+        simulate(Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5), 10.0, backend="exact", compiled=True)
+
+
+def test_chatter_is_resolved_in_the_compiled_loop():
+    # Impacts accumulate on the upper wall (push 2 - 1 > beta): the jump, then a resting contact.
+    fast, slow = _pair(RIGID, 30.0, 0.0, 0.0, "events")
+    _assert_same(fast, slow)
+    assert fast.counts["chatter"] >= 1 and fast.counts["impact"] > 10
+    chatter = fast.events[fast.events.kind == "chatter"][0]
+    assert chatter.count > 1 and chatter.x == 1.0
 
 
 def test_without_numba_the_python_driver_runs_with_a_one_line_hint(monkeypatch):
     monkeypatch.setattr(exact, "HAVE_NUMBA", False)
+    with pytest.raises(ValueError, match=r"compiled=True needs numba: pip install 'impactosc\[fast\]'"):
+        simulate(CONTACT, 10.0, backend="exact", compiled=True)
     monkeypatch.setattr("impactosc._jit._warned", False)
     with pytest.warns(RuntimeWarning, match=r"numba is not installed: .*pip install 'impactosc\[fast\]'"):
         sol = simulate(CONTACT, 100.0, backend="exact", record="stats")
@@ -130,12 +143,15 @@ def test_without_numba_the_python_driver_runs_with_a_one_line_hint(monkeypatch):
 @settings(deadline=None)
 @given(F=st.floats(0.0, 3.0), Omega=st.floats(0.0, 3.0), beta=st.floats(0.0, 1.0),
        K=st.sampled_from([1.0, 50.0, 1e4]), static=st.floats(0.0, 0.5), zeta=st.sampled_from([0.0, 0.0, 0.05, 2.0]),
-       extra=st.sampled_from([(), ((0.3, 2.5, 0.4),)]),
+       extra=st.sampled_from([(), ((0.3, 2.5, 0.4),)]), rigid=st.sampled_from([None, None, 0.0, 0.7, 1.0]),
        x0=st.floats(-1.2, 1.2), v0=st.floats(-2.0, 2.0), record=st.sampled_from(["stats", "events", "full"]),
        samples=st.lists(st.floats(0.0, 40.0), max_size=5))
-def test_compiled_loop_equals_python_driver_property(F, Omega, beta, K, static, zeta, extra, x0, v0, record,
+def test_compiled_loop_equals_python_driver_property(F, Omega, beta, K, static, zeta, extra, rigid, x0, v0, record,
                                                      samples):
-    osc = Oscillator(F, Omega, beta, K, beta_static=beta + static, zeta=zeta, harmonics=extra)
+    law = {} if rigid is None else {"flange": "rigid", "restitution": rigid}
+    if rigid is not None:
+        x0 = max(-1.0, min(1.0, x0))
+    osc = Oscillator(F, Omega, beta, K, beta_static=beta + static, zeta=zeta, harmonics=extra, **law)
     if near_resonance(osc):
         return  # refused by the exact backend (tests/test_family.py)
     fast, slow = _pair(osc, 40.0, x0, v0, record, max_events=20_000, sample_at=samples)

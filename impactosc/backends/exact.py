@@ -259,12 +259,10 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     sample_at : tuple of float
         Sorted sample times (time events).
     compiled : bool or None
-        ``None`` (default): run the whole event loop compiled (:mod:`._exact_loop`) where it
-        applies, i.e. for every member with a spring flange, when numba is installed; otherwise
-        the Python driver :func:`impactosc.engine.drive`, with a one-line hint when only
-        numba is missing. ``False`` forces the Python driver (same
-        transition rule, same pieces, same results); ``True`` requires the compiled loop
-        and raises if it does not apply.
+        ``None`` (default): run the whole event loop compiled (:mod:`._exact_loop`) when numba
+        is installed, else the Python driver :func:`impactosc.engine.drive` with a one-line
+        hint. ``False`` forces the Python driver (same transition rule, same pieces, same
+        results); ``True`` requires the compiled loop (a ``ValueError`` without numba).
 
     Returns
     -------
@@ -281,14 +279,10 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
                          "use backend='heyoka' or backend='scipy'")
     if compiled not in (None, True, False):
         raise TypeError(f"compiled must be None, True or False, got {compiled!r}")
-    from . import _exact_loop
-
-    why_not = _exact_loop.unsupported(osc)
-    if compiled and why_not:
-        raise ValueError(f"compiled=True: the compiled event loop does not run {why_not}; "
-                         "use compiled=None to fall back to the Python driver")
-    if compiled is not False and not why_not:
+    if compiled is not False:
         if HAVE_NUMBA:
+            from . import _exact_loop
+
             return _exact_loop.run(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=sample_at)
         if compiled:
             raise ValueError("compiled=True needs numba: pip install 'impactosc[fast]'")
