@@ -155,7 +155,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     ``f_net`` when ``|f_net| > beta``. Exactly on the threshold it is released only if
     ``|f_net|`` is about to rise, and then with zero acceleration (``armed=False``, see the
     module docstring). ``f_net`` includes the flange spring (:meth:`Oscillator.net_force`).
-    "On the threshold" means within the rounding of ``f_net`` (:func:`_tie_tolerance`): a
+    "On the threshold" means within the rounding of ``f_net`` (``_tie_tolerance``): a
     release root at ``tau ~ 1e-87`` (``beta = 1e-173``, ``f_net = 0``) is beyond any event
     finder. There ``X`` is frozen, so ``f_net`` changes only with the forcing: its first
     derivative decides, and the second where the first is rounding noise (a stationary
@@ -202,7 +202,7 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     and ``side`` is +1/-1 for flange events, 0 for friction events. ``v`` is the state after
     the transition: at an :data:`IMPACT` the recorded event keeps the incoming velocity.
 
-    The rule itself is :func:`impactosc._rule.transition`, the one copy every backend runs
+    The rule itself is ``impactosc._rule.transition``, the one copy every backend runs
     (compiled with numba). In words, by guard:
 
     * ``SLIP_END``: the stick test (:func:`motion_at_rest`) gives a ``stick``, a ``reversal``,

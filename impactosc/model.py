@@ -349,7 +349,7 @@ class Oscillator:
         (composite 16-node Gauss-Legendre, error far below rounding). The maximum is taken
         at the ends and at the maxima of the push inside (roots of the forcing rate, refined
         the same way), not at the quadrature nodes. Compiled, with the exact backend's
-        compiled loop (:func:`impactosc._stuck.wall_force_integrals`).
+        compiled loop (``impactosc._stuck.wall_force_integrals``).
         """
         from ._stuck import wall_force_integrals
 

@@ -259,7 +259,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     sample_at : tuple of float
         Sorted sample times (time events).
     compiled : bool or None
-        ``None`` (default): run the whole event loop compiled (:mod:`._exact_loop`) when numba
+        ``None`` (default): run the whole event loop compiled (``impactosc.backends._exact_loop``) when numba
         is installed, else the Python driver :func:`impactosc.engine.drive` with a one-line
         hint. ``False`` forces the Python driver (same transition rule, same pieces, same
         results); ``True`` requires the compiled loop (a ``ValueError`` without numba).
