@@ -81,6 +81,7 @@ from ._exact_piece import (
     H_Y0,
     H_ZETA,
     advance_piece,
+    evaluate_piece,
 )
 
 __all__ = ["mode_rates", "near_resonance", "mode_constants", "piece_state", "advance_family", "evaluate_family"]
@@ -413,13 +414,4 @@ def advance_family(p, fm, r, s, armed, t0, x0, v0, t_end):
 @njit
 def evaluate_family(fm, t0, x0, v0, taus):
     """``(X, V, impulse since t0)`` at the offsets ``taus`` of the piece that starts at ``(t0, x0, v0)``."""
-    ps = piece_state(fm, t0, x0, v0)
-    n = taus.shape[0]
-    xs, vs, qs = np.empty(n), np.empty(n), np.zeros(n)
-    r = fm[F_REF]
-    for i in range(n):
-        y, v, _, _ = state_at(ps, taus[i])
-        xs[i], vs[i] = r + y, v
-        if r != 0.0:
-            qs[i] = max(fm[F_K] * r * int_y(ps, taus[i], 0.0), 0.0)
-    return xs, vs, qs
+    return evaluate_piece(piece_state(fm, t0, x0, v0), taus, state_at, int_y)

@@ -82,6 +82,20 @@ def _append(table, n, row):
 
 
 @njit
+def _set_row(row, t, x, v, r, s):
+    """A row of the samples table: ``(t, x, v, region, motion)``."""
+    row[0], row[1], row[2], row[3], row[4] = t, x, v, r, s
+
+
+@njit
+def _add_segment(segments, n, row, t, x, v, r, s, a, acc):
+    """Append a segment ``(t, x, v, region, motion, armed, impulse up, impulse down)``; returns the table."""
+    row[0], row[1], row[2], row[3], row[4], row[5] = t, x, v, r, s, a
+    row[6], row[7] = acc[A_IMP_UP], acc[A_IMP_LO]
+    return _append(segments, n, row)
+
+
+@njit
 def _chatter_totals(p, jump, t, acc):
     """Add the resolved tail of a chatter up to ``t`` (``_Recorder.chatter``); returns ``(x, v, motion)``."""
     side = int(jump[J_SIDE])
@@ -139,8 +153,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
         is_open = True
     start = (r, s, a)
     if keep_segments:
-        row8[0], row8[1], row8[2], row8[3], row8[4], row8[5], row8[6], row8[7] = t, x, v, r, s, a, 0.0, 0.0
-        segments = _append(segments, n_seg, row8)
+        segments = _add_segment(segments, n_seg, row8, t, x, v, r, s, a, acc)
         n_seg += 1
     guard = _rule.pending_guard(p, r, s, NO_GUARD, t, x, v)
     same_instant = 0
@@ -150,8 +163,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
     while True:
         if step == PIECE:
             while next_stop <= t:  # a sample time reached exactly (at the start, or at an event)
-                samples[n_sa, 0], samples[n_sa, 1], samples[n_sa, 2] = next_stop, x, v
-                samples[n_sa, 3], samples[n_sa, 4] = r, s
+                _set_row(samples[n_sa], next_stop, x, v, r, s)
                 n_sa += 1
                 next_stop = stops[n_sa] if n_sa < stops.shape[0] else math.inf
             t_target = next_stop if next_stop < t_end else t_end
@@ -223,15 +235,12 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                 # A sample time: a time event, not a transition. Same mode, same guards armed.
                 t, x, v = t1, x1, v1
                 if keep_segments:
-                    row8[0], row8[1], row8[2], row8[3], row8[4], row8[5] = t, x, v, r, s, a
-                    row8[6], row8[7] = acc[A_IMP_UP], acc[A_IMP_LO]
-                    segments = _append(segments, n_seg, row8)
+                    segments = _add_segment(segments, n_seg, row8, t, x, v, r, s, a, acc)
                     n_seg += 1
                 continue
             if guard == NO_GUARD:
                 while next_stop <= t1:  # a sample time at t_end itself
-                    samples[n_sa, 0], samples[n_sa, 1], samples[n_sa, 2] = next_stop, x1, v1
-                    samples[n_sa, 3], samples[n_sa, 4] = r, s
+                    _set_row(samples[n_sa], next_stop, x1, v1, r, s)
                     n_sa += 1
                     next_stop = stops[n_sa] if n_sa < stops.shape[0] else math.inf
                 t, x, v = t1, x1, v1
@@ -289,17 +298,14 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
         if step == PIECE and have_jump:
             # Impacts accumulating in finite time: jump to the accumulation point (the engine's drive).
             if keep_segments:
-                row8[0], row8[1], row8[2], row8[3], row8[4], row8[5] = t1, x1, v1, r, s, a
-                row8[6], row8[7] = acc[A_IMP_UP], acc[A_IMP_LO]
-                segments = _append(segments, n_seg, row8)
+                segments = _add_segment(segments, n_seg, row8, t1, x1, v1, r, s, a, acc)
                 n_seg += 1
                 tails = _append(tails, n_ta, jump)
                 n_ta += 1
             t_inf, side = jump[J_T_INF], int(jump[J_SIDE])
             while next_stop < t_inf and next_stop <= t_end:  # samples in the tail: the local model
                 xs, vs, motion, _, _, _ = jump_state(jump, next_stop)
-                samples[n_sa, 0], samples[n_sa, 1], samples[n_sa, 2] = next_stop, xs, vs
-                samples[n_sa, 3], samples[n_sa, 4] = 0, motion
+                _set_row(samples[n_sa], next_stop, xs, vs, 0, motion)
                 n_sa += 1
                 next_stop = stops[n_sa] if n_sa < stops.shape[0] else math.inf
             if t_inf > t_end:
@@ -325,9 +331,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
         same_instant = same_instant + 1 if t1 == t else 0
         t, x, v = t1, x1, v1
         if keep_segments:
-            row8[0], row8[1], row8[2], row8[3], row8[4], row8[5] = t, x, v, r, s, a
-            row8[6], row8[7] = acc[A_IMP_UP], acc[A_IMP_LO]
-            segments = _append(segments, n_seg, row8)
+            segments = _add_segment(segments, n_seg, row8, t, x, v, r, s, a, acc)
             n_seg += 1
         if recorded and cnt[C_EVENTS] >= max_events:
             status = EVENT_LIMIT

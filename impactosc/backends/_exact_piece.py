@@ -36,7 +36,7 @@ from ._exact_roots import SEARCH_FAILED
 from ._exact_roots import first_rising_jit as first_rising
 from ._exact_roots import refine_jit as refine
 
-__all__ = ["mode_constants", "advance_slip", "advance_piece", "evaluate_slip"]
+__all__ = ["mode_constants", "advance_slip", "advance_piece", "evaluate_slip", "evaluate_piece"]
 
 _EPS = 2.0**-52
 _TWO_PI = 2.0 * math.pi
@@ -485,16 +485,24 @@ def advance_slip(p, mc, r, s, armed, t0, x0, v0, t_end):
     return advance_piece(p, ps, r, s, armed, t_end, _h_end, _h_position, _state_at, _int_y, _squares, _bounds)
 
 
+def _evaluate_piece(ps, taus, state_at, int_y_of):
+    """``(X, V, impulse since t0)`` at the offsets ``taus`` of the piece ``ps`` (any family)."""
+    n = taus.shape[0]
+    xs, vs, qs = np.empty(n), np.empty(n), np.zeros(n)
+    r, K = ps[H_REF], ps[H_K]
+    for i in range(n):
+        y, v, dp, _ = state_at(ps, taus[i])
+        xs[i], vs[i] = r + y, v
+        if r != 0.0:
+            qs[i] = max(K * r * int_y_of(ps, taus[i], dp), 0.0)
+    return xs, vs, qs
+
+
+#: The compiled dense output, inlined into each family's evaluate function.
+evaluate_piece = njit_inline(_evaluate_piece)
+
+
 @njit
 def evaluate_slip(mc, t0, x0, v0, taus):
     """``(X, V, impulse since t0)`` at the offsets ``taus`` of the piece that starts at ``(t0, x0, v0)``."""
-    ps = piece_state(mc, t0, x0, v0)
-    n = taus.shape[0]
-    xs, vs, qs = np.empty(n), np.empty(n), np.zeros(n)
-    r = mc[M_REF]
-    for i in range(n):
-        y, v, dp, _ = yvp(mc, ps, taus[i])
-        xs[i], vs[i] = r + y, v
-        if r != 0.0:
-            qs[i] = max(mc[M_K] * r * int_y(mc, ps, taus[i], dp), 0.0)
-    return xs, vs, qs
+    return evaluate_piece(piece_state(mc, t0, x0, v0), taus, _state_at, _int_y)
