@@ -178,3 +178,39 @@ def test_closed_form_of_int_y_squared_matches_gauss_legendre():
         used += closed != rule
         assert abs(closed - rule) <= 1e-12 * rule
     assert used > 200  # the closed form is taken on most pieces, not only the fallback
+
+
+def test_without_numba_everything_runs_as_plain_python(tmp_path):
+    # The rule, the closed forms and the root finder are written once in compilable Python:
+    # with numba absent (import blocked) they must run as plain Python and give the same
+    # solution as the compiled code, through the Python driver, with the one-line hint.
+    script = tmp_path / "no_numba.py"
+    script.write_text(
+        "import sys, warnings\n"
+        "sys.modules['numba'] = None  # import numba -> ImportError\n"
+        "import impactosc as io\n"
+        "from impactosc import _jit\n"
+        "assert not _jit.HAVE_NUMBA\n"
+        "with warnings.catch_warnings(record=True) as seen:\n"
+        "    warnings.simplefilter('always')\n"
+        "    runs = [io.simulate(io.Oscillator(0.5, 1.1, 0.01, 1e4), 60.0, backend='exact', record='events'),\n"
+        "            io.simulate(io.Oscillator(2.0, 0.0, 0.1, 1.0, flange='rigid', restitution=0.8), 10.0, 0.0, 0.0,\n"
+        "                        backend='exact', record='events'),\n"
+        "            io.simulate(io.Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02, harmonics=[(0.1, 2.3)]), 60.0,\n"
+        "                        backend='exact', record='events')]\n"
+        "hints = [str(w.message) for w in seen if 'numba is not installed' in str(w.message)]\n"
+        "assert len(hints) == 1, hints\n"
+        "for sol in runs:\n"
+        "    print(sol.status, repr(sol.t_final), repr(sol.x_final), repr(sol.v_final), sol.counts)\n")
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.strip().splitlines()
+    runs = [simulate(CONTACT, 60.0, backend="exact", record="events"),
+            simulate(RIGID, 10.0, 0.0, 0.0, backend="exact", record="events"),
+            simulate(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02, harmonics=[(0.1, 2.3)]), 60.0, backend="exact",
+                     record="events")]
+    for line, sol in zip(lines, runs, strict=True):
+        assert line == f"{sol.status} {sol.t_final!r} {sol.x_final!r} {sol.v_final!r} {sol.counts}"

@@ -217,7 +217,8 @@ class _Stepper:
         t1, x1, v1, guard, q, q2, w, vv, status = out
         if status:
             raise FloatingPointError(f"the guard search of the piece from t={t!r} did not converge")
-        return t1, x1, v1, guard, q, q2, w, vv, 1
+        # Python floats: without numba the closed forms run as Python on NumPy arrays.
+        return float(t1), float(x1), float(v1), int(guard), float(q), float(q2), float(w), float(vv), 1
 
     # -- dense output --------------------------------------------------------------------
     def evaluate(self, mode: Mode, t0: float, x: float, v: float, times: np.ndarray):
