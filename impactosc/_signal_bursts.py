@@ -124,11 +124,7 @@ def correlate_with_impacts(bursts: pd.DataFrame, impact_times, tolerance: float 
     first = np.searchsorted(imp, lo, side="left")
     matched = (first < imp.size) & (imp[np.minimum(first, max(imp.size - 1, 0))] <= hi) if imp.size else \
         np.zeros(len(bursts), dtype=bool)
-    nearest = np.full(len(bursts), np.nan)
-    if imp.size:
-        j = np.clip(np.searchsorted(imp, peak), 1, imp.size) - 1
-        k = np.minimum(j + 1, imp.size - 1)
-        nearest = np.where(np.abs(imp[k] - peak) < np.abs(imp[j] - peak), imp[k], imp[j])
+    nearest = _nearest(imp, peak) if imp.size else np.full(len(bursts), np.nan)
     out = bursts.copy()
     out["nearest_impact [s]"] = nearest
     out["lag [s]"] = peak - nearest
@@ -139,12 +135,27 @@ def correlate_with_impacts(bursts: pd.DataFrame, impact_times, tolerance: float 
     impacts = pd.DataFrame({"t [s]": imp, "burst": np.where(inside, b, -1)})
     corr = None
     if t is not None and envelope is not None and imp.size:
-        tt, env, _ = check_signal(t, envelope)
-        j = np.clip(np.searchsorted(imp, tt), 1, imp.size) - 1
-        dist = np.minimum(np.abs(tt - imp[j]), np.abs(tt - imp[np.minimum(j + 1, imp.size - 1)]))
-        near = (dist <= tolerance).astype(float)
-        if 0 < near.sum() < near.size and env.std() > 0:
-            corr = float(np.corrcoef(env, near)[0, 1])
+        corr = _envelope_correlation(t, envelope, imp, tolerance)
     return ImpactCorrelation(out, impacts, tolerance,
                              float(matched.mean()) if len(bursts) else math.nan,
                              float(inside.mean()) if imp.size else math.nan, corr)
+
+
+def _nearest(imp: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """The element of ``imp`` (sorted, not empty) nearest to each of ``times``."""
+    # The impacts either side of each time: the last at or before it and the one after.
+    j = np.clip(np.searchsorted(imp, times), 1, imp.size) - 1
+    k = np.minimum(j + 1, imp.size - 1)
+    return np.where(np.abs(imp[k] - times) < np.abs(imp[j] - times), imp[k], imp[j])
+
+
+def _envelope_correlation(t, envelope, imp: np.ndarray, tolerance: float) -> float | None:
+    """Pearson correlation of ``envelope`` with "within ``tolerance`` of an impact" (point-biserial).
+
+    None where it is undefined: the indicator or the envelope is constant.
+    """
+    tt, env, _ = check_signal(t, envelope)
+    near = (np.abs(tt - _nearest(imp, tt)) <= tolerance).astype(float)
+    if 0 < near.sum() < near.size and env.std() > 0:
+        return float(np.corrcoef(env, near)[0, 1])
+    return None
