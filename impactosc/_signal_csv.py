@@ -75,25 +75,33 @@ def read_ltm_csv(path, *, time_column=0, x_column=1, time_unit: str = "s", x_uni
     except (csv.Error, pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
         raise ValueError(f"{path}: cannot be read as a table of (time, displacement) columns: {exc}") from None
     raw.columns = [c.strip() if isinstance(c, str) else c for c in raw.columns]
-    columns = []
-    for name, col in (("time_column", time_column), ("x_column", x_column)):
-        if isinstance(col, str):
-            if col not in raw.columns:
-                raise ValueError(f"{name}={col!r} is not a column of {path}; columns: {list(raw.columns)}")
-            series = raw[col]
-        else:
-            col = _v.integer(name, col, minimum=0)
-            if col >= raw.shape[1]:
-                raise ValueError(f"{name}={col} but {path} has {raw.shape[1]} column(s)")
-            series = raw.iloc[:, col]
-        values = pd.to_numeric(series, errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(np.isnan(values))
-        if bad.size:
-            raise ValueError(f"{path}: {name} holds {bad.size} empty, NaN or non-numeric value(s), the first "
-                             f"{series.iloc[bad[0]]!r} in data row {bad[0]}")
-        columns.append(values)
-    t, x, _ = check_signal(columns[0] * TIME_UNITS[time_unit], columns[1] * LENGTH_UNITS[x_unit])
+    t = _column(raw, "time_column", time_column, path) * TIME_UNITS[time_unit]
+    x = _column(raw, "x_column", x_column, path) * LENGTH_UNITS[x_unit]
+    t, x, _ = check_signal(t, x)
     return t, x
+
+
+def _column(raw: pd.DataFrame, name: str, col, path) -> np.ndarray:
+    """Column ``col`` (a header name or a position) of the table read from ``path``, as floats.
+
+    ``name`` is the argument of :func:`read_ltm_csv` that chose it, for the messages.
+    Every entry must be a number: an empty, NaN or non-numeric one is an error naming its row.
+    """
+    if isinstance(col, str):
+        if col not in raw.columns:
+            raise ValueError(f"{name}={col!r} is not a column of {path}; columns: {list(raw.columns)}")
+        series = raw[col]
+    else:
+        col = _v.integer(name, col, minimum=0)
+        if col >= raw.shape[1]:
+            raise ValueError(f"{name}={col} but {path} has {raw.shape[1]} column(s)")
+        series = raw.iloc[:, col]
+    values = pd.to_numeric(series, errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(np.isnan(values))
+    if bad.size:
+        raise ValueError(f"{path}: {name} holds {bad.size} empty, NaN or non-numeric value(s), the first "
+                         f"{series.iloc[bad[0]]!r} in data row {bad[0]}")
+    return values
 
 
 def analyze_csv(path, *, time_column=0, x_column=1, time_unit: str = "s", x_unit: str = "m",
