@@ -1,10 +1,10 @@
 """The exact backend's root finder: rigorous brackets, then safeguarded Newton to an ulp.
 
-Written once in compilable Python (:mod:`impactosc._jit`). The Python paths (damped and
-harmonic-sum pieces, :mod:`impactosc._stuck`) call :func:`first_rising` and :func:`refine`
-with Python callables; compiled code calls the same source compiled, ``first_rising_jit``
-and ``refine_jit``, with compiled guard functions. A guard function is
-``fun(state, tau) -> (h, h')``.
+Written once in compilable Python (:mod:`impactosc._jit`): the closed-form pieces
+(:mod:`._exact_piece`, :mod:`._exact_family`) and the stuck releases
+(:mod:`impactosc._stuck`) call ``first_rising_jit`` and ``refine_jit``, compiled copies
+inlined into each caller with its own guard function ``fun(state, tau) -> (h, h')``. Without
+numba they are :func:`first_rising` and :func:`refine` themselves, run as Python.
 
 Bracketing
 ----------
@@ -127,9 +127,3 @@ def refine(fun, state, lo, hi, hlo, hhi, t0):
 #: The compiled copies, inlined into compiled callers (see :func:`impactosc._jit.njit_inline`).
 first_rising_jit = njit_inline(first_rising)
 refine_jit = njit_inline(refine)
-
-
-def search_failed(a: float, b: float, ha: float, hb: float, M2: float, M3: float) -> FloatingPointError:
-    """The error a Python caller raises when :func:`first_rising` returns ``SEARCH_FAILED``."""
-    return FloatingPointError(f"the guard search on [{a!r}, {b!r}] did not converge "
-                              f"(h={ha!r}..{hb!r}, bounds M2={M2!r}, M3={M3!r})")
