@@ -10,11 +10,9 @@ import numpy as np
 from .. import _validation as _v
 from ..model import Oscillator
 
+# The public constants, re-exported and documented (with the reasons for their values) by rk4.py.
 FLANGE_OPTIONS = ("consistent", "paper")
-#: Steps per contact period ``2 pi / sqrt(1 + K)`` used when ``dt`` is not given.
 STEPS_PER_CONTACT_PERIOD = 100
-#: A run needing more steps than this is refused: at ~6e7 steps/s (measured) it would
-#: take more than half a minute per run, and a stored trajectory would need >80 GB.
 MAX_STEPS = 2_000_000_000
 
 

@@ -72,8 +72,8 @@ from .. import _validation as _v
 from ..engine import check_run_arguments, initial_mode
 from ..model import Oscillator
 from ..solution import Solution, _Recorder
-from ._rk4_args import FLANGE_OPTIONS, MAX_STEPS, _check_dt, _family_args, _flange_jump, _refuse_unsupported, default_dt
-from ._rk4_args import STEPS_PER_CONTACT_PERIOD as STEPS_PER_CONTACT_PERIOD  # re-exported
+from . import _rk4_args
+from ._rk4_args import FLANGE_OPTIONS, _check_dt, _family_args, _flange_jump, _refuse_unsupported, default_dt
 from ._rk4_batch import BatchResult, _batch_family, _batch_flange_jump, _batch_harmonics, _batch_sets, _batch_steps
 from ._rk4_kernel import _BUFFER_FULL, _EVENT_BUFFER, _HAVE_NUMBA, _I_STATUS, _batch_kernel, _init_state, _kernel
 from ._rk4_solution import _attach_trajectory, _drain_buffers, _finish_record, _trajectory_buffers
@@ -84,6 +84,13 @@ from ._rk4_solution import _attach_trajectory, _drain_buffers, _finish_record, _
 # module keeps the public entry points and the switches below, which tests patch here.
 
 __all__ = ["run", "rk4_batch", "BatchResult", "default_dt", "FLANGE_OPTIONS", "MAX_STEPS"]
+
+# Documented here, where they are public (the API pages read these comments).
+#: Steps per contact period ``2 pi / sqrt(1 + K)`` used when ``dt`` is not given.
+STEPS_PER_CONTACT_PERIOD = _rk4_args.STEPS_PER_CONTACT_PERIOD
+#: A run needing more steps than this is refused: at ~6e7 steps/s (measured) it would
+#: take more than half a minute per run, and a stored trajectory would need >80 GB.
+MAX_STEPS = _rk4_args.MAX_STEPS
 
 _warned_slow = False
 
