@@ -62,12 +62,8 @@ INSTALL_HINT = "pip install 'impactosc[fast]' (numba)"
 
 
 def njit(func):
-    """``numba.njit(cache=True)`` when numba is installed, else ``func`` itself.
-
-    The plain function stays reachable as ``.py_func`` either way.
-    """
+    """``numba.njit(cache=True)`` when numba is installed, else ``func`` itself."""
     if _numba is None:  # pragma: no cover
-        func.py_func = func
         return func
     return _numba.njit(cache=True)(func)
 

@@ -155,7 +155,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     ``f_net`` when ``|f_net| > beta``. Exactly on the threshold it is released only if
     ``|f_net|`` is about to rise, and then with zero acceleration (``armed=False``, see the
     module docstring). ``f_net`` includes the flange spring (:meth:`Oscillator.net_force`).
-    "On the threshold" means within the rounding of ``f_net`` (``_tie_tolerance``): a
+    "On the threshold" means within the rounding of ``f_net`` (``impactosc._rule.tie_tolerance``): a
     release root at ``tau ~ 1e-87`` (``beta = 1e-173``, ``f_net = 0``) is beyond any event
     finder. There ``X`` is frozen, so ``f_net`` changes only with the forcing: its first
     derivative decides, and the second where the first is rounding noise (a stationary
@@ -163,21 +163,6 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
     """
     motion, armed = _rule.motion_at_rest(osc._p, float(t), float(x))
     return motion, bool(armed)
-
-
-def _tie_tolerance(osc: Oscillator, t: float, x: float, f: float) -> float:
-    """Rounding level of f_net at ``(t, x)``: a few ulps of every term that forms it.
-
-    Each forcing term ``F_i cos(Omega_i t + phase_i)`` is rounded like ``F_i`` times its phase
-    error, and the phase is rounded to an ulp of its largest part: at ``Omega t ~ 200`` that
-    is ~6e-15 F, far above an ulp of ``F`` (a force guard offset by less than it could start
-    a piece on the wrong side of zero, and heyoka then dropped its next root: issue 14).
-    The spring terms and ``f_net`` itself are rounded to an ulp. The floor
-    (:data:`KINEMATIC_GUARD_OFFSET`) keeps a force guard from being the zero polynomial
-    when ``f_net`` vanishes identically (F = 0 at equilibrium): that guard "crossed"
-    everywhere and crawled through 250000 stick/release pairs in half a time unit.
-    """
-    return _rule.tie_tolerance(osc._p, float(t), float(x), float(f))
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:

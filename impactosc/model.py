@@ -245,10 +245,6 @@ class Oscillator:
     def _forcing_scalar(self, t: float) -> float:
         return _rule.forcing(self._p, t)
 
-    def _forcing_derivatives(self, t: float) -> tuple[float, float, float]:
-        """``(f', f'', noise)`` of the forcing at ``t``; ``noise`` bounds the rounding of ``f'``."""
-        return _rule.forcing_derivatives(self._p, t)
-
     def forcing_rounding(self, t: float) -> float:
         """A bound on the rounding error of the forcing evaluated at ``t`` in double precision.
 

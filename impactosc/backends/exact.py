@@ -99,13 +99,12 @@ _MIN_WIDTH_ULPS = 4.0
 class _ModeConstants:
     """Python view of the compiled constants of an eq. 3 mode (:func:`._exact_piece.mode_constants`)."""
 
-    __slots__ = ("arr", "r", "s", "ref", "w", "w2", "cY", "K", "beta")
+    __slots__ = ("arr", "r", "s", "ref", "w", "w2", "cY")
 
     def __init__(self, osc: Oscillator, r: int, s: int):
         self.arr = _piece.mode_constants(osc._p, r, s)
         self.r, self.s, self.ref = r, s, float(r)
         self.w, self.w2, self.cY = (float(self.arr[i]) for i in (_piece.M_W, _piece.M_W2, _piece.M_CY))
-        self.K, self.beta = osc.K, osc.beta
 
 
 class _SlipPiece:
@@ -289,6 +288,6 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
             raise ValueError("compiled=True needs numba: pip install 'impactosc[fast]'")
         warn_no_numba("the exact backend's event loop")
     stepper = _Stepper(osc)
-    rec = _Recorder(record, "exact", _Stepper(osc).evaluate)
+    rec = _Recorder(record, "exact", stepper.evaluate)
     drive(stepper, osc, t_end, x0, v0, rec, max_events, sample_at)
     return Solution(rec, t_end)
