@@ -58,8 +58,6 @@ M_SIZE = 12
 # guard shape the search is on, the search window and the constants of the integrals.
 (H_T0, H_X0, H_V0, H_Y0, H_DIR, H_SCALE, H_LEVEL, H_END_ORDER, H_WINDOW, H_REF, H_K, H_BETA, H_ZETA) = range(13)
 H_SIZE = 13
-S_T0, S_X0, S_V0, S_Y0, S_DIR, S_SCALE, S_LEVEL, S_END_ORDER = H_T0, H_X0, H_V0, H_Y0, H_DIR, H_SCALE, H_LEVEL, \
-    H_END_ORDER
 # Then the eq. 3 piece: the homogeneous amplitudes, the phase at the start, the bound
 # amplitudes, the inlined trigonometric constants (S_W .. S_WW2BH), and the mode constants.
 (S_AH, S_BH, S_ABOUT, S_C0, S_S0, S_HOM, S_AMP, S_G, S_W, S_OM, S_HSIG, S_HDLT, S_IDLT, S_ISIG, S_FC, S_FSO, S_O2,
@@ -95,7 +93,7 @@ def piece_state(mc, t0, x0, v0):
     y0 = x0 - mc[M_REF]
     Ah = y0 - mc[M_YP]  # homogeneous amplitudes: Y(0) = y0, V(0) = v0
     Bh = v0 / w
-    ps[S_T0], ps[S_X0], ps[S_V0], ps[S_Y0], ps[S_AH], ps[S_BH] = t0, x0, v0, y0, Ah, Bh
+    ps[H_T0], ps[H_X0], ps[H_V0], ps[H_Y0], ps[S_AH], ps[S_BH] = t0, x0, v0, y0, Ah, Bh
     # Where the particular solution Yp ~ -beta s / w^2 dwarfs y0, Y is evaluated about the
     # start point (no cancellation of Yp against Ah, issue 14), else about its centre.
     ps[S_ABOUT] = 1.0 if abs(mc[M_YP]) > abs(y0) else 0.0
@@ -114,8 +112,8 @@ def piece_state(mc, t0, x0, v0):
     ps[S_IDLT] = 1.0 / dlt if dlt != 0.0 else 0.0
     ps[S_ISIG], ps[S_FC], ps[S_FSO], ps[S_O2] = 1.0 / sig, F * c0, F * s0 * Om, Om * Om
     ps[S_W2AH], ps[S_W2BH], ps[S_WW2AH], ps[S_WW2BH] = w2 * Ah, w2 * Bh, w * w2 * Ah, w * w2 * Bh
-    ps[S_DIR] = ps[S_SCALE] = ps[S_END_ORDER] = 1.0
-    ps[S_LEVEL] = 0.0
+    ps[H_DIR] = ps[H_SCALE] = ps[H_END_ORDER] = 1.0
+    ps[H_LEVEL] = 0.0
     ps[H_WINDOW] = _TWO_PI / w
     ps[H_REF], ps[H_K], ps[H_BETA], ps[H_ZETA] = mc[M_REF], mc[M_K], mc[M_BETA], 0.0
     ps[S_MC:] = mc
@@ -147,7 +145,7 @@ def va(ps, tau):
     """``(V, Y'')`` at ``tau``."""
     sw, cw, Cc, D = _core(ps, tau)
     FC, FSO = ps[S_FC], ps[S_FSO]
-    v = ps[S_V0] * cw - ps[S_W] * ps[S_AH] * sw + FC * D - FSO * Cc
+    v = ps[H_V0] * cw - ps[S_W] * ps[S_AH] * sw + FC * D - FSO * Cc
     a2 = -(ps[S_W2AH] * cw + ps[S_W2BH] * sw) + FC * (cw - ps[S_O2] * Cc) - FSO * D
     return v, a2
 
@@ -175,7 +173,7 @@ def yvp(mc, ps, tau):
     velocity (the addition theorems' extra ulp cost 3e-10 of the force at ``v_in^2 = 2e-6``).
     """
     w, Om, F, sig, dlt = mc[M_W], mc[M_OM], mc[M_F], mc[M_SIG], mc[M_DLT]
-    y0, v0, Ah, c0, s0 = ps[S_Y0], ps[S_V0], ps[S_AH], ps[S_C0], ps[S_S0]
+    y0, v0, Ah, c0, s0 = ps[H_Y0], ps[H_V0], ps[S_AH], ps[S_C0], ps[S_S0]
     sw = math.sin(w * tau)
     cw = math.cos(w * tau)
     hs = 0.5 * sig * tau
@@ -226,30 +224,28 @@ def int_y(mc, ps, tau, dp):
     else:
         icos = c0 * tau
     hw = math.sin(0.5 * w * tau)
-    hom = ps[S_Y0] * tau - ps[S_AH] * _x_minus_sin(w * tau) / w + 2.0 * (ps[S_V0] / mc[M_W2]) * hw * hw
+    hom = ps[H_Y0] * tau - ps[S_AH] * _x_minus_sin(w * tau) / w + 2.0 * (ps[H_V0] / mc[M_W2]) * hw * hw
     return hom + mc[M_F] * (icos - dp) / mc[M_W2]
 
 
 @njit
-def int_squares(mc, ps, tau):
-    """``(int_0^tau Y^2, int_0^tau V^2)`` by composite 16-node Gauss-Legendre.
+def int_y_squared_rule(mc, ps, tau):
+    """``int_0^tau Y^2`` by composite 16-node Gauss-Legendre.
 
     Sub-intervals are no longer than half the period of the fastest frequency (error
-    below 1e-19 relative).
+    below 1e-19 relative). Eq. 3 has no damping, so ``int V^2`` is never needed here.
     """
     if tau <= 0.0:
-        return 0.0, 0.0
+        return 0.0
     n = max(1, math.ceil(tau * max(mc[M_W], mc[M_OM]) / math.pi))
     h = tau / n
-    sy = sv = 0.0
+    sy = 0.0
     for i in range(n):
         left = h * i
         for j in range(_GL_NODES.shape[0]):
-            y, v, _, _ = yvp(mc, ps, left + 0.5 * h * (_GL_NODES[j] + 1.0))
-            wj = 0.5 * h * _GL_WEIGHTS[j]
-            sy += wj * (y * y)
-            sv += wj * (v * v)
-    return sy, sv
+            y, _, _, _ = yvp(mc, ps, left + 0.5 * h * (_GL_NODES[j] + 1.0))
+            sy += 0.5 * h * _GL_WEIGHTS[j] * (y * y)
+    return sy
 
 
 @njit
@@ -284,11 +280,11 @@ def int_y_squared(mc, ps, tau):
     half-angles (:func:`_sin_integral`, :func:`_cos_integral`), about 13 trigonometric
     evaluations against ~100 for the 16-node rule. Where the terms nearly cancel (a huge
     ``beta`` makes ``Yp`` and ``a`` dwarf ``Y``; near resonance ``G`` grows), or at resonance,
-    the Gauss-Legendre rule of :func:`int_squares` on the stable form is used.
+    the Gauss-Legendre rule of :func:`int_y_squared_rule` on the stable form is used.
     """
     w, Om, F, dlt = mc[M_W], mc[M_OM], mc[M_F], mc[M_DLT]
     if dlt == 0.0 or tau <= 0.0:
-        return int_squares(mc, ps, tau)[0]
+        return int_y_squared_rule(mc, ps, tau)
     c0, s0 = ps[S_C0], ps[S_S0]
     theta0 = math.atan2(s0, c0)
     G = F / (mc[M_SIG] * dlt)
@@ -312,7 +308,7 @@ def int_y_squared(mc, ps, tau):
     value = terms[0] + terms[1] + terms[2]
     size = abs(Yp) + abs(a) + abs(b) + abs(G)
     if not value * _SQUARE_CONDITION >= size * size * tau:
-        return int_squares(mc, ps, tau)[0]
+        return int_y_squared_rule(mc, ps, tau)
     return value
 
 
@@ -352,9 +348,9 @@ def bounds(mc, ps, tmax, k):
 # function that passes one guard function around, not one that unifies two).
 @njit
 def _h_end(ps, tau):
-    """The end guard: ``d V`` (``S_END_ORDER`` 1, slip end) or ``d V'`` (2, acceleration zero)."""
-    d = ps[S_DIR]
-    if ps[S_END_ORDER] == 1.0:
+    """The end guard: ``d V`` (``H_END_ORDER`` 1, slip end) or ``d V'`` (2, acceleration zero)."""
+    d = ps[H_DIR]
+    if ps[H_END_ORDER] == 1.0:
         v, a = va(ps, tau)
         return d * v, d * a
     a, j = aj(ps, tau)
@@ -365,8 +361,8 @@ def _h_end(ps, tau):
 def _h_position(ps, tau):
     """A flange guard: ``scale (Y - level)``."""
     y, v, _, _ = yvp(ps[S_MC:], ps, tau)
-    scale = ps[S_SCALE]
-    return scale * (y - ps[S_LEVEL]), scale * v
+    scale = ps[H_SCALE]
+    return scale * (y - ps[H_LEVEL]), scale * v
 
 
 @njit
@@ -381,10 +377,8 @@ def _int_y(ps, tau, dp):
 
 @njit
 def _squares(ps, tau, need_y, need_v):
-    mc = ps[S_MC:]
-    y2 = int_y_squared(mc, ps, tau) if need_y else 0.0
-    v2 = int_squares(mc, ps, tau)[1] if need_v else 0.0
-    return y2, v2
+    # Eq. 3 is undamped (H_ZETA = 0): advance_piece never asks it for int V^2.
+    return (int_y_squared(ps[S_MC:], ps, tau) if need_y else 0.0), 0.0
 
 
 @njit
