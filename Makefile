@@ -16,6 +16,7 @@ $(STAMP): pyproject.toml
 
 lint: $(STAMP)
 	$(PY) -m ruff check impactosc tests benchmarks docs/conf.py docs/_ext
+	$(VENV)/bin/lint-imports --no-cache  # the layers of pyproject.toml [tool.importlinter]: names any import that breaks them
 
 test: $(STAMP) lint
 	$(PY) -m pytest -q

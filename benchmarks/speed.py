@@ -252,10 +252,10 @@ def batch_mode(sizes=(2, 4, 8), repeats: int = 9) -> dict:
     import heyoka as hy
 
     from impactosc.backends import heyoka as hb
-    from impactosc.backends._heyoka_ode import EQ3, FREE, family_system, parameter_values
+    from impactosc.backends.heyoka._ode import EQ3, FREE, family_system, parameter_values
     from impactosc.engine import drive, guard_gates, guard_offsets
     from impactosc.paper import _points, fig7_grid, resolve_drive
-    from impactosc.solution import _Recorder
+    from impactosc.results._solution import _Recorder
 
     # The longest piece of the middle Fig. 7 point.
     tape = io.TapeDrive()

@@ -201,7 +201,7 @@ def split(osc, n_events: int) -> dict:
 
     from impactosc.backends import heyoka as hb
     from impactosc.engine import Mode, drive
-    from impactosc.solution import _Recorder
+    from impactosc.results._solution import _Recorder
 
     compiled = hb.integrator(hb.DEFAULT_TOL)
     # The same integrators, each behind a proxy that times its propagate_until calls.

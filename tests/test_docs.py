@@ -102,7 +102,7 @@ def test_every_name_in_all_has_a_page(site):
 
 def test_every_public_module_and_its_names_have_pages(site):
     modules = apipages.public_modules()
-    assert {"impactosc.model", "impactosc.engine", "impactosc.solution", "impactosc.backends.heyoka"} <= set(modules)
+    assert {"impactosc.model", "impactosc.engine", "impactosc.results", "impactosc.backends.heyoka"} <= set(modules)
     missing = []
     for modname in modules:
         if not (site.html / "api" / "modules" / f"{modname}.html").exists():

@@ -91,7 +91,7 @@ def test_gates_arm_exactly_the_guards_of_each_mode():
 
 def test_drive_turns_a_backend_failure_into_status_minus_one():
     from impactosc.engine import NO_GUARD, drive
-    from impactosc.solution import Solution, _Recorder
+    from impactosc.results._solution import Solution, _Recorder
 
     class FlakyStepper:
         """Reaches a slip end at t = 1 and t = 2 (an ideal free oscillator), then gives up."""

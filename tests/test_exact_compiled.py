@@ -1,7 +1,7 @@
 """The exact backend's compiled event loop against its Python driver (issue #12 item 2).
 
-Both drivers run the one transition rule (impactosc._rule) and the one compiled closed
-form (impactosc.backends._exact_piece); the compiled loop also records in compiled code.
+Both drivers run the one transition rule (impactosc.model._rule) and the one compiled closed
+form (impactosc.backends.exact._piece); the compiled loop also records in compiled code.
 So the two must give the same Solution, bit for bit, in every recording mode: any
 difference is a recording or driving bug in the compiled copy of the loop.
 """
@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from impactosc import Oscillator, simulate
 from impactosc.backends import exact
-from impactosc.backends._exact_family import near_resonance
+from impactosc.backends.exact._family import near_resonance
 
 pytestmark = pytest.mark.skipif(not exact.HAVE_NUMBA, reason="the compiled loop needs numba")
 
@@ -39,7 +39,7 @@ CASES = [
     # Stroboscopic samples (every forcing period, with repeats, 0 and t_end): time events.
     (CONTACT, 200.0, 0.95, 0.0, {"sample_at": [0.0, *np.arange(1, 35) * 2 * math.pi / 1.1, 100.0, 100.0, 200.0]}),
     (Oscillator(2.0, 0.01, 0.01, 1e4), 700.0, 0.95, 0.0, {"sample_at": np.linspace(0.0, 700.0, 71)}),
-    # The damped and harmonic-sum members (impactosc.backends._exact_family).
+    # The damped and harmonic-sum members (impactosc.backends.exact._family).
     (Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02), 300.0, 0.95, 0.0, {}),  # damped contacts
     (Oscillator(0.0, 0.0, 0.1, 1e4, zeta=0.05), 40.0, 0.95, 0.0, {}),  # damped Coulomb decay to a stick
     (Oscillator(0.3, 0.7, 0.05, 50.0, zeta=3.0, harmonics=[(0.2, 2.2, 0.3)]), 100.0, 0.2, 0.5, {}),  # overdamped
@@ -131,7 +131,7 @@ def test_without_numba_the_python_driver_runs_with_a_one_line_hint(monkeypatch):
     monkeypatch.setattr(exact, "HAVE_NUMBA", False)
     with pytest.raises(ValueError, match=r"compiled=True needs numba: pip install 'impactosc\[fast\]'"):
         simulate(CONTACT, 10.0, backend="exact", compiled=True)
-    monkeypatch.setattr("impactosc._jit._warned", False)
+    monkeypatch.setattr("impactosc._util.jit._warned", False)
     with pytest.warns(RuntimeWarning, match=r"numba is not installed: .*pip install 'impactosc\[fast\]'"):
         sol = simulate(CONTACT, 100.0, backend="exact", record="stats")
     with warnings.catch_warnings():
@@ -161,7 +161,7 @@ def test_compiled_loop_equals_python_driver_property(F, Omega, beta, K, static, 
 def test_closed_form_of_int_y_squared_matches_gauss_legendre():
     # int Y^2 (the flange force's square) in closed form where it is well conditioned,
     # against the 16-node rule on the stable form, over random pieces of every mode.
-    from impactosc.backends import _exact_piece as piece
+    from impactosc.backends.exact import _piece as piece
 
     rng = np.random.default_rng(12)
     used = 0
@@ -189,7 +189,7 @@ def test_without_numba_everything_runs_as_plain_python(tmp_path):
         "import sys, warnings\n"
         "sys.modules['numba'] = None  # import numba -> ImportError\n"
         "import impactosc as io\n"
-        "from impactosc import _jit\n"
+        "from impactosc._util import jit as _jit\n"
         "assert not _jit.HAVE_NUMBA\n"
         "with warnings.catch_warnings(record=True) as seen:\n"
         "    warnings.simplefilter('always')\n"

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from impactosc import Oscillator, simulate
-from impactosc._chatter import TIME_TOLERANCE
+from impactosc.engine._chatter import TIME_TOLERANCE
 from impactosc.engine import (
     ENTER_UPPER,
     GUARD_NAMES,

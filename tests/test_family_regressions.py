@@ -12,7 +12,7 @@ from family_reference import rigid_chatter_accumulation, rigid_chatter_state
 from scipy.optimize import brentq
 
 from impactosc import Oscillator, simulate
-from impactosc._chatter import TIME_TOLERANCE, ChatterTracker
+from impactosc.engine._chatter import TIME_TOLERANCE, ChatterTracker
 
 RIGID = ["exact", "scipy"]
 
@@ -181,7 +181,7 @@ def test_the_transition_hook_sees_the_chatter_jump():
     # The hook used to see only a transition out of a Mode(0, 0) that never existed.
     from impactosc.backends.exact import _Stepper
     from impactosc.engine import AT_WALL, Mode, drive
-    from impactosc.solution import _Recorder
+    from impactosc.results._solution import _Recorder
 
     class Hooked(_Recorder):
         def on_transition(self, t, before, guard, after, x0, v0, x1, v1, kind):

@@ -16,8 +16,8 @@ import pytest
 import xarray as xr
 
 import impactosc as io
-from impactosc import frames
-from impactosc.frames import SolutionFramesMixin
+from impactosc.results import _frames as frames
+from impactosc.results._frames import SolutionFramesMixin
 
 matplotlib.use("Agg")
 

@@ -19,7 +19,7 @@ import pytest
 
 import impactosc as io
 from impactosc.engine import drive
-from impactosc.solution import RECORD_OPTIONS, Solution, _Recorder
+from impactosc.results._solution import RECORD_OPTIONS, Solution, _Recorder
 
 CONTACT = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
 STICK_SLIP = io.Oscillator(F=0.5, Omega=0.3, beta=0.3, K=1e4)

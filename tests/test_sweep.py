@@ -18,10 +18,10 @@ import pytest
 import xarray as xr
 
 import impactosc
-from impactosc.tape import TapeDrive
+from impactosc.model import TapeDrive
 
-from impactosc import _sweep_exec  # isort: skip
-from impactosc.sweep import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, load_sweep, sweep  # isort: skip
+from impactosc.sweeps import _exec as _sweep_exec  # isort: skip
+from impactosc.sweeps import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, load_sweep, sweep  # isort: skip
 
 DURATION = 2e-3
 BASE = TapeDrive(clearance=50e-6)

@@ -16,7 +16,7 @@ import pytest
 
 import impactosc
 from impactosc.model import Oscillator
-from impactosc.tape import TapeDrive
+from impactosc.model import TapeDrive
 
 REL = 1e-9
 

@@ -1,28 +1,16 @@
 """Backends: each integrates smooth pieces and locates guards; the engine owns the physics.
 
-A backend is looked up by name in :data:`BACKENDS`. Optional backends are imported lazily
-so that a missing optional dependency fails with an install hint only when it is used.
+:func:`simulate` is the one entry point for a single run. A backend is looked up by name in
+:data:`BACKENDS` and imported when it is first used, so that a missing optional dependency
+fails with an install hint only then, and so that ``import impactosc`` costs nothing.
+
+- ``heyoka``: Taylor integrator, one compiled integrator with the mode as runtime parameters.
+- ``scipy``: ``solve_ivp`` restarted at every event, the independent cross-check.
+- ``exact``: closed-form pieces (compiled), the ground truth (subfolder ``exact/``).
+- ``rk4``: the paper's fixed-step method, no events (subfolder ``rk4/``).
 """
 
-from __future__ import annotations
+from ._registry import BACKENDS, get_backend
+from ._simulate import DEFAULT_MAX_EVENTS, simulate
 
-import importlib
-
-#: name -> "module:callable" of a function ``run(osc, t_end, x0, v0, record, max_events, **options)``
-BACKENDS = {
-    "heyoka": "impactosc.backends.heyoka:run",
-    "scipy": "impactosc.backends.scipy:run",
-    "exact": "impactosc.backends.exact:run",
-    "rk4": "impactosc.backends.rk4:run",
-}
-
-
-def get_backend(name):
-    """Return the ``run`` function of the backend called ``name``."""
-    if not isinstance(name, str):
-        raise TypeError(f"backend must be a string, got {name!r} of type {type(name).__name__}")
-    if name not in BACKENDS:
-        known = ", ".join(repr(b) for b in BACKENDS)
-        raise ValueError(f"backend must be one of {known}, got {name!r}")
-    module, func = BACKENDS[name].split(":")
-    return getattr(importlib.import_module(module), func)
+__all__ = ["simulate", "get_backend", "BACKENDS", "DEFAULT_MAX_EVENTS"]

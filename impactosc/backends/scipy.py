@@ -48,9 +48,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from .. import _validation as _v
-from .._stuck import advance_stuck, evaluate_stuck
-from ..engine import (
+from .._util import validation as _v
+from ..engine._driver import (
     ACCEL_ZERO,
     ENTER_LOWER,
     ENTER_UPPER,
@@ -65,8 +64,9 @@ from ..engine import (
     force_guard_offset,
     guard_gates,
 )
-from ..model import Oscillator
-from ..solution import Solution, _Recorder
+from ..engine._stuck import advance_stuck, evaluate_stuck
+from ..model._oscillator import Oscillator
+from ..results._solution import Solution, _Recorder
 
 __all__ = ["run", "check_tolerances", "METHODS", "DEFAULT_METHOD", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 

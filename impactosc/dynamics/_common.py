@@ -14,9 +14,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from .. import _validation as _v
-from ..model import Oscillator
-from ..tape import FIELD_UNITS, TapeDrive
+from .._util import validation as _v
+from ..model._oscillator import Oscillator
+from ..model._tape import FIELD_UNITS, TapeDrive
 
 #: Fields of an Oscillator that a study may vary (``flange`` and ``harmonics`` are structure).
 OSCILLATOR_PARAMETERS = ("F", "Omega", "beta", "K", "phase", "zeta", "beta_static", "exponent", "restitution")

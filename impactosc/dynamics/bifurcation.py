@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validation as _v
-from ..simulate import simulate
+from .._util import validation as _v
+from ..backends._simulate import simulate
 from ._common import (
     check_base,
     check_parameter,
@@ -362,8 +362,8 @@ def _dataset(root: Path, base, parameter: str, vals: np.ndarray, labels: list, m
 
 def load_bifurcation(store):
     """Read a bifurcation store back (finished values only; the rest have status -4)."""
-    from ..model import Oscillator
-    from ..tape import TapeDrive
+    from ..model._oscillator import Oscillator
+    from ..model._tape import TapeDrive
 
     root = Path(store)
     manifest = json.loads((root / _MANIFEST).read_text())

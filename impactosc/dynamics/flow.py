@@ -25,8 +25,8 @@ import math
 
 import numpy as np
 
-from ..engine import Mode
-from ..model import Oscillator
+from ..engine._driver import Mode
+from ..model._oscillator import Oscillator
 
 __all__ = ["IDENTITY", "linear_transition", "variational_transition", "transition_matrix", "matmul"]
 

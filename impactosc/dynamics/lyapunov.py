@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import _validation as _v
-from ..simulate import simulate
+from .._util import validation as _v
+from ..backends._simulate import simulate
 from ._common import advanced, check_base, forcing_period, oscillator_of, section_offset
 from .flow import IDENTITY
 from .tangent import check_backend, tangent_run

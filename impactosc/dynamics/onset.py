@@ -32,10 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import _validation as _v
-from ..engine import CHATTER, CONTACT_START, IMPACT, drive
-from ..simulate import DEFAULT_MAX_EVENTS, simulate
-from ..solution import Solution, _Recorder
+from .._util import validation as _v
+from ..backends._simulate import DEFAULT_MAX_EVENTS, simulate
+from ..engine._driver import CHATTER, CONTACT_START, IMPACT, drive
+from ..results._solution import Solution, _Recorder
 from ._common import advanced, check_base, check_parameter, forcing_period, oscillator_of, with_parameter
 from .tangent import check_backend, piece_stepper
 

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import _validation as _v
-from ..engine import EVENT_KINDS
-from ..simulate import simulate
+from .._util import validation as _v
+from ..backends._simulate import simulate
+from ..engine._driver import EVENT_KINDS
 from ._common import check_base, forcing_period, forcing_phase, oscillator_of, section_offset
 
 __all__ = ["Section", "stroboscopic_section", "event_section", "detect_period"]

@@ -36,8 +36,8 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from ..engine import AT_WALL, GUARD_NAMES, IMPACT, N_GUARDS, Mode, guard_gradient
-from ..model import Oscillator
+from ..engine._driver import AT_WALL, GUARD_NAMES, IMPACT, N_GUARDS, Mode, guard_gradient
+from ..model._oscillator import Oscillator
 
 __all__ = ["Saltation", "saltation_matrix", "vector_field"]
 

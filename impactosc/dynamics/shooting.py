@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validation as _v
-from ..model import Oscillator
-from ..simulate import simulate
+from .._util import validation as _v
+from ..backends._simulate import simulate
+from ..model._oscillator import Oscillator
 from ._common import advanced, check_base, forcing_period, oscillator_of, periods_in, section_offset
 from .tangent import check_backend, tangent_run
 

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import math
 
-from ..engine import CHATTER, STICK, Mode, drive
-from ..model import Oscillator
-from ..simulate import DEFAULT_MAX_EVENTS, simulate
-from ..solution import Solution, _Recorder
+from ..backends._simulate import DEFAULT_MAX_EVENTS, simulate
+from ..engine._driver import CHATTER, STICK, Mode, drive
+from ..model._oscillator import Oscillator
+from ..results._solution import Solution, _Recorder
 from .flow import IDENTITY, matmul, transition_matrix
 from .saltation import Saltation, saltation_matrix
 

@@ -39,7 +39,7 @@ import numpy as np
 from IPython.display import display
 
 import impactosc as io
-from impactosc.plotting import plot_solution
+from impactosc.results import plot_solution
 
 print("impactosc", io.__version__, "| quick mode" if QUICK else "| full mode")
 

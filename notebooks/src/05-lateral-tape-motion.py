@@ -46,7 +46,7 @@ import numpy as np
 from IPython.display import display
 
 import impactosc as io
-from impactosc import frames
+from impactosc.results import _frames as frames
 from impactosc import signal as sg
 from impactosc.paper import ALTERNATIVES
 

@@ -1,0 +1,129 @@
+"""The exact backend's root finder: rigorous brackets, then safeguarded Newton to an ulp.
+
+Written once in compilable Python (:mod:`impactosc._jit`): the closed-form pieces
+(:mod:`._exact_piece`, :mod:`._exact_family`) and the stuck releases
+(:mod:`impactosc._stuck`) call ``first_rising_jit`` and ``refine_jit``, compiled copies
+inlined into each caller with its own guard function ``fun(state, tau) -> (h, h')``. Without
+numba they are :func:`first_rising` and :func:`refine` themselves, run as Python.
+
+Bracketing
+----------
+On ``[a, b]`` a function with ``|h''| <= M2`` stays within ``M2 (b - a)^2 / 8`` of its
+chord, which excludes intervals of one sign, and ``|h'''| <= M3`` applied to ``h'`` proves
+monotonicity, so a bracket holds a single crossing. Near a double root (a tangency) the
+bisection goes on until the extremum separates the two crossings; only below ``hmin`` (a
+few ulps of ``t``) do the end values decide.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .jit import njit_inline
+
+__all__ = ["first_rising", "refine", "first_rising_jit", "refine_jit", "MAX_BRACKET_STEPS", "SEARCH_FAILED"]
+
+_EPS = 2.0**-52
+#: Intervals one guard search may examine in one window: a few hundred are typical (a
+#: tangency bisected down to ulps takes ~100 per level); far more means useless bounds.
+MAX_BRACKET_STEPS = 100_000
+#: ``status`` of :func:`first_rising` when the search gave up (non-finite values or bounds,
+#: or :data:`MAX_BRACKET_STEPS` intervals): never a hang, the run ends with status -1.
+SEARCH_FAILED = 1
+
+
+def first_rising(fun, state, a, ha, da, b, M2, M3, hmin):
+    """First crossing of ``h`` from negative to non-negative in ``(a, b]``.
+
+    ``fun(state, tau) -> (h, h')``; ``ha, da`` are its values at ``a``; ``M2 >= |h''|`` and
+    ``M3 >= |h'''|`` on ``[a, b]``. Returns ``(found, lo, hi, h(lo), h(hi), h(b), h'(b), status)``:
+    when ``found``, ``[lo, hi]`` brackets the crossing with ``h`` monotonic on it; the values
+    at ``b`` start the next window. The right ends of the still unexplored intervals sit on
+    a stack, so intervals are examined strictly left to right and the first crossing is the
+    one returned.
+    """
+    hb, db = fun(state, b)
+    end_h, end_d = hb, db
+    stack = [(b, hb, db)]
+    evaluations = 0
+    while len(stack) > 0:
+        b, hb, db = stack[-1]
+        width = b - a
+        evaluations += 1
+        if evaluations > MAX_BRACKET_STEPS or not math.isfinite(ha + hb + da + db + M2 + M3):
+            # Never a hang: non-finite values or bounds would send the bisection down to
+            # ulp-wide intervals over the whole window.
+            return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
+        slack2 = 0.125 * M2 * width * width  # max distance of h from its chord
+        decided = False
+        if ha >= 0.0 and hb >= 0.0 and min(ha, hb) > slack2:
+            decided = True  # h > 0 on [a, b]
+        elif ha < 0.0 and hb < 0.0 and max(ha, hb) < -slack2:
+            decided = True  # h < 0 on [a, b]
+        else:
+            slack3 = 0.125 * M3 * width * width
+            if min(da, db) > slack3:  # h increasing: one crossing at most
+                if ha < 0.0 <= hb:
+                    return True, a, b, ha, hb, end_h, end_d, 0
+                decided = True
+            elif max(da, db) < -slack3:  # h decreasing: it cannot rise through 0
+                decided = True
+            elif width <= hmin:
+                if ha < 0.0 <= hb:
+                    return True, a, b, ha, hb, end_h, end_d, 0
+                decided = True
+        if decided:
+            stack.pop()
+            a, ha, da = b, hb, db
+        else:
+            mid = a + 0.5 * width
+            hm, dm = fun(state, mid)
+            stack.append((mid, hm, dm))
+    return False, a, a, ha, ha, end_h, end_d, 0
+
+
+def refine(fun, state, lo, hi, hlo, hhi, t0):
+    """Root of ``h = fun(state, tau)[0]`` in a bracket where it rises through 0 (``hlo < 0 <= hhi``).
+
+    Safeguarded Newton: a Newton step is taken when it stays inside the shrinking bracket
+    and converges fast enough, a bisection otherwise, so the iteration is as robust as
+    bisection and converges quadratically near the root. It stops when the step is below
+    one ulp of ``t0 + tau``.
+    """
+    if hhi == 0.0:
+        return hi
+    tol = _EPS * (abs(t0) + hi)
+    x = lo - hlo * (hi - lo) / (hhi - hlo)  # regula falsi start
+    if not lo < x < hi:
+        x = 0.5 * (lo + hi)
+    dx_old = hi - lo
+    for _ in range(200):  # bisection alone needs < 1100 halvings from any float bracket; Newton far fewer
+        h, dh = fun(state, x)
+        if h == 0.0:
+            return x
+        if h < 0.0:
+            lo = x
+        else:
+            hi = x
+        if dh > 0.0:
+            step = h / dh
+            if abs(step) <= tol:  # converged: the last Newton correction is below one ulp
+                return min(max(x - step, lo), hi)
+            xn = x - step
+        else:
+            xn = math.nan
+        if lo < xn < hi and abs(2.0 * h) <= abs(dx_old * dh):
+            dx = x - xn
+        else:
+            xn = 0.5 * (lo + hi)
+            dx = hi - lo
+        dx_old = dx
+        if abs(dx) <= tol:
+            return xn
+        x = xn
+    return x
+
+
+#: The compiled copies, inlined into compiled callers (see :func:`impactosc._jit.njit_inline`).
+first_rising_jit = njit_inline(first_rising)
+refine_jit = njit_inline(refine)

@@ -1,0 +1,9 @@
+"""Sweeps: one run per point of a parameter grid, on any executor, into an xarray Dataset.
+
+A sweep can be stored point by point (a verified, resumable store) and loaded back with
+:func:`load_sweep`.
+"""
+
+from ._sweep import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, SWEEP_KEYS, load, load_sweep, sweep
+
+__all__ = ["sweep", "load_sweep", "load", "SWEEP_KEYS", "STATUS_EXCEPTION", "STATUS_LOST", "STATUS_NOT_COMPUTED"]
