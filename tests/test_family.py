@@ -13,7 +13,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from impactosc import Oscillator, simulate
-from impactosc.engine._chatter import TIME_TOLERANCE
 from impactosc.engine import (
     ENTER_UPPER,
     GUARD_NAMES,
@@ -25,6 +24,7 @@ from impactosc.engine import (
     guard_value,
     transition,
 )
+from impactosc.engine._chatter import TIME_TOLERANCE
 
 #: Backends that support each feature (more heyoka cases: tests/test_family_heyoka.py).
 RIGID = ["heyoka", "exact", "scipy"]

@@ -35,7 +35,7 @@ PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 def test_version_is_written_once():
     project = PYPROJECT["project"]
     assert "version" not in project and "version" in project["dynamic"]
-    assert PYPROJECT["tool"]["hatch"]["version"]["path"] == "impactosc/__init__.py"
+    assert PYPROJECT["tool"]["hatch"]["version"]["path"] == "impactosc/_version.py"
     assert re.fullmatch(r"\d+\.\d+\.\d+([.-]?(a|b|rc|dev|post)\d*)*", impactosc.__version__)
     assert "version:" not in (ROOT / "CITATION.cff").read_text().replace("cff-version:", "")
     changelog = (ROOT / "CHANGELOG.md").read_text()

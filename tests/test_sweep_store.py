@@ -11,9 +11,9 @@ import time
 import pytest
 import xarray as xr
 
-from impactosc.sweeps import _store as _sweep_store
-from impactosc.sweeps import STATUS_NOT_COMPUTED, load_sweep, sweep
 from impactosc.model import TapeDrive
+from impactosc.sweeps import STATUS_NOT_COMPUTED, load_sweep, sweep
+from impactosc.sweeps import _store as _sweep_store
 
 BASE = TapeDrive(clearance=50e-6)
 GRID = {"speed": [4.0, 8.0, 12.0]}

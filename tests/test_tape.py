@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 
 import impactosc
-from impactosc.model import Oscillator
-from impactosc.model import TapeDrive
+from impactosc.model import Oscillator, TapeDrive
 
 REL = 1e-9
 
