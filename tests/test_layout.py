@@ -28,6 +28,12 @@ def test_import_and_a_model_load_no_heavy_dependency():
     assert _loaded_after(model) == []
 
 
+def test_a_run_loads_no_table_or_plot_library():
+    # a Solution builds its pandas / xarray views on demand; a run itself needs neither
+    run = "import impactosc as io; io.simulate(io.Oscillator(0.5, 1.1, 0.01, 1e4), 50.0, 0.95, 0.0, backend='scipy')"
+    assert not {"pandas", "xarray", "matplotlib", "dask"} & set(_loaded_after(run))
+
+
 def test_the_compiled_rule_is_loaded_by_the_first_run_not_by_the_model():
     # a force of the model is numpy (eq. 3's value); the compiled rule comes with the first run
     out = subprocess.run([sys.executable, "-c",

@@ -19,14 +19,16 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
-import xarray as xr
 
 from .._util import validation as _v
 from ..engine._driver import EVENT_KINDS
 from ..model._tape import TapeDrive
+
+if TYPE_CHECKING:  # pandas and xarray are imported by the functions that build frames
+    import pandas as pd
 
 __all__ = ["SolutionFramesMixin", "Units", "units_of", "events_frame", "impacts_frame", "to_dataframe",
            "resample", "plot_run", "to_si", "SIResults", "BYTES_PER_SAMPLE"]
@@ -104,6 +106,8 @@ def events_frame(sol, drive: TapeDrive | None = None) -> pd.DataFrame:
     and ``side`` (+1 upper flange, -1 lower, 0 otherwise). Needs ``record="events"`` or
     ``"full"``. ``DataFrame.attrs["units"]`` names the unit system.
     """
+    import pandas as pd
+
     u = units_of(sol, drive)
     ev = sol.events
     df = pd.DataFrame({
@@ -126,6 +130,8 @@ def impacts_frame(sol, drive: TapeDrive | None = None) -> pd.DataFrame:
     flange force over the contact, force times time) and ``complete``. Needs
     ``record="events"`` or ``"full"``.
     """
+    import pandas as pd
+
     u = units_of(sol, drive)
     im = sol.impacts
     df = pd.DataFrame({
@@ -257,6 +263,9 @@ def resample(sol, dt: float, drive: TapeDrive | None = None, *, t0: float | None
         window lies outside the run, the grid is too large for memory (the message gives
         the size), or ``drive`` does not match the run.
     """
+    import pandas as pd
+    import xarray as xr
+
     _v.choice("output", output, OUTPUTS)
     g = sample_grid(sol, dt, drive, t0=t0, t1=t1, max_samples=max_samples)
     u: Units = g["units"]
@@ -308,6 +317,8 @@ def to_si(sol, drive: TapeDrive) -> SIResults:
     The statistics are available in every recording mode; the tables need ``record="events"``
     or more. ``drive`` must reduce to the run's oscillator.
     """
+    import pandas as pd
+
     if drive is None:
         raise TypeError("to_si needs the run's TapeDrive: to_si(sol, drive)")
     u = units_of(sol, drive)
