@@ -61,18 +61,20 @@ def positive_int(text: str) -> int:
     return n
 
 
-def _triple(names: str):
-    """An argparse type: ``a,b[,c]`` -> a tuple of 2 or 3 floats (the third defaults to 0)."""
+def _triple(names: str, integer_first: bool = False):
+    """An argparse type: ``a,b[,c]`` -> a tuple of 3 numbers (the third defaults to 0; ``a`` an int if asked)."""
 
-    def parse(text: str) -> tuple[float, ...]:
+    def parse(text: str) -> tuple:
         parts = [p for p in text.split(",") if p.strip()]
         try:
-            values = tuple(float(p) for p in parts)
+            values = [float(p) for p in parts]
+            if integer_first and values:
+                values[0] = int(parts[0])
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {names} (numbers), got {text!r}") from None
         if len(values) not in (2, 3):
             raise argparse.ArgumentTypeError(f"expected {names}, got {text!r}")
-        return values if len(values) == 3 else (*values, 0.0)
+        return tuple(values) if len(values) == 3 else (*values, 0.0)
 
     return parse
 
@@ -143,7 +145,7 @@ def add_model_options(parser) -> None:
     d = parser.add_argument_group("tape drive (SI units, defaults from the paper)")
     add_drive_options(d)
     d.add_argument("--static-friction", type=float, help="static friction coefficient mu_s (>= mu; default mu)")
-    d.add_argument("--runout-harmonic", action="append", type=_triple("n,fraction[,phase]"),
+    d.add_argument("--runout-harmonic", action="append", type=_triple("n,fraction[,phase]", integer_first=True),
                    metavar="N,FRACTION[,PHASE]",
                    help="a higher harmonic of the reel run-out: harmonic number, fraction of the run-out, phase; "
                         "repeat for more")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 
 from ._common import (
     add_model_options,
@@ -66,7 +67,9 @@ def add_parser(sub) -> None:
     add_onset_options(p)
     o = p.add_argument_group("output")
     o.add_argument("--json", metavar="FILE", help="write the result (value, final bracket, margins, status) as JSON")
-    o.add_argument("--plot", metavar="PNG", help="X over the recorded periods at both ends of the final bracket")
+    o.add_argument("--plot", metavar="PNG", help="a bifurcation diagram over the bracket with the onset marked")
+    o.add_argument("--plot-values", type=positive_int, default=40,
+                   help="values of the parameter in that diagram (default 40)")
     p.set_defaults(handler=run)
 
 
@@ -96,38 +99,32 @@ def run(args) -> int:
 
 
 def _plain(value):
-    """JSON types: tuples to lists, NumPy scalars to Python numbers, NaN kept (JSON's NaN extension)."""
+    """JSON types: tuples to lists, NumPy scalars to Python numbers, NaN to null (strict JSON)."""
     if isinstance(value, dict):
         return {k: _plain(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [_plain(v) for v in value]
-    return value.item() if hasattr(value, "item") else value
+    value = value.item() if hasattr(value, "item") else value
+    return None if isinstance(value, float) and math.isnan(value) else value
 
 
 def _plot(res, base, args, path: str) -> None:
+    """A bifurcation diagram over the bracket (continued forward, as the search follows), the onset marked."""
+
     import numpy as np
 
-    import impactosc as io
-
     from .._util.optional import require_matplotlib
-    from ..dynamics import forcing_period
-    from ..dynamics._common import oscillator_of, with_parameter
+    from ..dynamics import bifurcation_diagram, plot_bifurcation
 
     plt = require_matplotlib()
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
-    for k, value in enumerate(res.bracket):
-        osc = oscillator_of(with_parameter(base, args.param, float(value)))
-        period = forcing_period(osc)
-        start, end = args.transient_periods * period, (args.transient_periods + args.record_periods) * period
-        sol = io.simulate(osc, end, args.x0, args.v0, backend=args.backend, record="full")
-        t = np.linspace(start, min(end, sol.t_final), 2000)
-        x, _ = sol.sample(t)
-        ax.plot(t / period, x, lw=1.0, color=f"C{k}", label=f"{args.param} = {value:.9g}")
-    for edge in (-1.0, 1.0):
-        ax.axhline(edge, color="0.5", lw=0.8, ls="--")
-    ax.set_xlabel("forcing periods")
-    ax.set_ylabel("X = x/L")
-    ax.set_title(f"{plot_title(base)}\nsteady state from (x0, v0) at both ends of the final bracket", fontsize=8)
-    ax.legend(fontsize=8)
+    values = np.linspace(*args.bracket, args.plot_values)
+    ds = bifurcation_diagram(base, args.param, values, transient_periods=math.ceil(args.transient_periods),
+                             record_periods=max(1, math.ceil(args.record_periods)),
+                             continuation="none" if args.no_follow else "forward", x0=args.x0, v0=args.v0,
+                             backend=args.backend, executor="serial", progress=False)
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    plot_bifurcation(ds, ax=ax, onset=None if math.isnan(res.value) else res.value, markersize=2.0)
+    ax.set_title(f"{plot_title(base)}\nstroboscopic points over the bracket, the contact onset found marked",
+                 fontsize=8)
     fig.savefig(path, dpi=120)
     plt.close(fig)
