@@ -49,7 +49,8 @@ def test_a_fast_block_says_nothing_and_a_notice_comes_once(caplog, fresh_notices
             pass
         assert notice_module.notice("test-once", "said once")
         assert not notice_module.notice("test-once", "said once")
-    assert [r.getMessage() for r in caplog.records] == ["said once"]
+    said = [r.getMessage() for r in caplog.records]
+    assert "never said" not in said and said.count("said once") == 1
 
 
 def _first_run(cache_dir) -> str:

@@ -117,7 +117,8 @@ def _plot(res, base, args, path: str) -> None:
     from ..dynamics import bifurcation_diagram, plot_bifurcation
 
     plt = require_matplotlib()
-    values = np.linspace(*args.bracket, args.plot_values)
+    lo, hi = args.bracket
+    values = np.linspace(lo, hi, args.plot_values)
     ds = bifurcation_diagram(base, args.param, values, transient_periods=math.ceil(args.transient_periods),
                              record_periods=max(1, math.ceil(args.record_periods)),
                              continuation="none" if args.no_follow else "forward", x0=args.x0, v0=args.v0,
