@@ -25,3 +25,21 @@ def sigint_raises():
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+#: Whole test modules in the ``slow`` group (``make test-fast`` leaves them out; ``make test``
+#: runs them), with why. Single slow tests elsewhere carry ``@pytest.mark.slow`` themselves.
+SLOW_MODULES = {
+    "test_docs.py": "builds the docs site, executing every notebook",
+    "test_notebooks.py": "executes the notebooks",
+    "test_sweep_processes.py": "process pools in subprocesses, interrupted and killed",
+    "test_benchmarks_smoke.py": "runs the benchmark scripts",
+    "test_dynamics_benchmark.py": "runs the dynamics benchmark script",
+    "test_packaging.py": "builds the wheel and sdist, installs into a fresh venv, runs mypy",
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.path.name in SLOW_MODULES:
+            item.add_marker(pytest.mark.slow)

@@ -56,6 +56,7 @@ def test_errors_are_one_line(capsys, argv, message):
 
 
 # -- impactosc sweep ------------------------------------------------------------------------
+@pytest.mark.slow  # a process pool
 def test_sweep_writes_a_netcdf_dataset(capsys, tmp_path):
     import xarray as xr
 
@@ -290,6 +291,7 @@ def test_plot_without_matplotlib_fails_before_the_run(capsys, monkeypatch, simul
     assert simulated == []  # nothing was run
 
 
+@pytest.mark.slow  # a subprocess
 def test_a_closed_pipe_ends_quietly():
     """``impactosc simulate ... | head``: no "Broken pipe" error, no traceback (the reader left, that is all)."""
     import subprocess
