@@ -83,7 +83,7 @@ def run(args) -> int:
     wall = time.perf_counter() - t
     status = ds["status"].values
     failed = int(np.count_nonzero(status != 0))
-    print(f"bifurcation diagram of {base}")
+    print(f"bifurcation diagram of {plot_title(base)}")
     print(f"  {args.param} over [{lo:g}, {hi:g}], {args.n} values, {args.transient_periods} transient + "
           f"{args.record_periods} recorded periods, continuation {args.continuation}, backend {args.backend}: "
           f"{wall:.2f} s wall, {failed} failed")

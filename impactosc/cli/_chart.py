@@ -57,7 +57,7 @@ def run(args) -> int:
     status = ds["status"].values
     failed = int(np.count_nonzero(status != 0))
     (k1, a1), (k2, a2) = ((k, ds[k].values) for k in ds["critical"].dims)
-    print(f"onset chart of {args.param} for {base}")
+    print(f"onset chart of {args.param} for {plot_title(base)}")
     print(f"  {k1}[{a1.size}] x {k2}[{a2.size}] points: {wall:.2f} s wall, {failed} without an onset in the bracket "
           "or failed")
     print(f"  {k1:>14} {k2:>14} {'critical ' + args.param:>22} {'status':>6}")

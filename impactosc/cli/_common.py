@@ -235,9 +235,23 @@ def _is_number(text: str) -> bool:
 
 
 def plot_title(base) -> str:
-    """A short title line naming the model."""
-    text = repr(base)
-    return text if len(text) <= 110 else text[:107] + "..."
+    """A short title naming the model: its class and the fields that differ from their defaults."""
+    import dataclasses
+
+    try:
+        reference = type(base)()  # a TapeDrive: the paper's drive
+    except TypeError:  # an Oscillator: F, Omega, beta, K have no default
+        reference = None
+    parts = []
+    for f in dataclasses.fields(base):
+        if not f.init or f.name.startswith("_"):
+            continue
+        value = getattr(base, f.name)
+        default = getattr(reference, f.name) if reference is not None else f.default
+        if default is not dataclasses.MISSING and value == default:
+            continue
+        parts.append(f"{f.name}={value:g}" if isinstance(value, float) else f"{f.name}={value!r}")
+    return f"{type(base).__name__}({', '.join(parts)})"
 
 
 class pandas_display:

@@ -82,7 +82,7 @@ def run(args) -> int:
     check_plot_output("--plot", args.plot)
     res = contact_onset(base, args.param, tuple(args.bracket), **onset_kwargs(args))
     side = {1: "above", -1: "below"}.get(res.direction)
-    print(f"contact onset of {base}")
+    print(f"contact onset of {plot_title(base)}")
     print(f"  {args.param} = {res.value:.12g}" + (f" (contact {side} it)" if side else "")
           + f"; final bracket [{res.bracket[0]:.12g}, {res.bracket[1]:.12g}], margins "
           f"({res.margins[0]:.3g}, {res.margins[1]:.3g}), {res.evaluations} steady states")
