@@ -96,3 +96,30 @@ def test_dynamics_plots_without_matplotlib_give_the_install_hint(monkeypatch):
     for plot in (PeriodicOrbit.plot, Section.plot, LyapunovResult.plot, plot_bifurcation, plot_onset_chart):
         with pytest.raises(ImportError, match=r"plotting needs matplotlib: pip install 'impactosc\[plot\]'"):
             plot(None)
+
+
+def test_a_slow_heyoka_compile_gets_its_notice(monkeypatch, fresh_notices):
+    from impactosc.backends.heyoka import _ode
+
+    said = threading.Event()
+    messages = []
+
+    class Catch(logging.Handler):
+        def emit(self, record):
+            messages.append(record.getMessage())
+            said.set()
+
+    def slow_build(tol, shape=_ode.EQ3):  # a compile that lasts until its notice has come
+        assert said.wait(timeout=60.0), "no notice while the compile ran"
+        return "integrators"
+
+    monkeypatch.setattr(_ode, "_build", slow_build)
+    catch = Catch(level=logging.WARNING)
+    notice_module.LOGGER.addHandler(catch)
+    tol = 1.2345e-13  # a tolerance nothing else compiles: not in the cache
+    try:
+        assert _ode.integrator(tol) == "integrators"
+    finally:
+        notice_module.LOGGER.removeHandler(catch)
+        _ode._cache.integrators.pop((tol, _ode.EQ3), None)
+    assert len(messages) == 1 and "heyoka is compiling" in messages[0] and "1.2345e-13" in messages[0]
