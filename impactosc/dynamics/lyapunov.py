@@ -28,7 +28,7 @@ from .._util import validation as _v
 from ..backends._simulate import simulate
 from ._common import advanced, check_base, forcing_period, oscillator_of, section_offset
 from .flow import IDENTITY
-from .tangent import check_backend, tangent_run
+from .tangent import check_backend, check_start, tangent_run
 
 __all__ = ["LyapunovResult", "lyapunov_exponent"]
 
@@ -140,7 +140,7 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
     T = forcing_period(osc)
     sec = advanced(osc, section_offset(osc, phase))
     check_backend(sec, backend, options)
-    x0, v0 = _v.real("x0", x0), _v.real("v0", v0)
+    x0, v0 = check_start(sec, (transient_periods or periods) * T, x0, v0)
     if transient_periods:
         sol = simulate(sec, transient_periods * T, x0, v0, backend=backend, record="stats", **options)
         if sol.status != 0:
@@ -159,10 +159,12 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
         history = np.cumsum(growth) / t if t.size else np.array([])
     exponent = float(history[-1]) if history.size else math.nan
     status, message = 0, f"{t.size} renormalisations over {t[-1] if t.size else 0:.6g} time units"
-    if rec.singular is not None:
-        s = rec.singular
-        status, message = 2, (f"the trajectory crosses the {s.guard} guard tangentially at t={s.t:.12g}: the tangent "
-                              "dynamics are undefined there (grazing); no exponent")
+    # A start at rest held by static friction alone (rec.held_start) does not count: the exponent
+    # is a rate along the trajectory, which reached that rest (after the transient) by a stick
+    # whose neighbours stick too, and one instant at the start does not change a mean rate.
+    if rec.tangential is not None:
+        s = rec.tangential
+        status, message = 2, f"{s.reason}: the tangent dynamics are undefined there (grazing); no exponent"
         exponent = math.nan
     elif hook.dead_at is not None:
         status, message = 3, (f"the tangent vector was annihilated before t={hook.dead_at:.12g} (a chatter, or a "
