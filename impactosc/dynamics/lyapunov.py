@@ -122,7 +122,8 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
     transient_periods : int
         Forcing periods run first (without the tangent dynamics) to reach the attractor.
     renormalise_every : int
-        Forcing periods between renormalisations of the tangent vector.
+        Forcing periods between renormalisations of the tangent vector (<= ``periods``; the
+        last interval is shorter when ``periods`` is not a multiple of it).
     x0, v0 : float
         Initial state; ``phase`` the forcing phase of the start (default: as at t = 0).
     backend : {"heyoka", "scipy", "exact"}
@@ -137,6 +138,10 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
     periods = _v.integer("periods", periods)
     transient_periods = _v.integer("transient_periods", transient_periods, minimum=0)
     renormalise_every = _v.integer("renormalise_every", renormalise_every)
+    if renormalise_every > periods:
+        raise ValueError(f"renormalise_every must be <= periods (the run lasts periods={periods} forcing periods, "
+                         f"so an interval of {renormalise_every} would never end inside it), got "
+                         f"renormalise_every={renormalise_every}")
     T = forcing_period(osc)
     sec = advanced(osc, section_offset(osc, phase))
     check_backend(sec, backend, options)
@@ -147,9 +152,13 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
             return LyapunovResult(math.nan, np.array([]), np.array([]), np.array([]), -1,
                                   f"the transient failed: {sol.message}", renormalise_every)
         x0, v0 = sol.x_final, sol.v_final
-    n_renorm = max(1, periods // renormalise_every)
-    span = n_renorm * renormalise_every * T
-    times = T * renormalise_every * np.arange(1, n_renorm + 1)
+    # Exactly `periods` periods: every renormalise_every periods, and at the end (a shorter
+    # last interval when periods is not a multiple of renormalise_every).
+    counts = list(range(renormalise_every, periods + 1, renormalise_every))
+    if counts[-1] != periods:
+        counts.append(periods)
+    span = periods * T
+    times = T * np.array(counts, dtype=float)
     times[-1] = span
     hook = _Renormaliser()
     sol, rec = tangent_run(sec, span, x0, v0, backend=backend, options=options, sample_at=times, on_sample=hook)
