@@ -121,3 +121,19 @@ def test_slow_impact_below_the_grazing_bound_has_no_saltation_matrix():
     a_plus = osc._accel_scalar(1.0, 1.0, -0.6 * v, 0, -1)
     assert not s.singular
     np.testing.assert_allclose(s.matrix, (-0.6, 0.0, (a_plus + 0.6 * a_minus) / v, -0.6), rtol=1e-12)
+
+
+def test_slow_impacts_inside_a_chatter_are_not_grazing():
+    # The impacts of a chatter slow down geometrically below the grazing bound before the jump
+    # to rest resolves them; the jump makes the map locally constant (Jacobian 0), so they are
+    # no singularity. Neither is the apex of a rebound a rounding away from the wall.
+    from impactosc.dynamics.saltation import GRAZING
+    from impactosc.dynamics.tangent import tangent_run
+
+    osc = Oscillator(2.0, 0.3, 0.05, 1.0, flange="rigid", restitution=0.8)
+    sol, rec = tangent_run(osc, 200.0, 0.0, 0.0, backend="exact", record="events")
+    impacts = sol.events[sol.events.kind == "impact"]
+    assert np.min(np.abs(impacts.v)) < GRAZING * math.sqrt(2.0 * 2.0**-52)  # the premise: below the bound
+    assert sol.counts["chatter"] >= 1
+    assert rec.singular is None, rec.singular.reason
+    assert rec.collapsed

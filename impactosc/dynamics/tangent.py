@@ -17,7 +17,7 @@ import math
 
 from .._util import validation as _v
 from ..backends._simulate import DEFAULT_MAX_EVENTS, check_magnitudes, simulate
-from ..engine._driver import CHATTER, STICK, Mode, check_run_arguments, check_sample_times, drive
+from ..engine._driver import CHATTER, IMPACT, REVERSAL, STICK, Mode, check_run_arguments, check_sample_times, drive
 from ..model import _rule
 from ..model._oscillator import Oscillator
 from ..results._solution import Solution, _Recorder
@@ -73,6 +73,8 @@ class TangentRecorder(_Recorder):
         self.held_start: Saltation | None = None
         #: The first guard crossed tangentially, or None.
         self.tangential: Saltation | None = None
+        self._impact_side = 0  # wall of the last impact while a sequence of impacts goes on, else 0
+        self._pending: Saltation | None = None  # a slow impact inside such a sequence
 
     def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
         super().begin(osc, t, x, v, mode)
@@ -108,10 +110,19 @@ class TangentRecorder(_Recorder):
                                x_after, v_after, kind)
         if self.keep_saltations:
             self.saltations.append(sal)
-        if sal.singular and self.tangential is None:
-            self.tangential = sal
-            if self.singular is None:
-                self.singular = sal
+        side = 1 if x_after > 0.0 else -1
+        if kind == IMPACT and sal.singular and self._impact_side == side:
+            # A slow impact after an impact on the same wall: a member of a chatter sequence,
+            # whose jump (:meth:`chatter`) will make the map locally constant. Singular only if
+            # the sequence ends otherwise.
+            self._pending = self._pending or sal
+        elif sal.singular:
+            self._tangential(sal)
+        if kind == IMPACT:
+            self._impact_side = side
+        elif kind is not None and kind != REVERSAL:
+            self._impact_side = 0
+            self._commit_pending()
         if sal.det == 0.0 or kind == STICK:
             self.collapsed = True
         self.jacobian = matmul(sal.matrix, self.jacobian)
@@ -122,11 +133,28 @@ class TangentRecorder(_Recorder):
         # which the release from the wall depends on the forcing alone: the map is locally
         # constant, its Jacobian zero.
         state = super().chatter(jump, t)
+        self._pending = None  # the slow impacts of the sequence end in the jump: no singularity
+        self._impact_side = 0
         self.jacobian = _ZERO
         self.collapsed = True
         if self.keep_saltations:
             self.saltations.append(Saltation(jump.t_inf, CHATTER, CHATTER, _ZERO, 0.0, False))
         return state
+
+    def finish(self, t: float, x: float, v: float, mode: Mode, status: int, message: str) -> None:
+        self._commit_pending()
+        super().finish(t, x, v, mode, status, message)
+
+    def _tangential(self, sal: Saltation) -> None:
+        if self.tangential is None:
+            self.tangential = sal
+            if self.singular is None:
+                self.singular = sal
+
+    def _commit_pending(self) -> None:
+        if self._pending is not None:
+            self._tangential(self._pending)
+            self._pending = None
 
     def sample(self, t: float, x: float, v: float, mode: Mode) -> None:
         super().sample(t, x, v, mode)
