@@ -95,9 +95,12 @@ class PeriodicOrbit:
     collapsed : bool
         A stick or chatter in the period: one multiplier is exactly 0.
     status : int
-        0 converged; 1 Newton did not converge (``x, v`` hold the last iterate); 2 the orbit
-        crosses a guard tangentially (grazing: the map is not differentiable there);
-        -1 a run failed.
+        0 converged; 1 Newton did not converge (``x, v`` hold the last iterate); 2 the map
+        is not differentiable at ``(x, v)`` (``monodromy`` and ``multipliers`` are NaN, the
+        message says why): the orbit crosses a guard tangentially (a grazing impact, a
+        turning point on a rigid wall, a release at an extremum of the forcing), or the
+        section point is at rest held by static friction alone (``beta < |f_net| <=
+        beta_static``: any velocity makes it slide); -1 a run failed.
     message : str
         What happened, in words.
     iterations : int
