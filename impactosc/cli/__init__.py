@@ -1,6 +1,6 @@
 """The command line: ``impactosc demo | simulate | sweep | bifurcation | orbit | onset | chart | paper``.
 
-Also ``python -m impactosc``. One private module per subcommand; :mod:`._main` lists them
+Also ``python -m impactosc``. One private module per subcommand; ``impactosc/cli/_main.py`` lists them
 and says how to add one.
 """
 
