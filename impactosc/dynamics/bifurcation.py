@@ -227,7 +227,7 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
     args = (base, parameter, settings)
 
     def on_lost(key, message):
-        for k, fields in todo_items.get(key, [(key, None)]):
+        for k, _ in todo_items.get(key, [(key, None)]):
             if k not in results:
                 stored = st.load(k) if st is not None else None  # saved by the pass before it was lost
                 results[k] = stored if stored is not None else _failure(n_rec, STATUS_LOST, message)
