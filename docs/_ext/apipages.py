@@ -192,11 +192,23 @@ def _literal(text: str) -> str:
     return f".. code-block:: text\n\n{body}\n"
 
 
+def _build_parser(package: str = PACKAGE) -> argparse.ArgumentParser:
+    """The parser of the command line: ``build_parser()`` of ``<package>.cli`` or of the first
+    of its modules that defines one (the package keeps it in a private module)."""
+    cli = importlib.import_module(f"{package}.cli")
+    modules = [cli.__name__]
+    modules += [info.name for info in pkgutil.iter_modules(cli.__path__, prefix=cli.__name__ + ".")]
+    for modname in modules:
+        build = getattr(importlib.import_module(modname), "build_parser", None)
+        if callable(build):
+            return build()
+    raise ImportError(f"no build_parser() in {package}.cli or its modules")
+
+
 def cli_page(package: str = PACKAGE) -> str:
-    cli = importlib.import_module(f"{package}.__main__")
-    parser = cli.build_parser()
+    parser = _build_parser(package)
     parser.prog = package
-    parts = [_title("Command line"), f".. automodule:: {package}.__main__\n   :no-index:\n",
+    parts = [_title("Command line"), f".. automodule:: {package}.cli\n   :no-index:\n",
              _literal(parser.format_help())]
     for name, sub in _subcommands(parser).items():
         sub.prog = f"{package} {name}"
