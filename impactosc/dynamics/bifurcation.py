@@ -17,7 +17,7 @@ of :func:`impactosc.runner.run_points`: the reusable local pool by default (a sm
 runs in this process, see the runner's rule), ``"serial"``, any
 :class:`concurrent.futures.Executor` or a ``dask.distributed.Client``. With ``store=``
 every finished value is saved at once in the runner's verified store (one ``.npz`` file per
-value, format :data:`STORE_FORMAT`), so an interrupted diagram resumes where it stopped (a
+value, format ``STORE_FORMAT``), so an interrupted diagram resumes where it stopped (a
 pass from its last finished value).
 """
 

@@ -161,7 +161,7 @@ def rk4_grid(base: TapeDrive, grid: dict, *, duration: float = 1.0, dt="figure",
 def rk4_default_step_cost(base: TapeDrive, points: list[dict], duration: float = 1.0) -> dict:
     """Run a few points at the RK4 default step and measure the cost (for extrapolation).
 
-    The points run in one :func:`rk4_batch` call, i.e. in parallel over the cores.
+    The points run in one :func:`impactosc.backends.rk4.rk4_batch` call, i.e. in parallel over the cores.
 
     Returns
     -------

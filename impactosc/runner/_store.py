@@ -165,7 +165,7 @@ def read_manifest(path: Path, kind: str, fmt: int, required: tuple = ("settings"
 
 
 class PointStore:
-    """A store at ``root``; :meth:`create` for a run, :meth:`read` to load one back."""
+    """A store at ``root``; ``PointStore.create`` for a run, ``PointStore.read`` to load one back."""
 
     def __init__(self, root: Path, settings: dict, codec: Codec, *, read_only: bool):
         self.root = root
@@ -226,7 +226,7 @@ class PointStore:
     def load(self, key: str) -> Any:
         """The stored result of point ``key``, or None if it is missing or unusable.
 
-        An unusable file is recorded in :attr:`bad` (see :meth:`warn_unusable`); a writable
+        An unusable file is recorded in ``bad`` (see ``warn_unusable``); a writable
         store also moves it to ``quarantine/``, so the point is computed and saved again.
         """
         path = self.path(key)
