@@ -36,7 +36,7 @@ from .lyapunov import LyapunovResult, lyapunov_exponent
 from .onset import ContactOnset, contact_margin, contact_onset
 from .poincare import Section, detect_period, event_section, stroboscopic_section
 from .saltation import Saltation, saltation_matrix
-from .shooting import PeriodicOrbit, floquet_multipliers, monodromy, periodic_orbit
+from .shooting import Monodromy, PeriodicOrbit, floquet_multipliers, monodromy, periodic_orbit
 
 __all__ = [
     "stroboscopic_section",
@@ -45,6 +45,7 @@ __all__ = [
     "Section",
     "periodic_orbit",
     "monodromy",
+    "Monodromy",
     "floquet_multipliers",
     "PeriodicOrbit",
     "saltation_matrix",

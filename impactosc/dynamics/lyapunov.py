@@ -28,7 +28,7 @@ from .._util import validation as _v
 from ..backends._simulate import simulate
 from ._common import advanced, check_base, forcing_period, oscillator_of, section_offset
 from .flow import IDENTITY
-from .tangent import check_backend, tangent_run
+from .tangent import check_backend, check_start, tangent_run
 
 __all__ = ["LyapunovResult", "lyapunov_exponent"]
 
@@ -122,7 +122,8 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
     transient_periods : int
         Forcing periods run first (without the tangent dynamics) to reach the attractor.
     renormalise_every : int
-        Forcing periods between renormalisations of the tangent vector.
+        Forcing periods between renormalisations of the tangent vector (<= ``periods``; the
+        last interval is shorter when ``periods`` is not a multiple of it).
     x0, v0 : float
         Initial state; ``phase`` the forcing phase of the start (default: as at t = 0).
     backend : {"heyoka", "scipy", "exact"}
@@ -137,19 +138,27 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
     periods = _v.integer("periods", periods)
     transient_periods = _v.integer("transient_periods", transient_periods, minimum=0)
     renormalise_every = _v.integer("renormalise_every", renormalise_every)
+    if renormalise_every > periods:
+        raise ValueError(f"renormalise_every must be <= periods (the run lasts periods={periods} forcing periods, "
+                         f"so an interval of {renormalise_every} would never end inside it), got "
+                         f"renormalise_every={renormalise_every}")
     T = forcing_period(osc)
     sec = advanced(osc, section_offset(osc, phase))
     check_backend(sec, backend, options)
-    x0, v0 = _v.real("x0", x0), _v.real("v0", v0)
+    x0, v0 = check_start(sec, (transient_periods or periods) * T, x0, v0)
     if transient_periods:
         sol = simulate(sec, transient_periods * T, x0, v0, backend=backend, record="stats", **options)
         if sol.status != 0:
             return LyapunovResult(math.nan, np.array([]), np.array([]), np.array([]), -1,
                                   f"the transient failed: {sol.message}", renormalise_every)
         x0, v0 = sol.x_final, sol.v_final
-    n_renorm = max(1, periods // renormalise_every)
-    span = n_renorm * renormalise_every * T
-    times = T * renormalise_every * np.arange(1, n_renorm + 1)
+    # Exactly `periods` periods: every renormalise_every periods, and at the end (a shorter
+    # last interval when periods is not a multiple of renormalise_every).
+    counts = list(range(renormalise_every, periods + 1, renormalise_every))
+    if counts[-1] != periods:
+        counts.append(periods)
+    span = periods * T
+    times = T * np.array(counts, dtype=float)
     times[-1] = span
     hook = _Renormaliser()
     sol, rec = tangent_run(sec, span, x0, v0, backend=backend, options=options, sample_at=times, on_sample=hook)
@@ -159,10 +168,12 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
         history = np.cumsum(growth) / t if t.size else np.array([])
     exponent = float(history[-1]) if history.size else math.nan
     status, message = 0, f"{t.size} renormalisations over {t[-1] if t.size else 0:.6g} time units"
-    if rec.singular is not None:
-        s = rec.singular
-        status, message = 2, (f"the trajectory crosses the {s.guard} guard tangentially at t={s.t:.12g}: the tangent "
-                              "dynamics are undefined there (grazing); no exponent")
+    # A start at rest held by static friction alone (rec.held_start) does not count: the exponent
+    # is a rate along the trajectory, which reached that rest (after the transient) by a stick
+    # whose neighbours stick too, and one instant at the start does not change a mean rate.
+    if rec.tangential is not None:
+        s = rec.tangential
+        status, message = 2, f"{s.reason}: the tangent dynamics are undefined there (grazing); no exponent"
         exponent = math.nan
     elif hook.dead_at is not None:
         status, message = 3, (f"the tangent vector was annihilated before t={hook.dead_at:.12g} (a chatter, or a "

@@ -37,7 +37,7 @@ from ..backends._simulate import DEFAULT_MAX_EVENTS, simulate
 from ..engine._driver import CHATTER, CONTACT_START, IMPACT, drive
 from ..results._solution import Solution, _Recorder
 from ._common import advanced, check_base, check_parameter, forcing_period, oscillator_of, with_parameter
-from .tangent import check_backend, piece_stepper
+from .tangent import check_backend, check_start, piece_stepper
 
 __all__ = ["ContactOnset", "contact_margin", "contact_onset"]
 
@@ -137,8 +137,8 @@ def contact_margin(base, *, transient_periods: float = 200, record_periods: floa
     osc = oscillator_of(check_base(base))
     transient_periods, record_periods = _periods(transient_periods, record_periods)
     check_backend(osc, backend, options)
-    return _margin(osc, _v.real("x0", x0), _v.real("v0", v0), 0.0, transient_periods, record_periods, backend,
-                   options, stop_at_contact)[0]
+    x0, v0 = check_start(osc, (transient_periods + record_periods) * forcing_period(osc), x0, v0)
+    return _margin(osc, x0, v0, 0.0, transient_periods, record_periods, backend, options, stop_at_contact)[0]
 
 
 def _periods(transient_periods, record_periods) -> tuple[float, float]:
@@ -248,9 +248,10 @@ def contact_onset(base, parameter: str, bracket, *, tol: float | None = None, sc
     transient_periods, record_periods = _periods(transient_periods, record_periods)
     if orbit is not None and transient_periods != int(transient_periods):
         raise ValueError(f"transient_periods must be a whole number with orbit=, got {transient_periods!r}")
-    check_backend(oscillator_of(with_parameter(base, parameter, lo)), backend, options)
+    first = oscillator_of(with_parameter(base, parameter, lo))
+    check_backend(first, backend, options)
     max_evaluations = _v.integer("max_evaluations", max_evaluations, minimum=2)
-    x0, v0 = _v.real("x0", x0), _v.real("v0", v0)
+    x0, v0 = check_start(first, (transient_periods + record_periods) * forcing_period(first), x0, v0)
     calls = [0]
 
     if orbit is not None:

@@ -185,8 +185,32 @@ def detect_period(x, v, *, max_period: int = 32, tol: float = 1e-6) -> int | Non
     Compares the last ``n`` points with the ``n`` before them (``|dz| <= tol``); needs at
     least ``2 n`` points. None: no period up to ``max_period`` (quasi-periodic, chaotic, or
     a transient not yet over).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Unless ``x`` and ``v`` are 1-D sequences of finite numbers of the same length,
+        ``max_period`` an integer >= 1 and ``tol`` a finite number >= 0.
     """
-    z = np.column_stack([np.asarray(x, float), np.asarray(v, float)])
+    max_period = _v.integer("max_period", max_period)
+    tol = _v.nonnegative("tol", tol)
+    arrays = []
+    for name, a in (("x", x), ("v", v)):
+        try:
+            arr = np.asarray(a, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a 1-D sequence of real numbers, got {a!r}") from None
+        if arr.ndim != 1:
+            raise ValueError(f"{name} must be one-dimensional (one point of the section per entry), got shape "
+                             f"{arr.shape}")
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise ValueError(f"{name} must be finite, got {float(arr[bad[0]])!r} at index {bad[0]}")
+        arrays.append(arr)
+    if arrays[0].size != arrays[1].size:
+        raise ValueError(f"x and v must have the same length (one (X, V) point per entry), got {arrays[0].size} "
+                         f"and {arrays[1].size}")
+    z = np.column_stack(arrays)
     for n in range(1, max_period + 1):
         if z.shape[0] < 2 * n:
             return None

@@ -17,17 +17,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .._util import validation as _v
 from ..backends._simulate import simulate
 from ..model._oscillator import Oscillator
+from ..results._solution import Solution
 from ._common import advanced, check_base, forcing_period, oscillator_of, periods_in, section_offset
-from .tangent import check_backend, tangent_run
+from .tangent import check_backend, check_start, tangent_run
 
-__all__ = ["PeriodicOrbit", "periodic_orbit", "monodromy", "floquet_multipliers"]
+__all__ = ["PeriodicOrbit", "Monodromy", "periodic_orbit", "monodromy", "floquet_multipliers"]
 
 #: Distance of the largest multiplier modulus from 1 below which the verdict is "marginal".
 MARGINAL = 1e-8
@@ -94,9 +95,12 @@ class PeriodicOrbit:
     collapsed : bool
         A stick or chatter in the period: one multiplier is exactly 0.
     status : int
-        0 converged; 1 Newton did not converge (``x, v`` hold the last iterate); 2 the orbit
-        crosses a guard tangentially (grazing: the map is not differentiable there);
-        -1 a run failed.
+        0 converged; 1 Newton did not converge (``x, v`` hold the last iterate); 2 the map
+        is not differentiable at ``(x, v)`` (``monodromy`` and ``multipliers`` are NaN, the
+        message says why): the orbit crosses a guard tangentially (a grazing impact, a
+        turning point on a rigid wall, a release at an extremum of the forcing), or the
+        section point is at rest held by static friction alone (``beta < |f_net| <=
+        beta_static``: any velocity makes it slide); -1 a run failed.
     message : str
         What happened, in words.
     iterations : int
@@ -181,15 +185,71 @@ class PeriodicOrbit:
         return ax
 
 
+class Monodromy(NamedTuple):
+    """The stroboscopic map ``P^n`` at a point and its Jacobian (:func:`monodromy`).
+
+    A named tuple ``(x, v, jacobian, recorder)``, so ``x, v, J, rec = monodromy(...)`` and
+    ``monodromy(...)[:2]`` work as they did when it was a plain tuple; the other facts of the
+    run are properties.
+
+    Attributes
+    ----------
+    x, v : float
+        ``P^n(x0, v0)``.
+    jacobian : ndarray (2, 2)
+        ``dP^n / d(X, V)`` from the saltation product; NaN where no Jacobian exists
+        (``singular``).
+    recorder : TangentRecorder
+        The run's tangent recorder (:mod:`.tangent`).
+    """
+
+    x: float
+    v: float
+    jacobian: np.ndarray
+    recorder: Any
+
+    @property
+    def collapsed(self) -> bool:
+        """A stick, a stuck start, a chatter or a plastic impact annihilated a direction (rank < 2)."""
+        return bool(self.recorder.collapsed)
+
+    @property
+    def singular(self):
+        """The :class:`~.saltation.Saltation` of the first point where the map has no Jacobian, or None."""
+        return self.recorder.singular
+
+    @property
+    def differentiable(self) -> bool:
+        """True when the Jacobian exists (no tangential crossing, no start held by static friction alone)."""
+        return self.recorder.singular is None
+
+    @property
+    def reason(self) -> str:
+        """Why the map is not differentiable here, in words ("" when it is)."""
+        return self.recorder.singular.reason if self.recorder.singular is not None else ""
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        """Eigenvalues of ``jacobian`` (:func:`floquet_multipliers`), NaN when it does not exist."""
+        if not self.differentiable:
+            return np.full(2, math.nan, dtype=complex)
+        return floquet_multipliers(self.jacobian, self.collapsed)
+
+    @property
+    def events(self):
+        """The events of the run (``Solution.events``)."""
+        return Solution(self.recorder, self.recorder.t_final).events
+
+
 def monodromy(osc: Oscillator, x0: float, v0: float, n: int = 1, *, t0: float = 0.0, backend: str = "heyoka",
-              **options):
+              **options) -> Monodromy:
     """The stroboscopic map ``P^n`` at ``(x0, v0)`` and its Jacobian.
 
     Parameters
     ----------
-    osc : Oscillator
+    osc : Oscillator or TapeDrive
     x0, v0 : float
-        The state at time ``t0``.
+        The state at time ``t0``, checked as :func:`impactosc.simulate` checks its start.
     n : int
         Forcing periods.
     t0 : float
@@ -200,17 +260,30 @@ def monodromy(osc: Oscillator, x0: float, v0: float, n: int = 1, *, t0: float = 
 
     Returns
     -------
-    tuple
-        ``(x, v, jacobian, recorder)``: ``jacobian`` is a 2x2 array; ``recorder`` (:class:`~.tangent.TangentRecorder`)
-        tells whether a direction collapsed or a guard was crossed tangentially.
+    Monodromy
+        ``(x, v, jacobian, recorder)`` as a named tuple; ``jacobian`` is a 2x2 array, NaN
+        where the map is not differentiable (``.differentiable``, ``.reason``: a grazing
+        impact, a start at rest held by static friction alone).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, as :func:`impactosc.simulate` raises them (e.g. ``x0`` beyond a
+        rigid flange, a non-finite state).
+    RuntimeError
+        If the run stops early (its message says why).
     """
+    check_base(osc)
     osc = oscillator_of(osc)
     n, span = periods_in(osc, None, n)
-    check_backend(osc, backend, options)
-    sol, rec = tangent_run(advanced(osc, t0), span, x0, v0, backend=backend, options=options)
+    t0 = _v.real("t0", t0)
+    sec = advanced(osc, t0)
+    check_backend(sec, backend, options)
+    x0, v0 = check_start(sec, span, x0, v0)
+    sol, rec = tangent_run(sec, span, x0, v0, backend=backend, options=options, record="events")
     if sol.status != 0:
         raise RuntimeError(f"the run from ({x0!r}, {v0!r}) failed: {sol.message}")
-    return sol.x_final, sol.v_final, np.array(rec.jacobian).reshape(2, 2), rec
+    return Monodromy(sol.x_final, sol.v_final, _jacobian(rec), rec)
 
 
 def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, x0: float = 0.95,
@@ -266,10 +339,10 @@ def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, 
     check_backend(sec, backend, options)
     if guess is None:
         transient_periods = _v.integer("transient_periods", transient_periods, minimum=0)
-        x0, v0 = _v.real("x0", x0), _v.real("v0", v0)
+        T = forcing_period(osc)
+        x0, v0 = check_start(sec, transient_periods * T if transient_periods else span, x0, v0)
         z = np.array([x0, v0])
         if transient_periods:
-            T = forcing_period(osc)
             sol = simulate(sec, transient_periods * T, x0, v0, backend=backend, record="stats", **options)
             if sol.status != 0:
                 return _failed(osc, sec, n, span, t_s, z, -1, f"the transient failed: {sol.message}", backend, options)
@@ -279,7 +352,7 @@ def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, 
             gx, gv = guess
         except (TypeError, ValueError):
             raise TypeError(f"guess must be a pair (X, V), got {guess!r}") from None
-        z = np.array([_v.real("guess[0]", gx), _v.real("guess[1]", gv)])
+        z = np.array(check_start(sec, span, gx, gv, names=("guess[0]", "guess[1]")))
 
     history: list[float] = []
     status, message = 1, ""
@@ -294,8 +367,7 @@ def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, 
         converged = rnorm <= tol * max(1.0, float(np.linalg.norm(z)))
         if rec.singular is not None:
             s = rec.singular
-            status, message = 2, (f"the orbit crosses the {s.guard} guard tangentially at t={s.t:.12g} (grazing): the "
-                                  "map is not differentiable there, so "
+            status, message = 2, (f"{s.reason}, so "
                                   + ("the multipliers are undefined" if converged else "Newton cannot proceed; the "
                                      "last iterate is kept"))
             break
@@ -335,10 +407,20 @@ def _map(sec: Oscillator, z, span: float, backend: str, options: dict):
     """``(P^n(z), M, recorder)``, or ``(None, None, message)`` when the run fails."""
     if sec.rigid and abs(z[0]) > 1.0:
         return None, None, f"X = {z[0]!r} lies beyond a rigid flange (|X| <= 1)"
-    sol, rec = tangent_run(sec, span, float(z[0]), float(z[1]), backend=backend, options=options)
+    try:
+        sol, rec = tangent_run(sec, span, float(z[0]), float(z[1]), backend=backend, options=options)
+    except ValueError as exc:  # a Newton trial that simulate would refuse (e.g. a speed that overflows)
+        return None, None, str(exc)
     if sol.status != 0:
         return None, None, sol.message
-    return np.array([sol.x_final, sol.v_final]), np.array(rec.jacobian).reshape(2, 2), rec
+    return np.array([sol.x_final, sol.v_final]), _jacobian(rec), rec
+
+
+def _jacobian(rec) -> np.ndarray:
+    """The recorder's Jacobian as a 2x2 array; NaN where none exists (``rec.singular``)."""
+    if rec.singular is not None:
+        return np.full((2, 2), math.nan)
+    return np.array(rec.jacobian, dtype=float).reshape(2, 2)
 
 
 def _result(osc, sec, n, span, t_s, z, jac, rec, status, message, it, rnorm, history, backend, options):

@@ -15,14 +15,17 @@ from __future__ import annotations
 
 import math
 
-from ..backends._simulate import DEFAULT_MAX_EVENTS, simulate
-from ..engine._driver import CHATTER, STICK, Mode, drive
+from .._util import validation as _v
+from ..backends._simulate import DEFAULT_MAX_EVENTS, check_magnitudes, simulate
+from ..engine._driver import CHATTER, IMPACT, REVERSAL, STICK, Mode, check_run_arguments, check_sample_times, drive
+from ..model import _rule
 from ..model._oscillator import Oscillator
 from ..results._solution import Solution, _Recorder
 from .flow import IDENTITY, matmul, transition_matrix
 from .saltation import Saltation, saltation_matrix
 
-__all__ = ["TangentRecorder", "tangent_run", "piece_stepper", "TANGENT_BACKENDS"]
+__all__ = ["TangentRecorder", "tangent_run", "piece_stepper", "held_by_static_friction", "check_start",
+           "TANGENT_BACKENDS"]
 
 #: Backends whose pieces and events the tangent dynamics can follow (rk4 has no events).
 TANGENT_BACKENDS = ("heyoka", "scipy", "exact")
@@ -42,7 +45,13 @@ class TangentRecorder(_Recorder):
         A stick, a stuck start, a chatter or a plastic impact annihilated a direction:
         the Jacobian is singular by the structure of the flow, not by rounding.
     singular : Saltation or None
-        The first tangential crossing met (no saltation matrix exists there).
+        The first point met where no Jacobian exists: a tangential crossing (no saltation
+        matrix) or a start at rest held by static friction alone (``held_start``); its
+        ``reason`` says which, in words.
+    held_start : Saltation or None
+        The start at rest held by static friction alone (:func:`held_by_static_friction`).
+    tangential : Saltation or None
+        The first guard crossed tangentially (a grazing impact, ...).
     saltations : list of Saltation
         Every saltation matrix, when ``keep_saltations``.
     slip_time : float
@@ -60,15 +69,26 @@ class TangentRecorder(_Recorder):
         self.slip_time = 0.0
         self.on_sample = on_sample
         self._state: tuple[float, float, float] | None = None  # (t, x, v) at the start of the next piece
+        #: The singular "transition" of a start at rest held by static friction alone, or None.
+        self.held_start: Saltation | None = None
+        #: The first guard crossed tangentially, or None.
+        self.tangential: Saltation | None = None
+        self._impact_side = 0  # wall of the last impact while a sequence of impacts goes on, else 0
+        self._pending: Saltation | None = None  # a slow impact inside such a sequence
 
     def begin(self, osc: Oscillator, t: float, x: float, v: float, mode: Mode) -> None:
         super().begin(osc, t, x, v, mode)
         self.jacobian = IDENTITY
+        self.held_start = None
         if mode.motion == 0:
-            # A start at rest inside the stick band: a small initial velocity dies out at once
-            # (the mass slips O(dV^2) and sticks), so the map does not depend on V0.
+            # A start at rest inside the kinetic stick band |f_net| <= beta: a small initial
+            # velocity dies out at once (the mass slips O(dV^2) and sticks), so the map does not
+            # depend on V0.
             self.jacobian = _COLLAPSE
             self.collapsed = True
+            self.held_start = held_by_static_friction(osc, t, x)
+            if self.held_start is not None:
+                self.singular = self.held_start
 
     def segment(self, t: float, x: float, v: float, mode: Mode) -> None:
         super().segment(t, x, v, mode)
@@ -90,8 +110,19 @@ class TangentRecorder(_Recorder):
                                x_after, v_after, kind)
         if self.keep_saltations:
             self.saltations.append(sal)
-        if sal.singular and self.singular is None:
-            self.singular = sal
+        side = 1 if x_after > 0.0 else -1
+        if kind == IMPACT and sal.singular and self._impact_side == side:
+            # A slow impact after an impact on the same wall: a member of a chatter sequence,
+            # whose jump (:meth:`chatter`) will make the map locally constant. Singular only if
+            # the sequence ends otherwise.
+            self._pending = self._pending or sal
+        elif sal.singular:
+            self._tangential(sal)
+        if kind == IMPACT:
+            self._impact_side = side
+        elif kind is not None and kind != REVERSAL:
+            self._impact_side = 0
+            self._commit_pending()
         if sal.det == 0.0 or kind == STICK:
             self.collapsed = True
         self.jacobian = matmul(sal.matrix, self.jacobian)
@@ -102,16 +133,59 @@ class TangentRecorder(_Recorder):
         # which the release from the wall depends on the forcing alone: the map is locally
         # constant, its Jacobian zero.
         state = super().chatter(jump, t)
+        self._pending = None  # the slow impacts of the sequence end in the jump: no singularity
+        self._impact_side = 0
         self.jacobian = _ZERO
         self.collapsed = True
         if self.keep_saltations:
             self.saltations.append(Saltation(jump.t_inf, CHATTER, CHATTER, _ZERO, 0.0, False))
         return state
 
+    def finish(self, t: float, x: float, v: float, mode: Mode, status: int, message: str) -> None:
+        self._commit_pending()
+        super().finish(t, x, v, mode, status, message)
+
+    def _tangential(self, sal: Saltation) -> None:
+        if self.tangential is None:
+            self.tangential = sal
+            if self.singular is None:
+                self.singular = sal
+
+    def _commit_pending(self) -> None:
+        if self._pending is not None:
+            self._tangential(self._pending)
+            self._pending = None
+
     def sample(self, t: float, x: float, v: float, mode: Mode) -> None:
         super().sample(t, x, v, mode)
         if self.on_sample is not None:
             self.jacobian = self.on_sample(self, t, x, v, self.jacobian)
+
+
+def held_by_static_friction(osc: Oscillator, t: float, x: float) -> Saltation | None:
+    """Why the map from a state at rest at ``(t, x)`` has no Jacobian, or None if it has one.
+
+    A mass at rest with ``beta < |f_net| <= beta_static`` is held by static friction alone:
+    with ``V0 = 0`` exactly it stays, but any velocity along ``f_net``, however small, makes
+    it slide against the kinetic level ``beta < |f_net|`` and accelerate away (issue 20: a
+    velocity of 1e-12 moved the mass by 0.255 in one period). The map is discontinuous in
+    ``V0`` there. Against a rigid wall only the pull away from it counts (a push into the
+    wall brings the mass back). A *stick* event in that band is different: every
+    neighbouring trajectory reaches ``V = 0`` at a nearby point and sticks too, so the
+    saltation matrix of the stick exists; only a start at rest is singular.
+    """
+    f = osc._net_force_scalar(t, x)
+    tie = _rule.tie_tolerance(osc._p, float(t), float(x), f)
+    pull = abs(f)
+    if osc.rigid and abs(x) >= 1.0:
+        pull = -math.copysign(1.0, x) * f  # the force away from the wall the mass rests on
+    if not pull > osc.beta + tie:
+        return None
+    nan = float("nan")
+    reason = (f"the start at rest (X = {x!r}, V = 0, t = {t!r}) is held by static friction alone: "
+              f"beta = {osc.beta!r} < |f_net| = {pull!r} <= beta_static = {osc.beta_s!r}, so any velocity along "
+              "f_net makes the mass slide away and the map is not differentiable (it jumps) in V there")
+    return Saltation(t, "static_friction", None, (nan, nan, nan, nan), nan, True, reason)
 
 
 def piece_stepper(backend: str, osc: Oscillator, options: dict):
@@ -146,20 +220,45 @@ def check_backend(osc: Oscillator, backend: str, options: dict) -> None:
     simulate(osc, 1e-9, 0.0, 0.0, backend=backend, record="stats", **options)
 
 
+def check_start(osc: Oscillator, t_end: float, x0, v0, *, names: tuple[str, str] = ("x0", "v0")):
+    """``(x0, v0)`` as floats, refused exactly as :func:`impactosc.simulate` refuses them.
+
+    The same checks in the same order (:func:`impactosc.engine.check_run_arguments`, then
+    :func:`impactosc.backends._simulate.check_magnitudes` over ``t_end``), so a dynamics
+    tool fails where ``simulate`` would, with the same message: a finite real start, inside
+    the walls of a rigid flange, whose run cannot overflow. ``names`` are the caller's
+    names of the two values (e.g. ``guess[0]``), put in the message where they differ.
+    """
+    x0, v0 = _v.real(names[0], x0), _v.real(names[1], v0)
+    try:
+        check_run_arguments(osc, t_end, x0, v0, 1)
+        check_magnitudes(osc, t_end, x0, v0)
+    except ValueError as exc:
+        if names == ("x0", "v0"):
+            raise
+        raise ValueError(f"{names[0]}, {names[1]} = {x0!r}, {v0!r} (the start, checked as simulate's x0, v0): "
+                         f"{exc}") from None
+    return x0, v0
+
+
 def tangent_run(osc: Oscillator, t_end: float, x0: float, v0: float, *, backend: str = "heyoka",
                 options: dict | None = None, record: str = "stats", sample_at=(), on_sample=None,
                 keep_saltations: bool = False, max_events: int = DEFAULT_MAX_EVENTS):
     """Run ``osc`` from ``(x0, v0)`` at time 0 to ``t_end`` and follow its Jacobian.
 
     ``options`` are the backend's (``tol``, ``rtol``, ...), already validated by
-    ``check_backend``. ``on_sample(recorder, t, x, v, jacobian) -> jacobian`` is called
+    ``check_backend``; ``t_end``, ``x0``, ``v0`` and ``sample_at`` are checked here as
+    :func:`impactosc.simulate` checks them (:func:`check_start`: a ``ValueError`` or
+    ``TypeError`` naming the argument). ``on_sample(recorder, t, x, v, jacobian) -> jacobian`` is called
     at every ``sample_at`` time (sorted, in ``[0, t_end]``): the Lyapunov renormalisation.
 
     Returns
     -------
     (Solution, TangentRecorder)
     """
+    x0, v0 = check_start(osc, t_end, x0, v0)
+    stops = check_sample_times(sample_at, t_end)
     stepper, evaluator = piece_stepper(backend, osc, options or {})
     rec = TangentRecorder(record, backend, evaluator, keep_saltations=keep_saltations, on_sample=on_sample)
-    drive(stepper, osc, t_end, float(x0), float(v0), rec, max_events, tuple(sample_at))
+    drive(stepper, osc, t_end, x0, v0, rec, max_events, stops)
     return Solution(rec, t_end), rec

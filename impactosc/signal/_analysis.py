@@ -14,7 +14,7 @@ import pandas as pd
 
 from .._util import validation as _v
 from ._bursts import ImpactCorrelation, burst_times, correlate_with_impacts
-from ._checks import BAND_HZ, CUTOFF_HZ, RESOLUTION_HZ, WINDOW_S, _check_band, check_signal
+from ._checks import BAND_HZ, CUTOFF_HZ, RESOLUTION_HZ, WINDOW_S, _check_band, _check_filter_cutoff, check_signal
 from ._filters import highpass, rms_envelope
 from ._plot import plot_analysis
 from ._spectra import Spectrogram, band_power, spectrogram
@@ -132,9 +132,11 @@ def analyze(t, x, *, cutoff: float = CUTOFF_HZ, order: int = 4, window: float = 
     t, x, fs = check_signal(t, x)
     band = _check_band(band, fs)
     hp = highpass(t, x, cutoff, order)
+    detrend_cutoff = band[0] / 4 if detrend_cutoff is None else _v.nonnegative("detrend_cutoff", detrend_cutoff)
+    if detrend_cutoff > 0:  # checked here so that the message names it (highpass calls it cutoff)
+        _check_filter_cutoff("detrend_cutoff", detrend_cutoff, fs)
     env = rms_envelope(t, hp, window)
     bursts = burst_times(t, env, threshold=threshold, level=level, min_gap=window)
-    detrend_cutoff = band[0] / 4 if detrend_cutoff is None else _v.nonnegative("detrend_cutoff", detrend_cutoff)
     detrended = highpass(t, x, detrend_cutoff, order) if detrend_cutoff > 0 else x
     imp = corr = None
     if impact_times is not None:

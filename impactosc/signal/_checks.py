@@ -10,7 +10,8 @@ import numpy as np
 
 from .._util import validation as _v
 
-__all__ = ["CUTOFF_HZ", "BAND_HZ", "WINDOW_S", "RESOLUTION_HZ", "UNIFORM_RTOL", "MIN_SAMPLES", "check_signal"]
+__all__ = ["CUTOFF_HZ", "BAND_HZ", "WINDOW_S", "RESOLUTION_HZ", "UNIFORM_RTOL", "MIN_SAMPLES", "MAX_SIGNAL",
+           "MIN_CUTOFF_RATIO", "check_signal"]
 
 #: Defaults from the paper's Fig. 3: high-pass at 1 kHz (the servo bandwidth), band 1-2 kHz.
 CUTOFF_HZ = 1e3
@@ -22,6 +23,13 @@ RESOLUTION_HZ = 250.0
 #: Relative deviation of a time step from the mean step above which sampling is "non-uniform".
 UNIFORM_RTOL = 1e-3
 MIN_SAMPLES = 16
+#: Largest ``|x|`` accepted. The pipeline squares and sums the signal (rms, Welch's
+#: ``|FFT|^2``, ``~ (n max|x|)^2``): below 1e100 that stays under 1e216 for 1e8 samples,
+#: far from the double-precision overflow at 1.8e308 (an LTM in metres is ~1e-6).
+MAX_SIGNAL = 1e100
+#: Smallest ``cutoff / fs`` of a filter: scipy's zero-phase Butterworth (order 4, second-order
+#: sections) works at 1e-8 and its initial conditions are a singular system at 1e-10.
+MIN_CUTOFF_RATIO = 1e-8
 
 
 # -- input checks ---------------------------------------------------------------------------
@@ -49,6 +57,10 @@ def check_signal(t, x) -> tuple[np.ndarray, np.ndarray, float]:
                              f"({bad.size} non-finite values in all)")
         arrays.append(arr)
     t, x = arrays
+    big = np.flatnonzero(np.abs(x) > MAX_SIGNAL)
+    if big.size:
+        raise ValueError(f"x must stay within +-{MAX_SIGNAL:g} (its squares, the rms and the power, must fit in double "
+                         f"precision), got {float(x[big[0]])!r} at index {big[0]}: is it in metres?")
     if t.size != x.size:
         raise ValueError(f"t and x must have the same length, got {t.size} and {x.size}")
     if t.size < MIN_SAMPLES:
@@ -73,6 +85,16 @@ def _check_frequency(name: str, value, fs: float) -> float:
     if not f < fs / 2:
         raise ValueError(f"{name} must be below the Nyquist frequency fs/2 = {fs / 2:g} Hz of the signal "
                          f"(sampling rate {fs:g} Hz), got {name}={f!r}")
+    return f
+
+
+def _check_filter_cutoff(name: str, value, fs: float) -> float:
+    """A filter cutoff: below Nyquist, and at least :data:`MIN_CUTOFF_RATIO` of the sampling rate."""
+    f = _check_frequency(name, value, fs)
+    if not f >= MIN_CUTOFF_RATIO * fs:
+        raise ValueError(f"{name} must be at least {MIN_CUTOFF_RATIO:g} of the sampling rate fs = {fs:g} Hz (time "
+                         f"step {1.0 / fs:g} s): a Butterworth filter at {name}/fs = {f / fs:.3g} is numerically "
+                         f"singular; got {name}={f!r} Hz. Is t in seconds?")
     return f
 
 

@@ -22,17 +22,40 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "nm": 1e-9}
 
 
-def _sniff(path, sep: str | None) -> tuple[str, bool]:
+#: Delimiters the sniffer tries (a run of spaces counts as one).
+DELIMITERS = ",;\t "
+
+
+def _sniff(path, sep: str | None, encoding: str) -> tuple[str, bool]:
     """Delimiter (``sep`` if given) and whether a header line is present, from the first data lines.
 
     pandas' fast reader cannot guess either; a header is a first line with no number in it.
+
+    Raises
+    ------
+    ValueError
+        If the file cannot be decoded with ``encoding`` (the message names the file, the
+        byte and the option to change), holds no data line, or has a single column.
     """
-    with open(path, newline="") as fh:
-        lines = [line for line in itertools.islice(fh, 200) if line.strip() and not line.lstrip().startswith("#")]
+    try:
+        with open(path, newline="", encoding=encoding) as fh:
+            lines = [line for line in itertools.islice(fh, 200)
+                     if line.strip() and not line.lstrip().startswith("#")]
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: cannot be decoded as {encoding!r} text (byte {exc.object[exc.start]:#04x} "
+                         f"at offset {exc.start} is invalid: {exc.reason}); pass encoding= (e.g. 'latin-1') if it is "
+                         "a CSV written in another encoding") from None
     if not lines:
-        raise csv.Error("no data lines")
+        raise ValueError(f"{path}: cannot be read as a table of (time, displacement) columns: it holds no data line "
+                         "(only blank or '#' comment lines)")
+    if any("\0" in line for line in lines):
+        raise ValueError(f"{path}: holds NUL bytes: a binary file, not a CSV table of (time, displacement)")
     if sep is None:
-        sep = csv.Sniffer().sniff("".join(lines[:20]), delimiters=",;\t ").delimiter
+        sample = "".join(lines[:20])
+        if not any(d in line.strip() for line in lines[:20] for d in DELIMITERS):
+            raise ValueError(f"{path}: has a single column (no comma, semicolon, tab or space on its first data "
+                             "lines); a record needs two columns, time and displacement")
+        sep = csv.Sniffer().sniff(sample, delimiters=DELIMITERS).delimiter
         sep = r"\s+" if sep == " " else sep
     fields = re.split(sep, lines[0].strip()) if sep == r"\s+" else lines[0].strip().split(sep)
     numeric = pd.to_numeric(pd.Series(fields), errors="coerce").notna()
@@ -55,24 +78,25 @@ def read_ltm_csv(path, *, time_column=0, x_column=1, time_unit: str = "s", x_uni
     x_unit : {"m", "mm", "um", "nm"}
         Units of the file's columns; the arrays returned are in s and m.
     **read_csv_options
-        Passed to :func:`pandas.read_csv` (e.g. ``sep``, ``skiprows``).
+        Passed to :func:`pandas.read_csv` (e.g. ``sep``, ``skiprows``, ``encoding``:
+        default ``"utf-8"``, ``"latin-1"`` for files written by older instruments).
 
     Raises
     ------
     ValueError
-        If a column is missing, holds a non-numeric or empty entry (the message gives the
-        row), or the record fails :func:`check_signal` (non-uniform or non-monotonic time,
-        NaN, too short).
+        If the file is not text in ``encoding``, has a single column, a column is missing,
+        holds a non-numeric or empty entry (the message gives the row), or the record fails
+        :func:`check_signal` (non-uniform or non-monotonic time, NaN, too short).
     """
     _v.choice("time_unit", time_unit, tuple(TIME_UNITS))
     _v.choice("x_unit", x_unit, tuple(LENGTH_UNITS))
-    options = {"comment": "#", **read_csv_options}
+    options = {"comment": "#", "encoding": "utf-8", **read_csv_options}
     try:
-        sep, has_header = _sniff(path, options.pop("sep", options.pop("delimiter", None)))
+        sep, has_header = _sniff(path, options.pop("sep", options.pop("delimiter", None)), options["encoding"])
         options["sep"] = sep
         options.setdefault("header", 0 if has_header else None)
         raw = pd.read_csv(path, **options)
-    except (csv.Error, pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
+    except (csv.Error, pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: cannot be read as a table of (time, displacement) columns: {exc}") from None
     raw.columns = [c.strip() if isinstance(c, str) else c for c in raw.columns]
     t = _column(raw, "time_column", time_column, path) * TIME_UNITS[time_unit]
@@ -105,7 +129,8 @@ def _column(raw: pd.DataFrame, name: str, col, path) -> np.ndarray:
 
 
 def analyze_csv(path, *, time_column=0, x_column=1, time_unit: str = "s", x_unit: str = "m",
-                **analyze_options) -> LTMAnalysis:
+                encoding: str = "utf-8", **analyze_options) -> LTMAnalysis:
     """Read a measured LTM CSV (:func:`read_ltm_csv`) and run :func:`analyze` on it: one call, then ``.plot()``."""
-    t, x = read_ltm_csv(path, time_column=time_column, x_column=x_column, time_unit=time_unit, x_unit=x_unit)
+    t, x = read_ltm_csv(path, time_column=time_column, x_column=x_column, time_unit=time_unit, x_unit=x_unit,
+                        encoding=encoding)
     return analyze(t, x, **analyze_options)

@@ -9,7 +9,7 @@ import numpy as np
 from scipy import signal as _ss
 
 from .._util import validation as _v
-from ._checks import CUTOFF_HZ, WINDOW_S, _check_frequency, check_signal
+from ._checks import CUTOFF_HZ, WINDOW_S, _check_filter_cutoff, check_signal
 
 __all__ = ["highpass", "rms_envelope"]
 
@@ -23,7 +23,8 @@ def highpass(t, x, cutoff: float = CUTOFF_HZ, order: int = 4) -> np.ndarray:
         Uniformly sampled time (s) and signal.
     cutoff : float
         Cutoff frequency in Hz (default 1 kHz, the paper's: the servo actuator tracks LTM
-        below about 1 kHz). Must be below the Nyquist frequency.
+        below about 1 kHz). Must be below the Nyquist frequency and at least 1e-8 of the
+        sampling rate (below that the filter design is numerically singular).
     order : int
         Order of the Butterworth design. The filter runs forward and backward
         (``scipy.signal.sosfiltfilt``): no phase shift, so bursts stay where they happen,
@@ -33,7 +34,7 @@ def highpass(t, x, cutoff: float = CUTOFF_HZ, order: int = 4) -> np.ndarray:
         within a few cutoff periods.
     """
     t, x, fs = check_signal(t, x)
-    cutoff = _check_frequency("cutoff", cutoff, fs)
+    cutoff = _check_filter_cutoff("cutoff", cutoff, fs)
     order = _v.integer("order", order)
     sos = _ss.butter(order, cutoff, btype="highpass", fs=fs, output="sos")
     # sosfiltfilt's default edge padding, a few samples; the record must be longer than that.
@@ -44,7 +45,12 @@ def highpass(t, x, cutoff: float = CUTOFF_HZ, order: int = 4) -> np.ndarray:
     # Pad by an odd reflection of three cutoff periods: with the default few samples the
     # filter's start-up transient at each end is as large as the bursts being looked for.
     padlen = min(x.size - 1, max(minimum, round(3 * fs / cutoff)))
-    return _ss.sosfiltfilt(sos, x, padlen=padlen)
+    try:
+        return _ss.sosfiltfilt(sos, x, padlen=padlen)
+    except np.linalg.LinAlgError:  # the filter's initial conditions: a singular system
+        raise ValueError(f"an order-{order} Butterworth high-pass at cutoff={cutoff!r} Hz is numerically singular at "
+                         f"the sampling rate fs = {fs:g} Hz (cutoff/fs = {cutoff / fs:.3g}): lower the order or raise "
+                         "the cutoff") from None
 
 
 def rms_envelope(t, x, window: float = WINDOW_S) -> np.ndarray:
