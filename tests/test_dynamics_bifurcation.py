@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import concurrent.futures as cf
+import json
 import math
 import os
 
@@ -55,18 +56,24 @@ def test_store_resumes_and_refuses_other_settings(tmp_path):
     store = tmp_path / "bif"
     kw = dict(transient_periods=10, record_periods=3, executor="serial", progress=False, store=store)
     first = bifurcation_diagram(DEN_HARTOG, "F", [0.2, 0.3, 0.4], continuation="forward", **kw)
-    files = sorted(p for p in os.listdir(store) if p.endswith(".npz"))
-    assert len(files) == 3
-    os.remove(store / files[-1])  # an interrupted pass: the last value is missing
-    stamp = os.stat(store / files[0]).st_mtime_ns
+    files = {_value_of(p): p for p in (store / "points").glob("*.npz")}
+    assert sorted(files) == [0.2, 0.3, 0.4]
+    os.remove(files[0.4])  # an interrupted pass: the last value is missing
+    stamp = os.stat(files[0.2]).st_mtime_ns
     again = bifurcation_diagram(DEN_HARTOG, "F", [0.2, 0.3, 0.4], continuation="forward", **kw)
-    assert os.stat(store / files[0]).st_mtime_ns == stamp  # finished values are not recomputed
+    assert os.stat(files[0.2]).st_mtime_ns == stamp  # finished values are not recomputed
     np.testing.assert_array_equal(again["x"].values, first["x"].values)
     loaded = load_bifurcation(store)
     np.testing.assert_array_equal(loaded["x"].values, first["x"].values)
     with pytest.raises(ValueError, match="different settings"):
         bifurcation_diagram(DEN_HARTOG, "F", [0.2, 0.3, 0.4], continuation="forward",
                             **{**kw, "record_periods": 5})
+
+
+def _value_of(path):
+    """The parameter value a point file of a bifurcation store holds."""
+    with np.load(path) as f:
+        return json.loads(str(f["fields"]))["value"]
 
 
 def test_tape_parameter_and_failures_are_recorded():

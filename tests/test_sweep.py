@@ -20,7 +20,7 @@ import xarray as xr
 import impactosc
 from impactosc.model import TapeDrive
 
-from impactosc.sweeps import _exec as _sweep_exec  # isort: skip
+from impactosc.runner import _exec as _runner_exec  # isort: skip
 from impactosc.sweeps import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, load_sweep, sweep  # isort: skip
 
 DURATION = 2e-3
@@ -38,7 +38,7 @@ class RecordingExecutor(cf.Executor):
 
     def submit(self, fn, /, *args, **kwargs):
         self.tasks += 1
-        chunk = args[0]
+        chunk = args[1]  # run_batch(point_function, chunk, *point_args)
         self.points.extend(fields for _, fields in chunk)
         fut = cf.Future()
         exc = next((e for _, f in chunk if self.fail_when and (e := self.fail_when(f)) is not None), None)
@@ -220,7 +220,7 @@ def test_failed_points_are_recorded_not_raised():
 def test_a_crashed_worker_loses_only_its_point(monkeypatch):
     # The task holding the guilty point dies as a whole (as when its process crashes), taking
     # the innocent points of its batch with it: they are retried, the guilty point is lost alone.
-    monkeypatch.setattr(_sweep_exec, "TASK_SECONDS", 1e9)  # batches as large as load balance allows
+    monkeypatch.setattr(_runner_exec, "TASK_SECONDS", 1e9)  # batches as large as load balance allows
     grid = {"pack_diameter": [0.05, 0.09], "speed": [4.0, 8.0, 12.0, 16.0]}
 
     def guilty(f):
@@ -228,7 +228,7 @@ def test_a_crashed_worker_loses_only_its_point(monkeypatch):
 
     class Sizes(RecordingExecutor):
         def submit(self, fn, /, *args, **kwargs):
-            self.sizes.append([guilty(f) for _, f in args[0]])
+            self.sizes.append([guilty(f) for _, f in args[1]])
             return super().submit(fn, *args, **kwargs)
 
     ex = Sizes(fail_when=lambda f: BrokenProcessPool("worker died") if guilty(f) else None)

@@ -12,8 +12,8 @@ import pytest
 import xarray as xr
 
 from impactosc.model import TapeDrive
+from impactosc.runner import _store as _runner_store
 from impactosc.sweeps import STATUS_NOT_COMPUTED, load_sweep, sweep
-from impactosc.sweeps import _store as _sweep_store
 
 BASE = TapeDrive(clearance=50e-6)
 GRID = {"speed": [4.0, 8.0, 12.0]}
@@ -30,7 +30,7 @@ class Counting:
     def submit(self, fn, *args):
         import concurrent.futures as cf
 
-        self.n_points += len(args[0])
+        self.n_points += len(args[1])  # run_batch(point_function, points, *point_args)
         fut = cf.Future()
         fut.set_result(fn(*args))
         return fut
@@ -156,7 +156,7 @@ def test_a_bad_option_writes_no_store(tmp_path):
 
 
 def test_a_failing_save_warns_once_and_the_sweep_keeps_its_results(tmp_path, monkeypatch):
-    atomic_write = _sweep_store._atomic_write
+    atomic_write = _runner_store.atomic_write
 
     def disk_full(path, write):  # the manifest still fits, the point files do not
         if path.suffix == ".nc":
@@ -165,7 +165,7 @@ def test_a_failing_save_warns_once_and_the_sweep_keeps_its_results(tmp_path, mon
 
     store = tmp_path / "st"
     sweep(BASE, {"speed": [4.0]}, store=store, **KW)
-    monkeypatch.setattr(_sweep_store, "_atomic_write", disk_full)
+    monkeypatch.setattr(_runner_store, "atomic_write", disk_full)
     with pytest.warns(RuntimeWarning, match="cannot save point .*No space left") as rec:
         ds = sweep(BASE, GRID, store=store, **KW)
     assert len([w for w in rec if "cannot save" in str(w.message)]) == 1

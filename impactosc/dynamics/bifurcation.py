@@ -12,23 +12,19 @@ the forcing phase carries over too); ``"backward"`` the same in decreasing order
 runs the two passes concurrently. Where two attractors coexist the passes follow different
 branches: hysteresis shows as two diagrams that differ over an interval.
 
-Execution. The work is module-level functions with plain arguments (``_run_values``,
-``_run_pass``), submitted to any :class:`concurrent.futures.Executor` (default: a local
-process pool), and every finished value is written at once to a store directory: one small
-``.npz`` file per value, written atomically (a temporary file renamed into place), so an
-interrupted diagram resumes where it stopped (a pass from its last finished value). The main
-process follows the store to drive a tqdm progress bar.
+Execution. The values (or, with continuation, the passes: one pass is one task) are points
+of :func:`impactosc.runner.run_points`: the reusable local pool by default (a small diagram
+runs in this process, see the runner's rule), ``"serial"``, any
+:class:`concurrent.futures.Executor` or a ``dask.distributed.Client``. With ``store=``
+every finished value is saved at once in the runner's verified store (one ``.npz`` file per
+value, format ``STORE_FORMAT``), so an interrupted diagram resumes where it stopped (a
+pass from its last finished value).
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import json
 import math
-import multiprocessing
-import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +32,7 @@ import numpy as np
 
 from .._util import validation as _v
 from ..backends._simulate import simulate
+from ..runner import PointStore, check_executor, check_store_path, point_key, run_points
 from ._common import (
     check_base,
     check_parameter,
@@ -53,11 +50,12 @@ CONTINUATIONS = ("none", "forward", "backward", "both")
 STATUS_EXCEPTION = -2
 STATUS_LOST = -3
 STATUS_NOT_COMPUTED = -4
-_STORE_FORMAT = 1
-_MANIFEST = "manifest.json"
-#: Tasks per worker for independent values: few enough to amortise each worker's heyoka
-#: compilation, enough to balance the load.
-CHUNKS_PER_WORKER = 4
+#: Format 1 (before the shared runner) kept unverified ``<direction>-<index>.npz`` files
+#: beside the manifest; such a store is refused with a message naming its manifest.
+STORE_FORMAT = 2
+_KIND = "bifurcation diagram"
+_LABELS = {"none": ["independent"], "forward": ["forward"], "backward": ["backward"],
+           "both": ["forward", "backward"]}
 
 
 # ---------------------------------------------------------------------------------------
@@ -66,8 +64,8 @@ CHUNKS_PER_WORKER = 4
 def _run_value(base, parameter: str, value: float, x0: float, v0: float, settings: dict) -> dict:
     """One value: transient, then the recorded section points. Never raises."""
     n_rec = settings["record_periods"]
-    out: dict[str, Any] = {"x": np.full(n_rec, math.nan), "v": np.full(n_rec, math.nan), "t": np.full(n_rec, math.nan),
-           "x_final": math.nan, "v_final": math.nan}
+    out: dict[str, Any] = {"x": np.full(n_rec, math.nan), "v": np.full(n_rec, math.nan),
+                           "t": np.full(n_rec, math.nan), "x_final": math.nan, "v_final": math.nan}
     try:
         osc = oscillator_of(with_parameter(base, parameter, value))
         T = forcing_period(osc)
@@ -83,81 +81,82 @@ def _run_value(base, parameter: str, value: float, x0: float, v0: float, setting
     s = sol.samples
     k = len(s)
     out["x"][:k], out["v"][:k], out["t"][:k] = s.x, s.v, s.t
-    out.update(x_final=sol.x_final, v_final=sol.v_final, status=int(sol.status), message=str(sol.message))
+    out.update(x_final=float(sol.x_final), v_final=float(sol.v_final), status=int(sol.status),
+               message=str(sol.message))
     return out
 
 
-def _run_values(store: str, label: str, items: list, base, parameter: str, x0: float, v0: float,
-                settings: dict) -> int:
-    """Independent values ``[(index, value), ...]``, each saved to the store when done."""
-    for index, value in items:
-        _save(Path(store), label, index, value, _run_value(base, parameter, value, x0, v0, settings))
-    return len(items)
+def _value_task(value: float, base, parameter: str, x0: float, v0: float, settings: dict) -> dict:
+    """A runner point: one value from ``(x0, v0)``."""
+    return _run_value(base, parameter, value, x0, v0, settings)
 
 
-def _run_pass(store: str, label: str, items: list, base, parameter: str, x0: float, v0: float,
-              settings: dict) -> int:
-    """A continuation pass over ``[(index, value), ...]`` in order, each from the last final state.
+def _pass_task(payload: tuple, base, parameter: str, settings: dict) -> dict:
+    """A runner point: a continuation pass ``[(key, fields), ...]`` in order, from ``(x0, v0)``.
 
-    Resumes after the values of this pass already in the store. A value whose run failed
-    hands on its own start state (the next value does not start from NaN).
+    Each value starts from the final state of the one before; a value whose run failed hands
+    on its own start state (the next value does not start from NaN). With a store, every
+    value is saved as soon as it is done, so an interrupted pass resumes from there.
     """
-    root = Path(store)
-    done = 0
-    for index, value in items:
-        path = _path(root, label, index)
-        if path.exists():
-            prev = _load(path)
-        else:
-            prev = _run_value(base, parameter, value, x0, v0, settings)
-            _save(root, label, index, value, prev)
-        done += 1
-        if math.isfinite(prev["x_final"]) and math.isfinite(prev["v_final"]):
-            x0, v0 = float(prev["x_final"]), float(prev["v_final"])
-    return done
+    items, x0, v0, store = payload
+    out = {}
+    for key, fields in items:
+        result = _run_value(base, parameter, fields["value"], x0, v0, settings)
+        if store is not None:
+            store.save(key, fields, result)
+        out[key] = result
+        if math.isfinite(result["x_final"]) and math.isfinite(result["v_final"]):
+            x0, v0 = result["x_final"], result["v_final"]
+    return out
+
+
+def _failure(n_rec: int, status: int, message: str) -> dict:
+    nan = np.full(n_rec, math.nan)
+    return {"x": nan, "v": nan, "t": nan, "x_final": math.nan, "v_final": math.nan, "status": status,
+            "message": message}
 
 
 # ---------------------------------------------------------------------------------------
-# Store: manifest.json + <label>-<index>.npz
+# Store: the runner's, one .npz per value
 # ---------------------------------------------------------------------------------------
-def _path(root: Path, label: str, index: int) -> Path:
-    return root / f"{label}-{index:06d}.npz"
+class _NpzValue:
+    """One value of a diagram as a ``.npz`` file (its key, inputs and settings as JSON text)."""
+
+    suffix = ".npz"
+
+    def write(self, path: str, record: dict) -> None:
+        r = record["result"]
+        with open(path, "wb") as fh:
+            np.savez(fh, x=r["x"], v=r["v"], t=r["t"], x_final=r["x_final"], v_final=r["v_final"],
+                     status=r["status"], message=r["message"], key=record["key"],
+                     fields=json.dumps(record["fields"]), settings=json.dumps(record["settings"]),
+                     checksum=record["checksum"])
+
+    def read(self, path: Path) -> dict:
+        with np.load(path) as f:
+            result = {"x": f["x"], "v": f["v"], "t": f["t"], "x_final": float(f["x_final"]),
+                      "v_final": float(f["v_final"]), "status": int(f["status"]), "message": str(f["message"])}
+            return {"key": str(f["key"]), "fields": json.loads(str(f["fields"])),
+                    "settings": json.loads(str(f["settings"])), "result": result, "checksum": str(f["checksum"])}
 
 
-def _save(root: Path, label: str, index: int, value: float, result: dict) -> None:
-    fd, tmp = tempfile.mkstemp(dir=root, prefix=".tmp-", suffix=".npz")
-    os.close(fd)
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, value=value, x=result["x"], v=result["v"], t=result["t"], x_final=result["x_final"],
-                     v_final=result["v_final"], status=result["status"], message=result["message"])
-        os.replace(tmp, _path(root, label, index))
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+_CODEC = _NpzValue()
 
 
-def _load(path: Path) -> dict:
-    with np.load(path) as f:
-        return {"value": float(f["value"]), "x": f["x"], "v": f["v"], "t": f["t"], "x_final": float(f["x_final"]),
-                "v_final": float(f["v_final"]), "status": int(f["status"]), "message": str(f["message"])}
-
-
-def _open_store(root: Path, manifest: dict) -> None:
-    path = root / _MANIFEST
-    if path.exists():
-        old = json.loads(path.read_text())
-        if old != manifest:
-            diffs = [k for k in sorted(set(old) | set(manifest)) if old.get(k) != manifest.get(k)]
-            raise ValueError(f"store {str(root)!r} holds a diagram with different settings ({', '.join(diffs)}); "
-                             "use a new store, or delete this one to start over")
-        return
-    root.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=root, prefix=".tmp-", suffix=".json")
-    with os.fdopen(fd, "w") as fh:
-        json.dump(manifest, fh, indent=1)
-    os.replace(tmp, path)
+def _plan(settings: dict) -> dict:
+    """Every value of every direction: ``{label: [(key, fields), ...]}`` in the order run."""
+    vals = np.array(settings["values"], dtype=float)
+    order = np.argsort(vals, kind="stable")
+    sequences = {"independent": list(range(vals.size)), "forward": [int(i) for i in order],
+                 "backward": [int(i) for i in order[::-1]]}
+    plan = {}
+    for label in _LABELS[settings["continuation"]]:
+        items = []
+        for i in sequences[label]:
+            fields = {"direction": label, "index": i, "value": float(vals[i])}
+            items.append((point_key(fields, settings), fields))
+        plan[label] = items
+    return plan
 
 
 # ---------------------------------------------------------------------------------------
@@ -187,14 +186,16 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
         Forcing phase of the section (default: the phase at t = 0).
     backend : str
         Backend (``**options`` are its options).
-    executor : concurrent.futures.Executor, "serial" or None
-        Where the work runs. None: a local process pool (spawn) of ``os.cpu_count()``
-        workers, shut down at the end. ``"serial"``: in this process.
+    executor : None, "serial", "dask", concurrent.futures.Executor or dask.distributed.Client
+        Where the work runs (:func:`impactosc.runner.run_points`). None: the reusable local
+        process pool (no ``__main__`` guard needed), or this process for a small diagram or
+        a single pass. ``"serial"``: in this process. A dask client is used as it is.
     store : str or os.PathLike, optional
         Directory of the resumable store (created if needed). A rerun with the same
-        settings loads what is finished and computes the rest.
+        settings loads what is finished and computes the rest; a damaged or swapped value
+        file is moved to ``quarantine/`` with a warning naming it and computed again.
     progress : bool
-        Show a tqdm progress bar.
+        Show a tqdm progress bar (over values, or over passes with continuation).
 
     Returns
     -------
@@ -203,7 +204,62 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
         parameter, and ``period`` (the recorded periods); variables ``x``, ``v``, ``t`` (the
         section points), ``x_final``, ``v_final``, ``status`` (0 ok, 1 event limit, -1 run
         failed, -2 exception, -3 task lost, -4 not computed) and ``message``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        A bad argument, before anything runs: the parameter, a value (NaN, duplicate; the
+        first one the model refuses), an option the backend refuses, the executor, a ``store`` that
+        is a file, was made with other settings or by an older version (format 1).
+    RuntimeError
+        Every value (or pass) run was lost with its task (the workers crashed or could not start).
     """
+    settings = _check(base, parameter, values, transient_periods, record_periods, continuation, x0, v0, phase,
+                      backend, options)
+    check_executor(executor)
+    st = None
+    if store is not None:
+        check_store_path(store)
+        st = PointStore.create(store, settings, _CODEC, kind=_KIND, fmt=STORE_FORMAT)
+    plan = _plan(settings)
+    results = _stored(st, plan, settings["continuation"])
+    n_rec = settings["record_periods"]
+    args = (base, parameter, settings)
+
+    def on_lost(key, message):
+        for k, _ in todo_items.get(key, [(key, None)]):
+            if k not in results:
+                stored = st.load(k) if st is not None else None  # saved by the pass before it was lost
+                results[k] = stored if stored is not None else _failure(n_rec, STATUS_LOST, message)
+
+    desc = f"bifurcation {parameter}"
+    if settings["continuation"] == "none":
+        fields_of = dict(plan["independent"])
+        todo = [(key, fields["value"]) for key, fields in plan["independent"] if key not in results]
+        todo_items: dict = {}
+
+        def on_result(key, result):
+            results[key] = result
+            if st is not None:
+                st.save(key, fields_of[key], result)
+
+        run_points(_value_task, todo, (base, parameter, settings["x0"], settings["v0"], settings),
+                   executor=executor, on_result=on_result, on_lost=on_lost, progress=progress, desc=desc,
+                   unit="value", initial=len(plan["independent"]) - len(todo), what="bifurcation_diagram",
+                   try_here_first=True)
+    else:
+        todo, todo_items = _pass_todo(plan, results, settings, st)
+        run_points(_pass_task, todo, args, executor=executor, on_result=lambda _, done: results.update(done),
+                   on_lost=on_lost, progress=progress, desc=desc, unit="pass", initial=len(plan) - len(todo),
+                   what="bifurcation_diagram", batch=False, try_here_first=len(todo) == 1)
+    if st is not None:
+        st.warn_unusable(stacklevel=2)
+    return _dataset(base, settings, plan, results)
+
+
+def _check(base, parameter, values, transient_periods, record_periods, continuation, x0, v0, phase, backend,
+           options) -> dict:
+    """The validated arguments as the diagram's settings (JSON-normal: they are the store's)."""
     check_base(base)
     check_parameter(base, parameter)
     vals = check_values(f"values of {parameter!r}", values)
@@ -213,136 +269,73 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
     x0, v0 = _v.real("x0", x0), _v.real("v0", v0)
     if phase is not None:
         phase = _v.real("phase", phase)
-    if isinstance(executor, str) and executor != "serial":
-        raise ValueError(f"executor must be None, 'serial' or a concurrent.futures.Executor, got {executor!r}")
-    if executor is not None and not isinstance(executor, str) and not callable(getattr(executor, "submit", None)):
-        raise TypeError(f"executor must have a submit() method, got {type(executor).__name__}")
-    # The first value must make a valid model: a bad backend or option fails here, once.
+    # The first value must make a valid model: a bad backend or option fails here, once. (A
+    # later value the model refuses costs only itself: status -2 with the reason.)
     simulate(oscillator_of(with_parameter(base, parameter, float(vals[0]))), 1e-9, x0, v0, backend=backend,
              record="stats", **options)
-    settings = {"transient_periods": transient_periods, "record_periods": record_periods, "phase": phase,
+    settings = {"base": repr(base), "base_type": type(base).__name__, "parameter": parameter,
+                "values": vals.tolist(), "continuation": continuation, "x0": x0, "v0": v0,
+                "transient_periods": transient_periods, "record_periods": record_periods, "phase": phase,
                 "backend": backend, "options": dict(options)}
-    labels = {"none": ["independent"], "forward": ["forward"], "backward": ["backward"],
-              "both": ["forward", "backward"]}[continuation]
-    order = np.argsort(vals, kind="stable")
-    sequences = {"independent": list(range(vals.size)), "forward": [int(i) for i in order],
-                 "backward": [int(i) for i in order[::-1]]}
-    manifest = json.loads(json.dumps({"format": _STORE_FORMAT, "base": repr(base),
-                                      "base_type": type(base).__name__, "parameter": parameter,
-                                      "values": vals.tolist(), "continuation": continuation, "x0": x0, "v0": v0,
-                                      "settings": settings}, default=repr))
-    owned_store = store is None
-    root = Path(tempfile.mkdtemp(prefix="impactosc-bifurcation-")) if owned_store else Path(store)
-    try:
-        _open_store(root, manifest)
-        tasks = []
-        for label in labels:
-            items = [(i, float(vals[i])) for i in sequences[label] if not _path(root, label, i).exists()]
-            if not items:
+    return json.loads(json.dumps(settings, default=repr))
+
+
+def _stored(st, plan: dict, continuation: str) -> dict:
+    """The values already in the store; a pass counts only up to its first missing value."""
+    results: dict = {}
+    if st is None:
+        return results
+    for items in plan.values():
+        for key, _ in items:
+            stored = st.load(key)
+            if stored is None:
+                if continuation != "none":
+                    break  # the values after a gap started from another state: computed again
                 continue
-            if label == "independent":
-                tasks += [(_run_values, label, chunk) for chunk in _chunks(items, executor)]
-            else:
-                tasks.append((_run_pass, label, [(i, float(vals[i])) for i in sequences[label]]))
-        total = len(labels) * vals.size
-        _execute(tasks, root, base, parameter, x0, v0, settings, executor, progress, total, labels)
-        return _dataset(root, base, parameter, vals, labels, manifest)
-    finally:
-        if owned_store:
-            shutil.rmtree(root, ignore_errors=True)
+            results[key] = stored
+    return results
 
 
-def _chunks(items: list, executor) -> list[list]:
-    if executor == "serial":
-        return [items]
-    workers = getattr(executor, "_max_workers", None) or os.cpu_count() or 1
-    n = max(1, min(len(items), CHUNKS_PER_WORKER * workers))
-    return [items[i::n] for i in range(n)]
+def _pass_todo(plan: dict, results: dict, settings: dict, st) -> tuple[list, dict]:
+    """The unfinished passes as runner points, each from the final state of its last stored value."""
+    todo, items_of = [], {}
+    for label, items in plan.items():
+        x0, v0 = settings["x0"], settings["v0"]
+        done = 0
+        while done < len(items) and items[done][0] in results:
+            r = results[items[done][0]]
+            if math.isfinite(r["x_final"]) and math.isfinite(r["v_final"]):
+                x0, v0 = r["x_final"], r["v_final"]
+            done += 1
+        if done < len(items):
+            todo.append((label, (items[done:], x0, v0, st)))
+            items_of[label] = items[done:]
+    return todo, items_of
 
 
-def _count(root: Path, labels) -> int:
-    return sum(1 for p in root.iterdir() if p.suffix == ".npz" and p.name.split("-")[0] in labels)
-
-
-def _execute(tasks, root, base, parameter, x0, v0, settings, executor, progress, total, labels) -> None:
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=total, initial=_count(root, labels), disable=not progress, desc=f"bifurcation {parameter}",
-               unit="value")
-    args = (base, parameter, x0, v0, settings)
-    try:
-        if not tasks:
-            return
-        if executor == "serial":
-            for fn, label, items in tasks:
-                fn(str(root), label, items, *args)
-                bar.n = _count(root, labels)
-                bar.refresh()
-            return
-        owned = executor is None
-        if owned:
-            workers = max(1, min(os.cpu_count() or 1, len(tasks)))
-            executor = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
-        futures = {}
-        try:
-            futures = {executor.submit(fn, str(root), label, items, *args): (label, items)
-                       for fn, label, items in tasks}
-            pending = set(futures)
-            while pending:
-                done, pending = cf.wait(pending, timeout=0.25, return_when=cf.FIRST_COMPLETED)
-                for fut in done:
-                    try:
-                        fut.result()
-                    except Exception as exc:  # noqa: BLE001 - a lost task costs its unfinished values only
-                        label, items = futures[fut]
-                        for index, value in items:
-                            if not _path(root, label, index).exists():
-                                _save(root, label, index, value, _lost(settings, exc))
-                bar.n = _count(root, labels)
-                bar.refresh()
-        except BaseException:
-            for fut in futures:
-                fut.cancel()
-            if owned:  # an interrupt: do not sit out the tasks still running
-                executor.shutdown(wait=False, cancel_futures=True)
-                owned = False
-            raise
-        finally:
-            if owned:
-                executor.shutdown(wait=True, cancel_futures=True)
-    finally:
-        bar.n = _count(root, labels)
-        bar.close()
-
-
-def _lost(settings: dict, exc: BaseException) -> dict:
-    n = settings["record_periods"]
-    nan = np.full(n, math.nan)
-    return {"x": nan, "v": nan, "t": nan, "x_final": math.nan, "v_final": math.nan, "status": STATUS_LOST,
-            "message": f"task lost ({type(exc).__name__}: {exc})"}
-
-
-def _dataset(root: Path, base, parameter: str, vals: np.ndarray, labels: list, manifest: dict):
+def _dataset(base, settings: dict, plan: dict, results: dict):
     import xarray as xr
 
-    n_rec = manifest["settings"]["record_periods"]
+    parameter = settings["parameter"]
+    vals = np.array(settings["values"], dtype=float)
+    labels = list(plan)
+    n_rec = settings["record_periods"]
     shape = (len(labels), vals.size, n_rec)
     x, v, t = np.full(shape, math.nan), np.full(shape, math.nan), np.full(shape, math.nan)
     xf, vf = np.full(shape[:2], math.nan), np.full(shape[:2], math.nan)
     status = np.full(shape[:2], STATUS_NOT_COMPUTED, dtype=np.int32)
     message = np.full(shape[:2], "not computed", dtype=object)
     for d, label in enumerate(labels):
-        for i in range(vals.size):
-            path = _path(root, label, i)
-            if not path.exists():
+        for key, fields in plan[label]:
+            r = results.get(key)
+            if r is None:
                 continue
-            r = _load(path)
+            i = fields["index"]
             x[d, i], v[d, i], t[d, i] = r["x"], r["v"], r["t"]
             xf[d, i], vf[d, i], status[d, i], message[d, i] = r["x_final"], r["v_final"], r["status"], r["message"]
     dims = ("direction", parameter, "period")
-    settings = manifest["settings"]
     first = settings["transient_periods"]
-    ds = xr.Dataset(
+    return xr.Dataset(
         {"x": (dims, x, {"units": "1", "long_name": "position X = x/L on the stroboscopic section"}),
          "v": (dims, v, {"units": "1", "long_name": "velocity V on the stroboscopic section"}),
          "t": (dims, t, {"units": "1", "long_name": "section time Lambda"}),
@@ -353,28 +346,35 @@ def _dataset(root: Path, base, parameter: str, vals: np.ndarray, labels: list, m
          "message": (dims[:2], message.astype(str))},
         coords={"direction": labels, parameter: (parameter, vals, parameter_attrs(base, parameter)),
                 "period": np.arange(first, first + n_rec)},
-        attrs={"parameter": parameter, "base": repr(base), "continuation": manifest["continuation"],
+        attrs={"parameter": parameter, "base": settings["base"], "continuation": settings["continuation"],
                "transient_periods": first, "record_periods": n_rec, "backend": settings["backend"],
                "section_phase": "phase at t = 0" if settings["phase"] is None else settings["phase"],
-               "x0": manifest["x0"], "v0": manifest["v0"]})
-    return ds
+               "x0": settings["x0"], "v0": settings["v0"]})
 
 
 def load_bifurcation(store):
-    """Read a bifurcation store back (finished values only; the rest have status -4)."""
+    """Read a bifurcation store back (finished values only; the rest have status -4).
+
+    Nothing on disk changes; an unusable value file counts as not computed, with a warning
+    naming it. A store of format 1 (before the shared runner) is refused with a
+    ``ValueError`` naming its manifest.
+    """
     from ..model._oscillator import Oscillator
     from ..model._tape import TapeDrive
 
-    root = Path(store)
-    manifest = json.loads((root / _MANIFEST).read_text())
-    labels = {"none": ["independent"], "forward": ["forward"], "backward": ["backward"],
-              "both": ["forward", "backward"]}[manifest["continuation"]]
-    vals = np.array(manifest["values"], dtype=float)
-    # a stand-in of the base's type, for the units of the parameter (the manifest keeps its repr)
-    base = TapeDrive() if manifest.get("base_type") == "TapeDrive" else Oscillator(0.0, 0.0, 0.0, 1.0)
-    ds = _dataset(root, base, manifest["parameter"], vals, labels, manifest)
-    ds.attrs["base"] = manifest["base"]
-    return ds
+    st, manifest = PointStore.read(store, _CODEC, kind=_KIND, fmt=STORE_FORMAT)
+    settings = manifest["settings"]
+    # a stand-in of the base's type, for the units of the parameter (the store keeps its repr)
+    base = TapeDrive() if settings.get("base_type") == "TapeDrive" else Oscillator(0.0, 0.0, 0.0, 1.0)
+    plan = _plan(settings)
+    results = {}
+    for items in plan.values():
+        for key, _ in items:
+            stored = st.load(key)
+            if stored is not None:
+                results[key] = stored
+    st.warn_unusable(stacklevel=2)
+    return _dataset(base, settings, plan, results)
 
 
 def plot_bifurcation(ds, variable: str = "x", *, ax=None, onset=None, onset_label: str = "contact onset",

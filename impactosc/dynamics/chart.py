@@ -2,19 +2,21 @@
 
 For a :class:`~impactosc.TapeDrive` this is the chart a tape engineer wants: the critical
 flange clearance (or run-out) at which contact starts, against tape speed and tension, in
-SI units. Every grid point is one :func:`~impactosc.dynamics.contact_onset`, run in
-parallel (a module-level function with plain arguments, for process pools).
+SI units. Every grid point is one :func:`~impactosc.dynamics.contact_onset`, a point of
+:func:`impactosc.runner.run_points` (the reusable local pool by default, a small chart in
+this process; any :class:`concurrent.futures.Executor` or a ``dask.distributed.Client``).
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
+import inspect
 import math
-import multiprocessing
-import os
 
 import numpy as np
 
+from .._util import validation as _v
+from ..backends._simulate import simulate
+from ..runner import check_executor, run_points
 from ._common import (
     check_base,
     check_parameter,
@@ -29,8 +31,8 @@ from .onset import contact_onset
 __all__ = ["onset_chart", "plot_onset_chart"]
 
 
-def _chart_point(base, parameter, bracket, point: dict, kwargs: dict) -> tuple:
-    """One chart point (module level: pickles for process pools). Never raises."""
+def _chart_point(point: dict, base, parameter, bracket, kwargs: dict) -> tuple:
+    """One chart point (module level: pickles for process pools and dask). Never raises."""
     try:
         res = contact_onset(_replace(base, point), parameter, bracket, **kwargs)
     except Exception as exc:  # noqa: BLE001 - a bad point is recorded, not raised
@@ -56,8 +58,9 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
         Search interval of ``parameter`` at every grid point.
     grid : dict
         Two other parameters -> 1-D sequences of values (finite: NaN is refused).
-    executor : concurrent.futures.Executor, "serial" or None
-        None: a local process pool (spawn).
+    executor : None, "serial", "dask", concurrent.futures.Executor or dask.distributed.Client
+        Where the points run (:func:`impactosc.runner.run_points`). None: the reusable
+        local process pool (no ``__main__`` guard needed), or this process for a small chart.
     progress : bool
         tqdm progress bar.
     **kwargs
@@ -68,56 +71,31 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
     xarray.Dataset
         ``critical`` (the two grid dimensions; units of ``parameter``), ``direction``,
         ``status`` and ``message`` per point.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Before anything runs: a bad grid (not two parameters, NaN, a value the model refuses
+        at either end of the bracket), an unknown option (neither of :func:`contact_onset`
+        nor of the backend), an executor that is not one of those above.
+    RuntimeError
+        Every point was lost with its task (the workers crashed or could not start).
     """
     import xarray as xr
-    from tqdm.auto import tqdm
 
-    check_base(base)
-    check_parameter(base, parameter)
-    if not isinstance(grid, dict) or len(grid) != 2:
-        raise ValueError(f"grid must be a dict of exactly two parameters -> values, got {grid!r}")
-    axes = {}
-    for key, values in grid.items():
-        check_parameter(base, key)
-        if key == parameter:
-            raise ValueError(f"grid may not contain the charted parameter {parameter!r}")
-        axes[key] = check_values(f"grid[{key!r}]", values)
-    (k1, a1), (k2, a2) = axes.items()
-    # Validate the first point (bad options fail here, once, not at every point).
-    first = _replace(base, {k1: float(a1[0]), k2: float(a2[0])})
-    oscillator_of(with_parameter(first, parameter, float(bracket[0])))
-    points = [(i, j, {k1: float(a1[i]), k2: float(a2[j])}) for i in range(a1.size) for j in range(a2.size)]
+    (k1, a1), (k2, a2) = _check(base, parameter, bracket, grid, executor, kwargs).items()
+    points = [((i, j), {k1: float(a1[i]), k2: float(a2[j])}) for i in range(a1.size) for j in range(a2.size)]
     crit = np.full((a1.size, a2.size), math.nan)
     direc = np.zeros((a1.size, a2.size), dtype=np.int8)
     status = np.full((a1.size, a2.size), -4, dtype=np.int32)
     message = np.full((a1.size, a2.size), "not computed", dtype=object)
-    bar = tqdm(total=len(points), disable=not progress, desc=f"onset of {parameter}", unit="point")
-    owned = executor is None
-    if executor == "serial":
-        results = ((i, j, _chart_point(base, parameter, bracket, p, kwargs)) for i, j, p in points)
-    else:
-        if owned:
-            executor = cf.ProcessPoolExecutor(max_workers=max(1, min(os.cpu_count() or 1, len(points))),
-                                              mp_context=multiprocessing.get_context("spawn"))
-        futs = {executor.submit(_chart_point, base, parameter, bracket, p, kwargs): (i, j) for i, j, p in points}
 
-        def gather():
-            for fut in cf.as_completed(futs):
-                i, j = futs[fut]
-                try:
-                    yield i, j, fut.result()
-                except Exception as exc:  # noqa: BLE001 - a lost task costs its point only
-                    yield i, j, (math.nan, -3, f"task lost ({type(exc).__name__}: {exc})", 0)
+    def on_result(ij, result):
+        crit[ij], status[ij], message[ij], direc[ij] = result
 
-        results = gather()
-    try:
-        for i, j, (value, st, msg, d) in results:
-            crit[i, j], status[i, j], message[i, j], direc[i, j] = value, st, msg, d
-            bar.update(1)
-    finally:
-        bar.close()
-        if owned and executor != "serial":
-            executor.shutdown(wait=True, cancel_futures=True)
+    run_points(_chart_point, points, (base, parameter, bracket, kwargs), executor=executor, on_result=on_result,
+               on_lost=lambda ij, msg: on_result(ij, (math.nan, -3, msg, 0)), progress=progress,
+               desc=f"onset of {parameter}", unit="point", what="onset_chart", try_here_first=True)
     attrs = parameter_attrs(base, parameter)
     return xr.Dataset(
         {"critical": ((k1, k2), crit, {**attrs, "long_name": f"critical {attrs['long_name']} (contact onset)"}),
@@ -128,6 +106,40 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
         coords={k1: (k1, a1, parameter_attrs(base, k1)), k2: (k2, a2, parameter_attrs(base, k2))},
         attrs={"parameter": parameter, "bracket": list(map(float, bracket)), "base": repr(base),
                "base_value": parameter_value(base, parameter)})
+
+
+def _check(base, parameter, bracket, grid, executor, kwargs) -> dict:
+    """The two grid axes; raises for anything that would fail at every point, before the run."""
+    check_base(base)
+    check_parameter(base, parameter)
+    check_executor(executor)
+    if not isinstance(grid, dict) or len(grid) != 2:
+        raise ValueError(f"grid must be a dict of exactly two parameters -> values, got {grid!r}")
+    axes = {}
+    for key, values in grid.items():
+        check_parameter(base, key)
+        if key == parameter:
+            raise ValueError(f"grid may not contain the charted parameter {parameter!r}")
+        axes[key] = check_values(f"grid[{key!r}]", values)
+    try:
+        lo, hi = (_v.real(f"bracket[{i}]", b) for i, b in enumerate(bracket))
+    except (TypeError, ValueError) as exc:
+        raise type(exc)(f"bracket must be a pair (lo, hi) of real numbers: {exc}") from None
+    (k1, a1), (k2, a2) = axes.items()
+    # Every grid point must make a valid model at both ends of the bracket.
+    for x1 in a1:
+        for x2 in a2:
+            point = _replace(base, {k1: float(x1), k2: float(x2)})
+            for end in (lo, hi):
+                oscillator_of(with_parameter(point, parameter, end))
+    # Options: contact_onset's own, the rest go to the backend, which must take them.
+    signature = inspect.signature(contact_onset)
+    named = {k: v for k, v in kwargs.items() if k in signature.parameters}
+    options = {k: v for k, v in kwargs.items() if k not in signature.parameters}
+    first = _replace(base, {k1: float(a1[0]), k2: float(a2[0])})
+    simulate(oscillator_of(with_parameter(first, parameter, lo)), 1e-9, _v.real("x0", named.get("x0", 0.95)),
+             _v.real("v0", named.get("v0", 0.0)), backend=named.get("backend", "heyoka"), record="stats", **options)
+    return axes
 
 
 def plot_onset_chart(ds, *, ax=None, scale: float = 1.0, units: str | None = None, levels: int = 12, cmap="viridis"):

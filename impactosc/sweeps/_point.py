@@ -7,7 +7,6 @@ executor (a process pool, dask) and a worker never needs the caller's ``__main__
 from __future__ import annotations
 
 import math
-import time
 from typing import Any
 
 from ..backends._simulate import simulate
@@ -46,21 +45,6 @@ PARAMETERS = {
     "simulated_time": ("s", "time actually simulated"),
 }
 FLOAT_VARS = {**RESULTS, **PARAMETERS}
-
-
-def run_batch(points: list, duration: float, backend: str, x0: float, v0: float, options: dict) -> list:
-    """Run the points ``[(key, drive_fields), ...]``; return ``[(key, result_dict, seconds), ...]``.
-
-    ``seconds`` is the wall time of the point in the worker, from which the caller sizes its
-    next batches. Every exception of a point is caught here, so a bad point costs only
-    itself; what escapes this function (a crash of the process) is handled by the caller.
-    """
-    out = []
-    for key, fields in points:
-        start = time.perf_counter()
-        result = run_point(fields, duration, backend, x0, v0, options)
-        out.append((key, result, time.perf_counter() - start))
-    return out
 
 
 def run_point(fields: dict, duration: float, backend: str, x0: float, v0: float, options: dict) -> dict:

@@ -9,7 +9,7 @@ Points are run on a local process pool by default (loky's: it works from a scrip
 a ``__main__`` guard, standard input, a REPL or a notebook, and its workers, which keep their
 compiled heyoka integrator from sweep to sweep, exit when the calling process dies), or on
 any :class:`concurrent.futures.Executor`, or on a ``dask.distributed`` client. Points are
-sent in batches sized from their measured cost (see ``impactosc._sweep_exec``).
+sent in batches sized from their measured cost (see :mod:`impactosc.runner`).
 
 Bad arguments raise before anything runs; backend options are checked by one short run of
 the base drive in the calling process. A failed point never stops the sweep: an exception,
@@ -19,7 +19,7 @@ Only a sweep that loses every point it runs raises.
 
 With ``store=`` every finished point is saved as a small netCDF file as soon as it arrives,
 so that an interrupted (Ctrl-C stops at once) or extended sweep only runs what is missing;
-unusable point files are set aside and recomputed (see ``impactosc._sweep_store``).
+unusable point files are set aside and recomputed (see :mod:`impactosc.runner`).
 :func:`load_sweep` reads a store back.
 
 Status codes of the ``status`` variable:
@@ -50,9 +50,9 @@ from .._util import validation as _v
 from ..backends import get_backend
 from ..backends._simulate import simulate
 from ..model._tape import BENDING_OPTIONS, FIELD_UNITS, TapeDrive
-from ._exec import Runner, check_executor, execute
-from ._point import FLOAT_VARS, STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, failure
-from ._store import Store, check_store_path, point_key
+from ..runner import check_executor, check_store_path, point_key, run_points
+from ._point import FLOAT_VARS, STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, failure, run_point
+from ._store import create_store, read_store
 
 __all__ = ["sweep", "load_sweep", "load", "SWEEP_KEYS", "STATUS_EXCEPTION", "STATUS_LOST", "STATUS_NOT_COMPUTED"]
 
@@ -279,7 +279,7 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
     if store is not None:
         check_store_path(store)
     _probe_options(plan)
-    st = Store.create(store, plan["settings"], plan["grid"], _version()) if store is not None else None
+    st = create_store(store, plan["settings"], plan["grid"], _version()) if store is not None else None
 
     results: dict[str, dict] = dict(plan["invalid"])
     todo = []
@@ -298,18 +298,11 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
             st.save(key, plan["unique"][key], result)
 
     if todo:
-        from tqdm.auto import tqdm
-
         n_total = len(plan["unique"])
         args = (plan["duration"], backend, plan["x0"], plan["v0"], plan["options"])
-        with tqdm(total=n_total, initial=n_total - len(todo), disable=not progress, desc="sweep",
-                  unit="point") as bar:
-            execute(Runner(executor), todo, args, on_result, bar)
-        lost = [results[key]["message"] for key, _ in todo if results[key]["status"] == STATUS_LOST]
-        if len(lost) == len(todo):
-            raise RuntimeError(f"sweep: all {len(todo)} points run were lost: their tasks failed as a whole (the "
-                               f"worker processes crashed, were killed or could not start; or the executor is "
-                               f"broken). First: {lost[0]}")
+        run_points(run_point, todo, args, executor=executor, on_result=on_result,
+                   on_lost=lambda key, message: on_result(key, failure(STATUS_LOST, message)), progress=progress,
+                   desc="sweep", unit="point", initial=n_total - len(todo), what="sweep")
 
     ds = _assemble(plan, results)
     _warn_failures(plan, ds)
@@ -341,7 +334,7 @@ def load_sweep(store) -> xr.Dataset:
     ValueError
         The manifest is unreadable or incomplete (the message names the file).
     """
-    st, manifest = Store.read(store)
+    st, manifest = read_store(store)
     try:
         s = manifest["settings"]
         plan = _plan(TapeDrive(**s["base"]), manifest["grid"], s["duration"], s["backend"], s["x0"], s["v0"],
