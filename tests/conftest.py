@@ -33,6 +33,7 @@ SLOW_MODULES = {
     "test_docs.py": "builds the docs site, executing every notebook",
     "test_notebooks.py": "executes the notebooks",
     "test_sweep_processes.py": "process pools in subprocesses, interrupted and killed",
+    "test_runner_processes.py": "process pools in subprocesses, killed",
     "test_benchmarks_smoke.py": "runs the benchmark scripts",
     "test_dynamics_benchmark.py": "runs the dynamics benchmark script",
     "test_packaging.py": "builds the wheel and sdist, installs into a fresh venv, runs mypy",
