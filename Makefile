@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 SPHINXOPTS ?= -W --keep-going
 DOCS_OUT ?= docs/_build
 
-.PHONY: test demo docs lint bench clean
+.PHONY: test test-fast demo docs lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
@@ -18,8 +18,13 @@ lint: $(STAMP)
 	$(PY) -m ruff check impactosc tests benchmarks docs/conf.py docs/_ext
 	$(VENV)/bin/lint-imports --no-cache  # the layers of pyproject.toml [tool.importlinter]: names any import that breaks them
 
+# The complete check (CI runs it: .ci/run).
 test: $(STAMP) lint
 	$(PY) -m pytest -q
+
+# The loop while you work: the lint and every test but those marked slow (see pyproject's markers).
+test-fast: $(STAMP) lint
+	$(PY) -m pytest -q -m "not slow"
 
 demo: $(STAMP)
 	$(PY) -m impactosc demo

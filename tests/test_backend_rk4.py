@@ -220,7 +220,7 @@ def test_plain_python_fallback_warns_and_agrees(monkeypatch):
     monkeypatch.setattr(rk4, "_HAVE_NUMBA", False)
     monkeypatch.setattr(rk4, "_warned_slow", False)
     monkeypatch.setattr(rk4, "_KERNEL", getattr(rk4._kernel, "py_func", rk4._kernel))
-    with pytest.warns(RuntimeWarning, match=r"pip install impactosc\[fast\]"):
+    with pytest.warns(RuntimeWarning, match=r"pip install 'impactosc\[fast\]' \(numba\)"):
         slow = io.simulate(CONTACT_CASE, 4.0, 0.95, 0.0, backend="rk4")
     with warnings.catch_warnings():
         warnings.simplefilter("error")

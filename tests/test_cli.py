@@ -38,6 +38,15 @@ def test_simulate_tape_drive(capsys):
         (["simulate", "--F", "0.5"], "missing: Omega, beta, K"),
         (["simulate", "--tension", "-1"], "tension"),
         (["simulate", "--backend", "euler"], "backend must be one of"),
+        # each kind of model has its own end time: the other one is refused, not ignored
+        (["simulate", "--speed", "4", "--t-end", "5"], "--t-end (nondimensional time) is for an oscillator"),
+        (["simulate", "--t-end", "5"], "--t-end (nondimensional time) is for an oscillator"),
+        (["simulate", "--F", "0.5", "--Omega", "1", "--beta", "0", "--K", "1", "--duration", "1"],
+         "--duration (seconds) is for a tape drive"),
+        (["simulate", "--F", "0.5", "--Omega", "1", "--beta", "0", "--K", "1", "--restitution", "2"], "restitution"),
+        (["simulate", "--speed", "4", "--beta-static", "0.1"], "not both"),
+        (["simulate", "--F", "0.5", "--Omega", "1", "--beta", "0", "--K", "1", "--static-friction", "0.3"],
+         "not both"),
     ],
 )
 def test_errors_are_one_line(capsys, argv, message):
@@ -47,6 +56,7 @@ def test_errors_are_one_line(capsys, argv, message):
 
 
 # -- impactosc sweep ------------------------------------------------------------------------
+@pytest.mark.slow  # a process pool
 def test_sweep_writes_a_netcdf_dataset(capsys, tmp_path):
     import xarray as xr
 
@@ -205,3 +215,95 @@ def test_events_zero_shows_no_rows_and_the_right_count(capsys):
     assert main(["simulate", "--F", "0.5", "--Omega", "1.1", "--beta", "0.01", "--K", "1e4", "--events", "0"]) == 0
     out = capsys.readouterr().out
     assert re.search(r"Events \(first 0\):\n +t kind +x +v side\n\.\.\. [1-9]\d* more events", out), out
+
+
+# -- simulate: the family options, --version, pipes, plots (issue 22 item 4, 6) ------------------
+@pytest.fixture()
+def simulated(monkeypatch):
+    """The oscillators the CLI hands to impactosc.simulate (the runs still happen)."""
+    import impactosc
+
+    seen = []
+    real = impactosc.simulate
+
+    def spy(osc, *args, **kwargs):
+        seen.append(osc)
+        return real(osc, *args, **kwargs)
+
+    monkeypatch.setattr(impactosc, "simulate", spy)
+    return seen
+
+
+def test_simulate_family_options_of_an_oscillator(capsys, simulated):
+    from impactosc import Oscillator
+
+    assert main(["simulate", "--F", "0.5", "--Omega", "1.1", "--beta", "0.01", "--K", "1e4", "--zeta", "0.02",
+                 "--beta-static", "0.02", "--exponent", "1.5", "--harmonic", "0.1,2.2,0.3", "--harmonic", "0.05,3.3",
+                 "--t-end", "50", "--events", "1"]) == 0
+    assert simulated == [Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02, beta_static=0.02, exponent=1.5,
+                                    harmonics=((0.1, 2.2, 0.3), (0.05, 3.3, 0.0)))]
+    assert main(["simulate", "--F", "0.5", "--Omega", "1.1", "--beta", "0.01", "--K", "1e4", "--flange", "rigid",
+                 "--restitution", "0.8", "--t-end", "50", "--events", "1"]) == 0
+    assert simulated[1] == Oscillator(0.5, 1.1, 0.01, 1e4, flange="rigid", restitution=0.8)
+    assert "contact" in capsys.readouterr().out
+
+
+def test_simulate_family_options_of_a_tape_drive(capsys, simulated):
+    from impactosc import TapeDrive
+
+    assert main(["simulate", "--speed", "8", "--zeta", "0.01", "--static-friction", "0.3", "--exponent", "1.5",
+                 "--runout-harmonic", "2,0.1,0.5", "--duration", "1e-4", "--record", "stats"]) == 0
+    want = TapeDrive(speed=8.0, damping_ratio=0.01, static_friction=0.3, flange_exponent=1.5,
+                     runout_harmonics=((2, 0.1, 0.5),))
+    assert simulated == [want.oscillator()]
+    assert main(["simulate", "--flange", "rigid", "--restitution", "0.5", "--duration", "1e-4",
+                 "--record", "stats"]) == 0
+    assert simulated[1] == TapeDrive(flange="rigid", restitution=0.5).oscillator()
+    capsys.readouterr()
+
+
+def test_harmonic_needs_two_or_three_numbers(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "--F", "0.5", "--Omega", "1", "--beta", "0", "--K", "1", "--harmonic", "0.1"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert "expected F,Omega[,phase]" in err and "\n" not in err
+
+
+def test_version(capsys):
+    from impactosc import __version__
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"impactosc {__version__}"
+
+
+def test_plot_without_matplotlib_fails_before_the_run(capsys, monkeypatch, simulated):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib... raises ImportError
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    assert main(["simulate", "--F", "0.5", "--Omega", "1.1", "--beta", "0.01", "--K", "1e4",
+                 "--plot", "run.png"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "pip install 'impactosc[plot]'" in err and "\n" not in err
+    assert simulated == []  # nothing was run
+
+
+@pytest.mark.slow  # a subprocess
+def test_a_closed_pipe_ends_quietly():
+    """``impactosc simulate ... | head``: no "Broken pipe" error, no traceback (the reader left, that is all)."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "impactosc", "simulate", "--F", "0.5", "--Omega", "1.1",
+                             "--beta", "0.01", "--K", "1e4", "--t-end", "3000", "--events", "100000"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    first = proc.stdout.readline()
+    proc.stdout.close()  # like head after its lines: far more than a pipe buffer is still to come
+    err = proc.stderr.read().decode()
+    proc.stderr.close()
+    assert proc.wait(timeout=120) == 1
+    assert first.startswith(b"Oscillator(")
+    assert "Broken pipe" not in err and "Traceback" not in err and "BrokenPipeError" not in err, err

@@ -219,6 +219,7 @@ def test_dense_output_inside_a_chatter_tail_stays_behind_the_wall(backend):
     assert imp[0] < imp[1] < imp[2] <= imp[3] and imp[3] - imp[2] < 1e-9
 
 
+@pytest.mark.slow  # a benchmark-style script
 def test_the_fuzz_script_runs(capsys):
     # benchmarks/fuzz_family.py found the regressions above; keep it runnable (tiny n, no timing).
     import importlib.util

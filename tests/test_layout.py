@@ -22,18 +22,21 @@ def _loaded_after(code: str) -> list[str]:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow  # fresh interpreters
 def test_import_and_a_model_load_no_heavy_dependency():
     assert _loaded_after("import impactosc") == []
     model = "import impactosc as io; io.Oscillator(0.5, 1.1, 0.01, 1e4); io.TapeDrive().oscillator()"
     assert _loaded_after(model) == []
 
 
+@pytest.mark.slow  # fresh interpreters
 def test_a_run_loads_no_table_or_plot_library():
     # a Solution builds its pandas / xarray views on demand; a run itself needs neither
     run = "import impactosc as io; io.simulate(io.Oscillator(0.5, 1.1, 0.01, 1e4), 50.0, 0.95, 0.0, backend='scipy')"
     assert not {"pandas", "xarray", "matplotlib", "dask"} & set(_loaded_after(run))
 
 
+@pytest.mark.slow  # fresh interpreters
 def test_the_compiled_rule_is_loaded_by_the_first_run_not_by_the_model():
     # a force of the model is numpy (eq. 3's value); the compiled rule comes with the first run
     out = subprocess.run([sys.executable, "-c",

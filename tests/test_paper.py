@@ -110,6 +110,7 @@ def test_trends_on_a_synthetic_grid():
     assert not zero["nonzero"] and zero["n_curves"] == 0 and not zero["up_with_speed"]
 
 
+@pytest.mark.slow  # the paper's figures, quick mode
 def test_quick_reproduction_writes_the_report(tmp_path, capsys):
     out = tmp_path / "rep"
     assert main(["paper", "--quick", "--out", str(out), "--serial", "--no-progress"]) == 0

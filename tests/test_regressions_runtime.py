@@ -138,6 +138,7 @@ def test_wall_time_limit_is_validated(bad, exc):
         io.simulate(CONTACT, 1.0, max_wall_time=bad)
 
 
+@pytest.mark.usefixtures("sigint_raises")  # Ctrl-C must raise, however pytest was started
 def test_ctrl_c_in_process_raises_and_leaves_the_backend_usable():
     before = io.simulate(CONTACT, 50.0)
     timer = threading.Timer(0.3, _thread.interrupt_main)  # what a SIGINT does to the main thread
@@ -152,6 +153,8 @@ def test_ctrl_c_in_process_raises_and_leaves_the_backend_usable():
     assert after.mean_flange_force() == before.mean_flange_force()
 
 
+@pytest.mark.slow  # a subprocess
+@pytest.mark.usefixtures("sigint_raises")  # Ctrl-C must raise, however pytest was started
 def test_sigint_stops_a_long_event_free_run_in_a_subprocess():
     code = ("import impactosc as io\n"
             "io.simulate(io.Oscillator(1, 1e8, 0.1, 10), 10.0, 0.0, 0.0, record='stats', max_wall_time=0.01)\n"
@@ -270,6 +273,7 @@ def test_tape_drive_without_friction_is_still_fine():
 
 
 # -- item 13: heyoka's log goes to stderr --------------------------------------------------------
+@pytest.mark.slow  # a subprocess
 def test_heyoka_warnings_do_not_reach_stdout():
     # A non-finite velocity makes heyoka warn "event detection skipped ..." from C++.
     code = ("import math\n"

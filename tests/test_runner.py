@@ -184,6 +184,7 @@ def guardless_run():
     return proc
 
 
+@pytest.mark.slow  # a subprocess with a process pool and a dask cluster
 def test_all_three_on_the_pool_and_dask_from_a_guardless_script_on_stdin(guardless_run):
     pytest.importorskip("distributed")
     proc = guardless_run

@@ -93,11 +93,13 @@ def test_serial_values_equal_direct_simulate_calls(serial):
     assert ds.attrs["impactosc_version"] == impactosc.__version__
 
 
+@pytest.mark.slow  # a process pool
 def test_process_pool_equals_serial(serial):
     pooled = sweep(BASE, GRID, duration=DURATION, progress=False)  # default: local process pool
     xr.testing.assert_identical(pooled, serial)
 
 
+@pytest.mark.slow  # a dask LocalCluster
 def test_dask_local_cluster_equals_serial(serial):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
@@ -271,6 +273,7 @@ class _ExitOnUnpickle(float):
         return (os._exit, (3,))
 
 
+@pytest.mark.slow  # process pools
 def test_a_real_crashed_pool_worker_breaks_the_pool_which_is_replaced():
     # Every task kills its worker process, so the default pool breaks and is replaced each
     # round; the point is lost, and a sweep losing every point raises.

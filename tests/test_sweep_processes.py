@@ -153,6 +153,7 @@ def _wait_gone(pids, limit: float) -> set[int]:
 
 
 @needs_proc
+@pytest.mark.usefixtures("sigint_raises")  # Ctrl-C must raise, however pytest was started
 def test_ctrl_c_stops_at_once_and_keeps_the_finished_points(tmp_path):
     proc, store, workers = _start_long(tmp_path)
     assert workers, "no worker processes found"

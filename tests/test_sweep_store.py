@@ -173,6 +173,7 @@ def test_a_failing_save_warns_once_and_the_sweep_keeps_its_results(tmp_path, mon
 
 
 @pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX signals")
+@pytest.mark.usefixtures("sigint_raises")  # Ctrl-C must raise, however pytest was started
 def test_a_ctrl_c_during_a_point_write_is_delivered_after_it(tmp_path, monkeypatch):
     # An interrupt inside xarray's file manager could leave its lock held: the sweep then
     # deadlocked on its own cleanup instead of stopping. The write now finishes first.

@@ -5,6 +5,11 @@ written once, in the subset of Python that numba compiles. With numba installed 
 compiled (cached on disk after the first call); without it the very same functions run
 as plain Python, and the compiled event loop of the exact backend falls back to the
 Python driver (:func:`impactosc.engine.drive`) with a one-line hint.
+
+The first compile after an install or an upgrade takes 15-60 s (later processes load the
+machine code from numba's cache in about a second). numba announces a compile only on a
+cache miss (its ``numba:compile`` event); a listener turns the first one of impactosc's
+functions into a one-line notice (:func:`impactosc._util.notice.notice`).
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-__all__ = ["HAVE_NUMBA", "njit", "njit_inline", "INSTALL_HINT", "warn_no_numba"]
+__all__ = ["HAVE_NUMBA", "njit", "njit_inline", "INSTALL_HINT", "COMPILE_NOTICE", "warn_no_numba"]
 
 _numba: Any
 try:
@@ -54,11 +59,41 @@ def _drop_stale_caches() -> None:
         pass
 
 
+#: How to get the compiled paths: the one wording of every "numba is not installed" hint.
+INSTALL_HINT = "pip install 'impactosc[fast]' (numba)"
+
+#: The notice logged when numba starts compiling impactosc's code (a cache miss).
+COMPILE_NOTICE = ("impactosc: numba is compiling the event rules and closed forms (once after an install or "
+                  "upgrade, up to a minute; later runs load them from numba's cache)")
+
+
+def _notice_compiles() -> None:
+    """Register a listener of numba's compile event: a notice at the first compile of impactosc's code.
+
+    numba fires ``numba:compile`` after its disk cache missed, just before compiling; a cache
+    hit fires nothing, so a warm process says nothing and pays nothing.
+    """
+    from numba.core import event
+
+    from .notice import notice
+
+    class _FirstCompile(event.Listener):
+        def on_start(self, ev) -> None:
+            data = ev.data if isinstance(ev.data, dict) else {}
+            func = getattr(data.get("dispatcher"), "py_func", None)
+            module = getattr(func, "__module__", "") or ""
+            if module.startswith("impactosc."):
+                notice("numba-compile", COMPILE_NOTICE)
+
+        def on_end(self, ev) -> None:
+            pass
+
+    event.register("numba:compile", _FirstCompile())
+
+
 if HAVE_NUMBA:
     _drop_stale_caches()
-
-#: How to get the compiled paths.
-INSTALL_HINT = "pip install 'impactosc[fast]' (numba)"
+    _notice_compiles()
 
 
 def njit(func):

@@ -1,5 +1,9 @@
-"""The command line: ``impactosc demo | simulate | sweep | reproduce ...`` (``python -m impactosc``)."""
+"""The command line: ``impactosc demo | simulate | sweep | bifurcation | orbit | onset | chart | paper``.
 
-from ._main import main
+Also ``python -m impactosc``. One private module per subcommand; ``impactosc/cli/_main.py`` lists them
+and says how to add one.
+"""
 
-__all__ = ["main"]
+from ._main import build_parser, main
+
+__all__ = ["main", "build_parser"]

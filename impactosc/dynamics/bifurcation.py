@@ -390,7 +390,9 @@ def plot_bifurcation(ds, variable: str = "x", *, ax=None, onset=None, onset_labe
     onset : float or sequence of float, optional
         Parameter values to mark with a vertical line (e.g. a contact onset).
     """
-    import matplotlib.pyplot as plt
+    from .._util.optional import require_matplotlib
+
+    plt = require_matplotlib()
 
     if variable not in ("x", "v"):
         raise ValueError(f"variable must be 'x' or 'v', got {variable!r}")

@@ -147,7 +147,9 @@ def plot_onset_chart(ds, *, ax=None, scale: float = 1.0, units: str | None = Non
 
     ``scale`` multiplies the values (e.g. ``1e6`` with ``units="um"`` for a clearance in m).
     """
-    import matplotlib.pyplot as plt
+    from .._util.optional import require_matplotlib
+
+    plt = require_matplotlib()
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4.5))

@@ -72,7 +72,9 @@ class LyapunovResult:
 
     def plot(self, ax=None):
         """The running estimate against time."""
-        import matplotlib.pyplot as plt
+        from .._util.optional import require_matplotlib
+
+        plt = require_matplotlib()
 
         if ax is None:
             _, ax = plt.subplots(figsize=(5, 3.5))

@@ -88,7 +88,9 @@ class Section:
 
     def plot(self, ax=None, **scatter):
         """The section in the ``(X, V)`` plane, flange positions dashed."""
-        import matplotlib.pyplot as plt
+        from .._util.optional import require_matplotlib
+
+        plt = require_matplotlib()
 
         if ax is None:
             _, ax = plt.subplots(figsize=(5, 4))

@@ -164,7 +164,9 @@ class PeriodicOrbit:
 
     def plot(self, ax=None, n_points: int = 400):
         """The orbit over one period in the phase plane ``(X, V)``, events marked."""
-        import matplotlib.pyplot as plt
+        from .._util.optional import require_matplotlib
+
+        plt = require_matplotlib()
 
         if ax is None:
             _, ax = plt.subplots(figsize=(5, 4))

@@ -70,7 +70,7 @@ work ``int V F cos(Omega t + phase) dt`` from the energy balance
 
 from __future__ import annotations
 
-from ..._util.jit import HAVE_NUMBA, warn_no_numba
+from ..._util.jit import HAVE_NUMBA, INSTALL_HINT, warn_no_numba
 from ...engine._driver import drive
 from ...model._oscillator import Oscillator
 from ...results._solution import Solution, _Recorder
@@ -125,7 +125,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
 
             return _exact_loop.run(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=sample_at)
         if compiled:
-            raise ValueError("compiled=True needs numba: pip install 'impactosc[fast]'")
+            raise ValueError(f"compiled=True needs numba: {INSTALL_HINT}")
         warn_no_numba("the exact backend's event loop")
     stepper = _Stepper(osc)
     rec = _Recorder(record, "exact", stepper.evaluate)

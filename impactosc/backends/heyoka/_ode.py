@@ -23,6 +23,7 @@ from __future__ import annotations
 import threading
 from typing import NamedTuple
 
+from ..._util.notice import notice_if_slow
 from ...engine._driver import (
     ACCEL_ZERO,
     ENTER_LOWER,
@@ -298,12 +299,15 @@ def integrator(tol: float = DEFAULT_TOL, shape: Shape = EQ3) -> Integrators:
     key = (tol, shape)
     found = store.get(key)
     if found is None:
-        if not _logger_routed:
-            with _first_build:
-                if not _logger_routed:
-                    found = _log_to_stderr(lambda: _build(tol, shape))
-                    _logger_routed = True
-        if found is None:
-            found = _build(tol, shape)
+        # A notice if the compile is still running after 2 s (usually 0.1-1 s; tight tolerances take longer).
+        with notice_if_slow("heyoka-compile", f"impactosc: heyoka is compiling its integrators (tol={tol:g}); "
+                                              "this process compiles them once"):
+            if not _logger_routed:
+                with _first_build:
+                    if not _logger_routed:
+                        found = _log_to_stderr(lambda: _build(tol, shape))
+                        _logger_routed = True
+            if found is None:
+                found = _build(tol, shape)
         store[key] = found
     return found

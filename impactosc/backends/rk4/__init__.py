@@ -69,6 +69,7 @@ import warnings
 import numpy as np
 
 from ..._util import validation as _v
+from ..._util.jit import INSTALL_HINT
 from ...engine._driver import check_run_arguments, initial_mode
 from ...model._oscillator import Oscillator
 from ...results._solution import Solution, _Recorder
@@ -100,8 +101,7 @@ def _warn_if_slow() -> None:
     if not _HAVE_NUMBA and not _warned_slow:
         _warned_slow = True
         warnings.warn("numba is not installed: the rk4 backend runs its fixed-step loop in plain Python, "
-                      "some hundred times slower. Install it with: pip install impactosc[fast]",
-                      RuntimeWarning, stacklevel=3)
+                      f"some hundred times slower; {INSTALL_HINT} compiles it", RuntimeWarning, stacklevel=3)
 
 
 #: Kernels used by run() and rk4_batch(); module attributes so that the plain-Python

@@ -1,0 +1,86 @@
+"""``impactosc chart``: the contact-onset value over a grid of two parameters (a design chart)."""
+
+from __future__ import annotations
+
+import time
+
+from ._common import add_model_options, check_output_file, check_plot_output, parse_grid_values, plot_title
+from ._onset import add_onset_options, base_for, onset_kwargs
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("chart", help="the contact-onset value over a grid of two parameters; netCDF and figure",
+                       description="impactosc onset at every point of a grid of two other parameters "
+                                   "(impactosc.dynamics.onset_chart), in parallel. Example: impactosc chart "
+                                   "--param clearance --bracket 100e-6 140e-6 --grid speed=2,4,8 "
+                                   "--grid tension=0.5,1,2 --transient-periods 0.25 --record-periods 1 "
+                                   "--stop-at-contact --value-tol 1e-8 --out chart.nc --plot chart.png")
+    add_model_options(p)
+    add_onset_options(p)
+    p.add_argument("--grid", action="append", required=True, metavar="FIELD=V1,V2,...",
+                   help="a grid parameter and its values; give exactly two (the first is the y axis)")
+    o = p.add_argument_group("output")
+    o.add_argument("--out", metavar="FILE.nc", help="write the xarray Dataset as netCDF (scipy engine)")
+    o.add_argument("--plot", metavar="PNG", help="filled contours of the critical value over the grid")
+    o.add_argument("--serial", action="store_true", help="run in this process instead of a process pool")
+    o.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(handler=run)
+
+
+def _grid(items) -> dict:
+    grid = {}
+    for item in items:
+        if "=" not in item:
+            raise ValueError(f"--grid {item!r}: expected field=v1,v2,... (e.g. --grid speed=2,4,8)")
+        key, _, values = item.partition("=")
+        key = key.strip().replace("-", "_")
+        grid[key] = parse_grid_values("--grid", key, values)
+    if len(grid) != 2:
+        raise ValueError(f"--grid: give exactly two parameters, got {len(grid)} ({', '.join(grid) or 'none'})")
+    return grid
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from ..dynamics import onset_chart
+
+    base = base_for(args)
+    grid = _grid(args.grid)
+    if args.out:
+        check_output_file("--out", args.out)
+    check_plot_output("--plot", args.plot)
+    t = time.perf_counter()
+    ds = onset_chart(base, args.param, tuple(args.bracket), grid, executor="serial" if args.serial else None,
+                     progress=not args.no_progress, **onset_kwargs(args))
+    wall = time.perf_counter() - t
+    status = ds["status"].values
+    failed = int(np.count_nonzero(status != 0))
+    (k1, a1), (k2, a2) = ((k, ds[k].values) for k in ds["critical"].dims)
+    print(f"onset chart of {args.param} for {plot_title(base)}")
+    print(f"  {k1}[{a1.size}] x {k2}[{a2.size}] points: {wall:.2f} s wall, {failed} without an onset in the bracket "
+          "or failed")
+    print(f"  {k1:>14} {k2:>14} {'critical ' + args.param:>22} {'status':>6}")
+    crit = ds["critical"].values
+    for i in range(a1.size):
+        for j in range(a2.size):
+            print(f"  {a1[i]:14.6g} {a2[j]:14.6g} {crit[i, j]:22.12g} {int(status[i, j]):6d}")
+    if args.out:
+        ds.to_netcdf(args.out, engine="scipy")
+        print(f"dataset written to {args.out}")
+    if args.plot:
+        _plot(ds, base, args.plot)
+        print(f"plot written to {args.plot}")
+    return 0 if failed == 0 else 1
+
+
+def _plot(ds, base, path: str) -> None:
+    from .._util.optional import require_matplotlib
+    from ..dynamics import plot_onset_chart
+
+    plt = require_matplotlib()
+    fig, ax = plt.subplots(figsize=(6.5, 4.5), constrained_layout=True)
+    plot_onset_chart(ds, ax=ax)
+    ax.set_title(plot_title(base), fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
