@@ -102,7 +102,8 @@ def correct(problem: MapProblem, u_pred: np.ndarray, constraint: np.ndarray, set
         residual = float(np.linalg.norm(F))
         if residual <= settings.tol * max(1.0, float(np.linalg.norm(z))):
             return Corrected(u, ev, it)
-        if it and last_step <= settings.tol * max(1.0, float(np.linalg.norm(u))) and residual <= ROUNDING_FLOOR * settings.tol:
+        settled = last_step <= settings.tol * max(1.0, float(np.linalg.norm(u)))
+        if it and settled and residual <= ROUNDING_FLOOR * settings.tol:
             # Newton has stopped moving: the residual is at the rounding floor of a map whose
             # derivative is large (near a grazing it grows like 1/V)
             return Corrected(u, ev, it)
