@@ -84,7 +84,11 @@ def correct(problem: MapProblem, u_pred: np.ndarray, constraint: np.ndarray, set
     u = u_pred.copy()
     why = "no iteration"
     last_step = math.inf
+    rigid = problem.rigid
     for it in range(settings.max_iter + 1):
+        if rigid and abs(u[0]) > 1.0:
+            u = u.copy()
+            u[0] = math.copysign(1.0, u[0])  # no state lies beyond a rigid wall: the iterate rests on it
         z, params = unscaled(problem, u)
         ev = problem.evaluate(z, params)
         if not ev.ok:

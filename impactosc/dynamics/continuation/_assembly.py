@@ -62,6 +62,8 @@ def point_of(problem: MapProblem, node: Node) -> BranchPoint:
 
 def special_of(problem: MapProblem, f: Found, number: int) -> SpecialPoint:
     z, params = unscaled(problem, f.node.u)
+    if "value" in f.extra:  # an extrapolated end: the first parameter moved to where the grazing is
+        params = (f.extra["value"],) + tuple(params[1:])
     return SpecialPoint(f.kind, f"{LABELS[f.kind]}{number}", dict(zip(problem.names, params, strict=True)),
                         float(z[0]), float(z[1]), f.node.info.multipliers, f.before, f.after, f.index, f.accuracy,
                         f.message, context=(problem, f.node, f.extra))

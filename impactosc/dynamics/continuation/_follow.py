@@ -101,10 +101,7 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
                 if jumped is None:
                     status, message = _failed_end(node, why, settings)
                     if status == 2:
-                        found.append(Found("grazing", node, node.info.signature, node.info.signature,
-                                           node.info.nearest_grazing(), "the branch ends here, at (within the "
-                                           f"distance {node.info.nearest_grazing():.3g} of) a grazing",
-                                           len(nodes) - 1, {"test": "end"}))
+                        found.append(_grazing_end(problem, nodes, start, node))
                     return nodes, found, status, message
                 result = jumped
                 new = _advance(problem, node, result, t, direction, extra)
@@ -153,6 +150,26 @@ def _failed_end(node: Node, why: str, settings: Settings):
                    f"or entry speed): no periodic orbit of this family lies beyond it within the minimum step "
                    f"{settings.min_step:g}, nor past it ({why})")
     return -1, f"the step fell below min_step = {settings.min_step:g}: {why}"
+
+
+def _grazing_end(problem, nodes, start: Node, node: Node) -> Found:
+    """The grazing that ends a branch, extrapolated from its last two points.
+
+    The distance to touching (a clearance, or an entry speed, which vanish linearly in the
+    parameter on the side where the orbit exists) is extrapolated to zero by a secant in the
+    parameter; the point's accuracy is how far that moved from the last point.
+    """
+    before = nodes[-2] if len(nodes) >= 2 else start
+    g0, g1 = before.info.nearest_grazing(), node.info.nearest_grazing()
+    p0, p1 = before.u[2] * problem.scales[0], node.u[2] * problem.scales[0]
+    value = p1
+    if g1 < g0 and p1 != p0:
+        value = p1 - g1 * (p1 - p0) / (g1 - g0)
+    found = Found("grazing", node, node.info.signature, node.info.signature, abs(value - p1),
+                  f"the branch ends at a grazing: its last point is {g1:.3g} from touching a flange (in distance or "
+                  "entry speed); the parameter is extrapolated (a secant through the last two points) to where that vanishes", len(nodes) - 1,
+                  {"test": "end", "value": value})
+    return found
 
 
 def _jump(problem, node: Node, t, h: float, bounds, settings: Settings, extra):

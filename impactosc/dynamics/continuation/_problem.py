@@ -81,6 +81,8 @@ class MapProblem:
         self.scales = tuple(scales) if scales is not None else tuple(
             max(abs(parameter_value(base, name)), 1e-3) for name in self.names)
         base_osc = oscillator_of(base)
+        #: Rigid flanges: no state beyond them (the corrector keeps its iterates on the walls).
+        self.rigid = base_osc.rigid
         # The section time of the base, kept when the parameter is the phase itself.
         self._t_section = self._section_time(base_osc)
         check_backend(self.section(self.values(base)), backend, self.options)
