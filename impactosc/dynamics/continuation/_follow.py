@@ -167,7 +167,8 @@ def _grazing_end(problem, nodes, start: Node, node: Node) -> Found:
         value = p1 - g1 * (p1 - p0) / (g1 - g0)
     found = Found("grazing", node, node.info.signature, node.info.signature, abs(value - p1),
                   f"the branch ends at a grazing: its last point is {g1:.3g} from touching a flange (in distance or "
-                  "entry speed); the parameter is extrapolated (a secant through the last two points) to where that vanishes", len(nodes) - 1,
+                  "entry speed); the parameter is extrapolated (a secant through the last two points) to where that "
+                  "vanishes", len(nodes) - 1,
                   {"test": "end", "value": value})
     return found
 
@@ -207,6 +208,7 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
         va, vb = _test_value(a.info, name), _test_value(b.info, name)
         if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
             out.append(_illinois(problem, a, t, h, name, kind, va, vb, settings, index))
+            out[-1].after = b.info.signature
     if same:
         for kind in SMOOTH_TESTS:
             va, vb = _test_value(a.info, kind), _test_value(b.info, kind)
@@ -254,12 +256,14 @@ def _illinois(problem, a: Node, t, h: float, name: str, kind: str, va: float, vb
 def _bisect_signature(problem, a: Node, b: Node, t, h: float, settings, index) -> Found:
     lo, hi = 0.0, h
     best = b
+    failed = False
     for _ in range(60):
         if abs(hi - lo) <= settings.locate_tol:
             break
         s = 0.5 * (lo + hi)
         c = _corrected_at(problem, a, t, s, settings)
         if c is None:
+            failed = True
             break
         node = Node(c.u, t, c, point_info(problem, c.ev), a.arclength)
         if node.info.signature == a.info.signature:
@@ -274,6 +278,9 @@ def _bisect_signature(problem, a: Node, b: Node, t, h: float, settings, index) -
         kind = "stick_onset"
     found = _found(problem, kind, best, a, abs(hi - lo), index, "signature")
     found.after = after
+    if failed:
+        found.message += (f"; located only to within {found.accuracy:.3g} in the parameter (no orbit could be "
+                          "corrected inside the final bracket)")
     return found
 
 
