@@ -16,6 +16,9 @@ drive in SI units (:class:`~impactosc.TapeDrive`):
                                    forward/backward continuation (hysteresis)
 :func:`contact_onset`              critical parameter value at which the steady state touches a flange
 :func:`onset_chart`                that critical value over a 2-D grid: the design chart
+:func:`continuation`               follow a family of periodic orbits in one parameter (a
+                                   :class:`Branch`) with its folds, period doublings, grazings
+                                   and stick onsets located; a located point in two parameters
 =================================  ====================================================
 
 The Jacobians come from the smooth pieces' state-transition matrices (:mod:`.flow`) and a
@@ -32,6 +35,7 @@ from .closed_form import (
     den_hartog_onset,
     quasi_static_critical_clearance,
 )
+from .continuation import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint, continuation
 from .lyapunov import LyapunovResult, lyapunov_exponent
 from .onset import ContactOnset, contact_margin, contact_onset
 from .poincare import Section, detect_period, event_section, stroboscopic_section
@@ -60,6 +64,11 @@ __all__ = [
     "ContactOnset",
     "onset_chart",
     "plot_onset_chart",
+    "continuation",
+    "Branch",
+    "BranchPoint",
+    "SpecialPoint",
+    "SPECIAL_KINDS",
     "den_hartog_amplitude",
     "den_hartog_onset",
     "den_hartog_multipliers",

@@ -1,0 +1,104 @@
+"""Speed of continuation (issue 19): a branch of the contact case and a two-parameter grazing curve.
+
+Run: ``.venv/bin/python benchmarks/continuation_speed.py [--quick] [--repeats N] [--out DIR]``.
+Prints a markdown table and writes it to ``DIR/continuation_speed.md`` (default
+``benchmarks/results``; ``--quick`` writes ``benchmarks/results/quick``).
+
+Targets (issue 19), on the exact backend, one core, after compile:
+
+* a 200-point branch of the contact case with stability and special points located in
+  under 1 s;
+* a 100-point two-parameter grazing curve in under 5 s.
+
+A branch is as long as its family: the time is reported per 200 points (per 100 for the
+curve), from the measured time and the number of points, with the points actually computed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _timing import timed  # noqa: E402
+
+import impactosc as io  # noqa: E402
+from impactosc import dynamics as dy  # noqa: E402
+
+#: The contact case of the speed benchmarks (Omega = 1.1, beta = 0.01, K = 1e4) at F = 0.2, where its
+#: period-1 orbit touches both flanges every period (at F = 0.5 the motion is not period-1).
+CONTACT = io.Oscillator(F=0.2, Omega=1.1, beta=0.01, K=1e4)
+#: The Den Hartog case of issue 19: the contact-free orbit at 0.8 Fc, from the issue's guess.
+OMEGA, BETA = 1.5, 0.1
+DH_GUESS = (-0.7891869048001374, 0.16283153617831878)
+
+
+def _load() -> str:
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "n/a"
+
+
+def branch_row(repeats: int, quick: bool):
+    orb = dy.periodic_orbit(CONTACT, backend="exact", transient_periods=200)
+    step = 0.02 if not quick else 0.1
+    run = lambda: dy.continuation(orb, "F", (0.05, 2.0), backend="exact", step=step, max_step=step,  # noqa: E731
+                                  max_points=10 if quick else 400)
+    run()  # compile and warm up
+    med, n, br = timed(run, repeats, budget=60.0, timeout=600.0)
+    per = med * 200.0 / max(len(br), 1)
+    kinds = ", ".join(f"{s.label}" for s in br.special) or "none"
+    return {"what": "branch of the contact case in F (exact)", "points": len(br), "seconds": med,
+            "per": per, "target": 1.0, "unit": "s per 200 points", "note": f"status {br.status}; special: {kinds}"}
+
+
+def curve_row(repeats: int, quick: bool):
+    Fc = dy.den_hartog_onset(OMEGA, BETA)
+    orb = dy.periodic_orbit(io.Oscillator(0.8 * Fc, OMEGA, BETA, 24.0), guess=DH_GUESS, backend="exact")
+    br = dy.continuation(orb, "F", (0.5 * Fc, 1.1 * Fc), direction="forward")
+    graze = br.find("grazing")[0]
+    step = 0.005 if not quick else 0.1
+    run = lambda: dy.continuation(graze, ("F", "Omega"), {"Omega": (1.2, 2.5)}, step=step,  # noqa: E731
+                                  max_step=step, max_points=10 if quick else 400)
+    run()
+    med, n, curve = timed(run, repeats, budget=60.0, timeout=600.0)
+    err = max(abs(p.parameters["F"] / dy.den_hartog_onset(p.parameters["Omega"], BETA) - 1.0) for p in curve.points)
+    per = med * 100.0 / max(len(curve), 1)
+    return {"what": "grazing curve (F, Omega) of the Den Hartog orbit", "points": len(curve), "seconds": med,
+            "per": per, "target": 5.0, "unit": "s per 100 points",
+            "note": f"status {curve.status}; max |F/F_c(Omega) - 1| = {err:.1e}"}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="tiny sizes (the smoke test)")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--out", default=None)
+    args = ap.parse_args(argv)
+    out = Path(args.out) if args.out else Path(__file__).resolve().parent / "results" / (
+        "quick" if args.quick else "")
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    rows = [branch_row(args.repeats, args.quick), curve_row(args.repeats, args.quick)]
+    lines = ["# Continuation speed (issue 19)", "",
+             f"Load average at the start: {_load()}; medians of {args.repeats} runs after a warm-up run.", "",
+             "| case | points | seconds | per 200 / 100 points | target | met |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        met = "yes" if r["per"] < r["target"] else "no"
+        lines.append(f"| {r['what']} | {r['points']} | {r['seconds']:.3f} | {r['per']:.3f} | {r['target']:.1f} "
+                     f"| {met} |")
+    lines += [""] + [f"- {r['what']}: {r['note']}" for r in rows]
+    lines += ["", f"Total {time.perf_counter() - t0:.1f} s."]
+    md = "\n".join(lines) + "\n"
+    (out / "continuation_speed.md").write_text(md)
+    print(md)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

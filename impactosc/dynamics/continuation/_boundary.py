@@ -1,0 +1,114 @@
+"""A located special point followed in two parameters: the boundary a design chart draws.
+
+The unknowns are ``(X, V, p1, p2)``; the equations ``P^n(z; p) - z = 0`` and the point's
+defining test function ``psi(z, p) = 0`` (:mod:`._points`), with a pseudo-arclength
+constraint: a curve in the ``(p1, p2)`` plane. A grazing's test is the distance
+``1 - max X`` (``1 + min X``) of the contact-free orbit from the flange; its gradient is
+exact, read off the Jacobian and the parameter sensitivity at the extreme of ``X``
+(a velocity zero, where the time of the extreme does not matter to first order). The
+other tests (stick margin, ``det(M -+ I)``) are differentiated by central differences of
+the test along the map's own derivatives, each a map evaluation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._common import check_parameter, parameter_value
+from ._arclength import Corrected, Settings, correct, scaled, unscaled
+from ._assembly import assemble, check_limits
+from ._points import SMOOTH_TESTS, point_info
+from ._problem import MapProblem
+
+__all__ = ["boundary"]
+
+#: Kinds of special point that have a boundary in two parameters.
+BOUNDARY_KINDS = ("grazing", "stick_onset", "fold", "period_doubling", "neimark_sacker")
+_FD_STEP = 1e-7
+
+
+def boundary(point, names: tuple, limits, settings: Settings, backend, options):
+    """The curve of ``point`` (a :class:`~._branch.SpecialPoint`) in the two parameters ``names``."""
+    from ._follow import follow, make_node
+
+    problem, node, extra_info = point.context
+    if point.kind not in BOUNDARY_KINDS:
+        raise ValueError(f"a {point.kind!r} point has no boundary to follow; the kinds that do: "
+                         f"{', '.join(BOUNDARY_KINDS)}")
+    if len(names) != 2 or names[0] == names[1]:
+        raise ValueError(f"parameter must be two distinct names for a boundary, got {names!r}")
+    here = problem.model(unscaled(problem, node.u)[1])
+    for name in names:
+        check_parameter(here, name)
+    bounds = _bounds(names, limits, here)
+    curve = MapProblem(here, names, problem.n, problem.section_phase, backend or problem.backend,
+                       options or problem.options)
+    test = extra_info.get("test", point.kind)
+    extra = _extra(curve, test)
+    z0 = np.array([point.x, point.v])
+    u0 = scaled(curve, z0, curve.values())
+    fix = np.zeros_like(u0)
+    fix[3] = 1.0  # the second parameter held at its value: solve for the first
+    result = correct(curve, u0, fix, settings, extra=extra)
+    if not isinstance(result, Corrected):
+        return assemble(curve, [], [], [(-1, f"the {point.kind} point could not be solved in {names}: {result}")], 0)
+    start = make_node(curve, result, None, 0.0, extra)
+    if start.t[3] < 0.0:
+        start.t = -start.t
+    plain = Settings(settings.step, settings.min_step, settings.max_step, settings.max_points, settings.tol,
+                     settings.max_iter, False, settings.locate_tol)
+    back = follow(curve, start, -1, bounds, plain, settings.max_points, extra)
+    fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra)
+    nodes = list(reversed(back[0])) + [start] + fwd[0]
+    branch = assemble(curve, nodes, [], [tuple(back[2:]), tuple(fwd[2:])], len(back[0]))
+    return branch
+
+
+def _bounds(names, limits, here):
+    if not isinstance(limits, dict):
+        raise TypeError(f"limits of a boundary must be a dict of name: (lo, hi) for either parameter, got {limits!r}")
+    unknown = set(limits) - set(names)
+    if unknown or not limits:
+        raise ValueError(f"limits must name one or both of {names}, got {sorted(limits)!r}")
+    return [check_limits(name, limits[name], parameter_value(here, name)) if name in limits else (-math.inf, math.inf)
+            for name in names]
+
+
+def _extra(curve: MapProblem, test: str):
+    """``extra(ev, u) -> (psi, gradient row)`` of the test ``test``."""
+    scales = np.asarray(curve.scales)
+    if test in ("upper_margin", "lower_margin"):
+        upper = test == "upper_margin"
+
+        def grazing(ev, u):
+            rec = ev.recorder
+            x, row, sig = rec.top if upper else rec.bottom
+            sign = -1.0 if upper else 1.0
+            psi = 1.0 + sign * x
+            grad = sign * np.concatenate([np.asarray(row, float), np.asarray(sig, float) * scales])
+            return np.array([psi]), grad[None, :]
+
+        return grazing
+
+    def value(ev):
+        info = point_info(curve, ev)
+        return float(info.tests[test]) if test in SMOOTH_TESTS else float(getattr(info, test))
+
+    def differenced(ev, u):
+        psi = value(ev)
+        grad = np.zeros(len(u))
+        for i in range(len(u)):
+            du = np.zeros(len(u))
+            du[i] = _FD_STEP
+            z1, p1 = unscaled(curve, u + du)
+            z0, p0 = unscaled(curve, u - du)
+            e1, e0 = curve.evaluate(z1, p1), curve.evaluate(z0, p0)
+            if not (e1.ok and e0.ok) or e1.singular or e0.singular:
+                grad[i] = math.nan
+                continue
+            grad[i] = (value(e1) - value(e0)) / (2.0 * _FD_STEP)
+        return np.array([psi]), grad[None, :]
+
+    return differenced

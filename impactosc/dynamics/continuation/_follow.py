@@ -1,0 +1,319 @@
+"""Following a branch in one direction, and locating the special points between two of its points.
+
+:func:`follow` is the driver loop: predict along the tangent, correct on the
+pseudo-arclength hyperplane, adapt the step (grow after a fast corrector, shrink after a
+slow or failed one or a sharp turn), stop at a parameter limit (the last point solved
+*on* the limit), at ``max_points`` or below ``min_step``, keeping every point computed.
+Between two accepted points, a change of sign of a test function or a change of the
+event signature is located by :func:`locate`: Illinois (regula falsi) on the arclength
+for a test function, bisection for the signature, each evaluation a corrected point.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
+from ._points import MARGIN_TESTS, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
+from ._problem import MapProblem
+
+__all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
+
+#: Cosine of the largest turn of the tangent accepted in one step (about 35 degrees).
+MAX_TURN = 0.82
+#: Order of special points found between the same two points (for their labels).
+LABEL_ORDER = {"grazing": 0, "stick_onset": 1, "border": 2, "fold": 3, "period_doubling": 4, "neimark_sacker": 5}
+#: A margin this close to zero (nondimensional) at a failed step: the branch ends at the grazing.
+GRAZING_NEAR = 1e-3
+
+
+@dataclass(eq=False)
+class Node:
+    """An accepted point: unknowns, tangent, evaluation and what it says."""
+
+    u: np.ndarray
+    t: np.ndarray
+    corrected: Corrected
+    info: PointInfo
+    arclength: float
+
+
+@dataclass(eq=False)
+class Found:
+    """A located special point before it becomes a :class:`~._branch.SpecialPoint`."""
+
+    kind: str
+    node: Node
+    before: tuple
+    after: tuple
+    accuracy: float
+    message: str
+    index: int
+    extra: dict = field(default_factory=dict)
+
+
+def make_node(problem: MapProblem, corrected: Corrected, previous_t, arclength: float, extra=None) -> Node:
+    rows = jacobian_rows(problem, corrected.ev)
+    if extra is not None:
+        rows = np.vstack([rows, extra(corrected.ev, corrected.u)[1]])
+    t = tangent(rows, previous_t)
+    return Node(corrected.u, t, corrected, point_info(problem, corrected.ev), arclength)
+
+
+def follow(problem: MapProblem, start: Node, direction: int, limits, settings: Settings, max_points: int,
+           extra=None):
+    """Follow the branch from ``start`` along ``direction * start.t``.
+
+    ``limits`` is ``(lo, hi)`` of the first parameter, or a list of such pairs, one per free
+    parameter (``-inf``/``inf`` for none); ``extra`` adds equations to the corrector (a
+    boundary's test function, :mod:`._boundary`). Returns ``(nodes, found, status,
+    message)``: the accepted points after ``start``, the located special points (``Found``,
+    ``index`` counted in ``nodes`` with ``start`` as -1).
+    """
+    bounds = [limits] if np.ndim(limits) == 1 else list(limits)
+    nodes: list[Node] = []
+    found: list[Found] = []
+    node = start
+    t = direction * start.t
+    h = settings.step
+    jumped_last = False
+    h_good = h  # the last step that succeeded: the scale of a jump across a grazing
+    while True:
+        if len(nodes) >= max_points:
+            return nodes, found, 1, f"stopped after max_points = {max_points} points"
+        u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
+        result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
+        turn = None
+        if isinstance(result, Corrected):
+            new = _advance(problem, node, result, t, direction, extra)
+            turn = float(np.dot(new.t, t))
+        if not isinstance(result, Corrected) or (turn is not None and turn < MAX_TURN and at_limit is None):
+            why = result if not isinstance(result, Corrected) else (
+                f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, turn)))):.0f} degrees")
+            h *= 0.5
+            if h < settings.min_step:
+                jumped = None
+                if node.info.nearest_grazing() < GRAZING_NEAR and not jumped_last:
+                    jumped, at_limit, h = _jump(problem, node, t, h_good, bounds, settings, extra)
+                if jumped is None:
+                    status, message = _failed_end(node, why, settings)
+                    if status == 2:
+                        found.append(_grazing_end(problem, nodes, start, node))
+                    return nodes, found, status, message
+                result = jumped
+                new = _advance(problem, node, result, t, direction, extra)
+                jumped_last = True
+            else:
+                continue
+        else:
+            jumped_last = False
+            h_good = h
+        if settings.locate:
+            found += locate_between(problem, node, new, t, settings, index=len(nodes) - 1)
+        nodes.append(new)
+        if at_limit is not None:
+            return nodes, found, 0, f"reached the limit {at_limit[0]} = {at_limit[1]!r}"
+        if result.iterations <= 2:
+            h = min(h * 1.5, settings.max_step)
+        elif result.iterations >= 5:
+            h = max(h * 0.6, settings.min_step)
+        node, t = new, new.t
+
+
+def _advance(problem, node: Node, result: Corrected, t, direction: int, extra) -> Node:
+    step = float(np.linalg.norm(result.u - node.u))
+    return make_node(problem, result, t, node.arclength + direction * step, extra)
+
+
+def _predict(problem: MapProblem, u, t, h: float, bounds):
+    """The predicted point, its constraint row, and ``(name, limit)`` when it lies beyond a limit."""
+    u_pred = u + h * t
+    for j, (lo, hi) in enumerate(bounds):
+        value = u_pred[2 + j] * problem.scales[j]
+        if value > hi or value < lo:
+            limit = hi if value > hi else lo
+            u_pred = u_pred.copy()
+            u_pred[2 + j] = limit / problem.scales[j]
+            constraint = np.zeros_like(u_pred)
+            constraint[2 + j] = 1.0
+            return u_pred, constraint, (problem.names[j], limit)
+    return u_pred, t, None
+
+
+def _failed_end(node: Node, why: str, settings: Settings):
+    near = node.info.nearest_grazing()
+    if near < GRAZING_NEAR:
+        return 2, (f"the branch ends at a grazing (its last point is {near:.3g} from touching a flange, in distance "
+                   f"or entry speed): no periodic orbit of this family lies beyond it within the minimum step "
+                   f"{settings.min_step:g}, nor past it ({why})")
+    return -1, f"the step fell below min_step = {settings.min_step:g}: {why}"
+
+
+def _grazing_end(problem, nodes, start: Node, node: Node) -> Found:
+    """The grazing that ends a branch, extrapolated from its last two points.
+
+    The distance to touching (a clearance, or an entry speed, which vanish linearly in the
+    parameter on the side where the orbit exists) is extrapolated to zero by a secant in the
+    parameter; the point's accuracy is how far that moved from the last point.
+    """
+    before = nodes[-2] if len(nodes) >= 2 else start
+    g0, g1 = before.info.nearest_grazing(), node.info.nearest_grazing()
+    p0, p1 = before.u[2] * problem.scales[0], node.u[2] * problem.scales[0]
+    value = p1
+    if g1 < g0 and p1 != p0:
+        value = p1 - g1 * (p1 - p0) / (g1 - g0)
+    found = Found("grazing", node, node.info.signature, node.info.signature, abs(value - p1),
+                  f"the branch ends at a grazing: its last point is {g1:.3g} from touching a flange (in distance or "
+                  "entry speed); the parameter is extrapolated (a secant through the last two points) to where that "
+                  "vanishes", len(nodes) - 1,
+                  {"test": "end", "value": value})
+    return found
+
+
+def _jump(problem, node: Node, t, h: float, bounds, settings: Settings, extra):
+    """Across a grazing: predictions beyond it, for a branch whose map is singular at the grazing itself."""
+    for factor in (0.25, 1.0, 2.0, 4.0):
+        step = min(factor * h, settings.max_step)
+        u_pred, constraint, at_limit = _predict(problem, node.u, t, step, bounds)
+        result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * step)
+        if isinstance(result, Corrected):
+            return result, at_limit, step
+        if step >= settings.max_step:
+            break
+    return None, None, h
+
+
+# -- location ----------------------------------------------------------------------------
+def _corrected_at(problem, a: Node, t, sigma: float, settings: Settings):
+    """The branch point at arclength ``sigma`` from ``a`` along ``t`` (or None)."""
+    result = correct(problem, a.u + sigma * t, t, settings, max_distance=2.0 * abs(sigma) + 1e-9)
+    return result if isinstance(result, Corrected) else None
+
+
+def _test_value(info: PointInfo, name: str) -> float:
+    if name in SMOOTH_TESTS:
+        return float(info.tests[name])
+    return float(getattr(info, name))
+
+
+def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int) -> list[Found]:
+    """Every special point between the accepted points ``a`` and ``b`` (``b`` follows ``a`` along ``t``)."""
+    out: list[Found] = []
+    h = float(np.dot(b.u - a.u, t))
+    same = a.info.signature == b.info.signature
+    for name, kind in MARGIN_TESTS:
+        va, vb = _test_value(a.info, name), _test_value(b.info, name)
+        if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
+            out.append(_illinois(problem, a, t, h, name, kind, va, vb, settings, index))
+            out[-1].after = b.info.signature
+    if same:
+        for kind in SMOOTH_TESTS:
+            va, vb = _test_value(a.info, kind), _test_value(b.info, kind)
+            if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
+                out.append(_illinois(problem, a, t, h, kind, kind, va, vb, settings, index))
+    elif not any(f.kind in ("grazing", "stick_onset") for f in out):
+        out.append(_bisect_signature(problem, a, b, t, h, settings, index))
+    return out
+
+
+def _illinois(problem, a: Node, t, h: float, name: str, kind: str, va: float, vb: float, settings, index) -> Found:
+    lo, hi, flo, fhi = 0.0, h, va, vb
+    best, side = None, 0
+    for _ in range(80):
+        s = hi - fhi * (hi - lo) / (fhi - flo)
+        if not lo < s < hi:
+            s = 0.5 * (lo + hi)
+        c = _corrected_at(problem, a, t, s, settings)
+        if c is None:  # no differentiable orbit exactly here (e.g. at the grazing itself): bisect instead
+            s = 0.5 * (lo + hi)
+            c = _corrected_at(problem, a, t, s, settings)
+            if c is None:
+                break
+        node = Node(c.u, t, c, point_info(problem, c.ev), a.arclength)
+        f = _test_value(node.info, name)
+        best = node
+        if not math.isfinite(f):
+            break
+        if f * fhi < 0.0:
+            lo, flo = hi, fhi
+            hi, fhi = s, f
+            side = 0
+        else:
+            hi, fhi = s, f
+            if side == -1:
+                flo *= 0.5
+            side = -1
+        value = abs(c.u[2] * problem.scales[0])
+        width = abs(hi - lo) * abs(t[2]) * problem.scales[0]
+        if f == 0.0 or abs(hi - lo) <= settings.locate_tol or width <= settings.locate_tol * max(1.0, value):
+            break
+    return _found(problem, kind, best or a, a, abs(hi - lo), index, name)
+
+
+def _bisect_signature(problem, a: Node, b: Node, t, h: float, settings, index) -> Found:
+    lo, hi = 0.0, h
+    best = b
+    failed = False
+    for _ in range(60):
+        if abs(hi - lo) <= settings.locate_tol:
+            break
+        s = 0.5 * (lo + hi)
+        c = _corrected_at(problem, a, t, s, settings)
+        if c is None:
+            failed = True
+            break
+        node = Node(c.u, t, c, point_info(problem, c.ev), a.arclength)
+        if node.info.signature == a.info.signature:
+            lo = s
+        else:
+            hi, best = s, node
+    before, after = a.info.signature, b.info.signature
+    kind = "border"
+    if contact_counts(before) != contact_counts(after):
+        kind = "grazing"
+    elif stick_counts(before) != stick_counts(after):
+        kind = "stick_onset"
+    found = _found(problem, kind, best, a, abs(hi - lo), index, "signature")
+    found.after = after
+    if failed:
+        found.message += (f"; located only to within {found.accuracy:.3g} in the parameter (no orbit could be "
+                          "corrected inside the final bracket)")
+    return found
+
+
+def _found(problem, kind: str, node: Node, a: Node, width: float, index: int, test: str) -> Found:
+    _, params = unscaled(problem, node.u)
+    before, after = a.info.signature, node.info.signature
+    message = _describe(kind, test, node, before, after)
+    return Found(kind, node, before, after, width * problem.scales[0], message, index, {"test": test})
+
+
+def _describe(kind: str, test: str, node: Node, before, after) -> str:
+    mus = node.info.multipliers
+    if kind == "fold":
+        return "a multiplier passes through +1 (the branch turns back in the parameter)"
+    if kind == "period_doubling":
+        return "a multiplier passes through -1 (a period-2n branch bifurcates)"
+    if kind == "neimark_sacker":
+        return f"a complex pair crosses the unit circle (|mu| = {abs(mus[0]):.6g}): a torus"
+    if kind == "grazing" and test == "signature":
+        return (f"the orbit touches a flange tangentially: its contacts change from {_contacts(before)} to "
+                f"{_contacts(after)}")
+    if kind == "grazing":
+        side = "upper" if test.startswith("upper") else "lower"
+        return f"the orbit touches the {side} flange tangentially (a contact appears or vanishes)"
+    if kind == "stick_onset":
+        return "a reversal turns into a stick (the sliding bifurcation)"
+    return f"the event signature changes from {_text(before)} to {_text(after)}"
+
+
+def _text(sig) -> str:
+    side = {1: "upper ", -1: "lower ", 0: ""}
+    return ", ".join(f"{count} {side[s]}{kind}" for (kind, s), count in sig) or "no events"
+
+
+def _contacts(sig) -> str:
+    return _text(tuple(contact_counts(sig).items())) if contact_counts(sig) else "none"

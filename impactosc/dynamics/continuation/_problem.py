@@ -1,0 +1,169 @@
+"""The problem continuation solves: ``G(z, p) = P^n(z; p) - z = 0`` on a fixed section.
+
+:class:`MapProblem` evaluates the stroboscopic map of the model at a parameter value with
+the full Jacobian ``[dP/dz, dP/dp]`` (:mod:`._sensitivity`). The section is a fixed forcing
+phase: when a parameter changes ``Omega`` (the frequency itself, or a drive's speed) the
+section time moves with it, so that the map stays the map of one forcing cycle; when the
+parameter is ``phase`` the section stays at its time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...model._oscillator import Oscillator
+from .._common import advanced, check_parameter, oscillator_of, parameter_value, periods_in, with_parameter
+from ..saltation import vector_field
+from ..tangent import check_backend, piece_stepper
+from ._sensitivity import SensitivityRecorder, Stencil
+
+__all__ = ["MapProblem", "MapEvaluation"]
+
+
+@dataclass(frozen=True, eq=False)
+class MapEvaluation:
+    """The map at one ``(z, p)``: ``P^n(z)``, ``dP/dz``, ``dP/dp`` and what the run saw."""
+
+    z: np.ndarray
+    params: tuple
+    image: np.ndarray | None
+    monodromy: np.ndarray
+    dp: np.ndarray  #: (2, k): dP/dp_j
+    recorder: Any
+    failure: str = ""  #: why the run failed ("" when it ran)
+
+    @property
+    def ok(self) -> bool:
+        """The run finished (the map has a value)."""
+        return self.image is not None
+
+    @property
+    def singular(self) -> str:
+        """Why the map is not differentiable here ("" when it is)."""
+        rec = self.recorder
+        if rec is None or rec.singular is None:
+            return ""
+        return rec.singular.reason
+
+    @property
+    def residual(self) -> np.ndarray:
+        return self.image - self.z
+
+
+class MapProblem:
+    """``P^n`` of ``base`` with the named parameters free (:mod:`.continuation`).
+
+    Parameters
+    ----------
+    base : Oscillator or TapeDrive
+        The model; parameters are its fields (:func:`impactosc.dynamics.parameter_names`).
+    names : tuple of str
+        The free parameters.
+    n : int
+        Forcing periods per map.
+    section_phase : float
+        Forcing phase ``Omega t + phase`` of the section (mod 2 pi).
+    backend : str
+        ``"exact"``, ``"heyoka"`` or ``"scipy"``; ``options`` are its options.
+    """
+
+    def __init__(self, base, names, n: int, section_phase: float, backend: str, options: dict, scales=None):
+        self.base = base
+        self.names = tuple(check_parameter(base, name) for name in names)
+        self.n = int(n)
+        self.section_phase = float(section_phase)
+        self.backend = backend
+        self.options = dict(options)
+        self.scales = tuple(scales) if scales is not None else tuple(
+            max(abs(parameter_value(base, name)), 1e-3) for name in self.names)
+        base_osc = oscillator_of(base)
+        #: Rigid flanges: no state beyond them (the corrector keeps its iterates on the walls).
+        self.rigid = base_osc.rigid
+        # The section time of the base, kept when the parameter is the phase itself.
+        self._t_section = self._section_time(base_osc)
+        check_backend(self.section(self.values(base)), backend, self.options)
+
+    # -- the model at a parameter value ------------------------------------------------
+    def values(self, base=None) -> tuple:
+        """The free parameters' values in ``base`` (default: the problem's base)."""
+        base = self.base if base is None else base
+        return tuple(parameter_value(base, name) for name in self.names)
+
+    def model(self, params):
+        """The base with the free parameters set to ``params`` (Oscillator or TapeDrive)."""
+        m = self.base
+        for name, value in zip(self.names, params, strict=True):
+            m = with_parameter(m, name, float(value))
+        return m
+
+    def _section_time(self, osc: Oscillator) -> float:
+        if osc.F == 0.0 or osc.Omega == 0.0:
+            return 0.0
+        return ((self.section_phase - osc.phase) % (2.0 * math.pi)) / osc.Omega
+
+    def section(self, params) -> Oscillator:
+        """The model at ``params`` seen from its section (a run from time 0 is one map)."""
+        osc = oscillator_of(self.model(params))
+        if "phase" in self.names:
+            return advanced(osc, self._t_section)
+        return advanced(osc, self._section_time(osc))
+
+    def span(self, osc: Oscillator) -> float:
+        return periods_in(osc, None, self.n)[1]
+
+    # -- the map -------------------------------------------------------------------------
+    def evaluate(self, z, params, record: str = "events") -> MapEvaluation:
+        """``P^n(z; params)`` with its Jacobians; a failed run gives ``image = None`` and ``failure``."""
+        z = np.asarray(z, dtype=float)
+        params = tuple(float(p) for p in params)
+        k = len(self.names)
+        nan2 = np.full((2, 2), math.nan)
+        try:
+            sec = self.section(params)
+        except ValueError as exc:
+            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, str(exc))
+        if not (math.isfinite(z[0]) and math.isfinite(z[1])):
+            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, f"state {z} is not finite")
+        if sec.rigid and abs(z[0]) > 1.0:
+            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None,
+                                 f"X = {z[0]!r} lies beyond a rigid flange (|X| <= 1)")
+        stencils = [self._stencil(params, j) for j in range(k)]
+        span = self.span(sec)
+        from ...backends._simulate import DEFAULT_MAX_EVENTS
+        from ...engine._driver import drive
+
+        try:
+            stepper, evaluator = piece_stepper(self.backend, sec, self.options)
+            rec = SensitivityRecorder(record, self.backend, evaluator, stencils)
+            drive(stepper, sec, span, float(z[0]), float(z[1]), rec, DEFAULT_MAX_EVENTS, ())
+        except (ValueError, FloatingPointError) as exc:
+            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, str(exc))
+        if rec.status != 0:
+            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), rec, rec.message)
+        image = np.array([rec.x_final, rec.v_final])
+        if rec.singular is not None:
+            return MapEvaluation(z, params, image, nan2, np.full((2, k), math.nan), rec)
+        M = np.array(rec.jacobian, dtype=float).reshape(2, 2)
+        dp = rec.sigma.copy()
+        fx, fv = vector_field(sec, span, rec.x_final, rec.v_final, rec.final_mode)
+        for j, stencil in enumerate(stencils):
+            dT = stencil.derivative(self.span)
+            if dT != 0.0:
+                dp[:, j] += np.array([fx, fv]) * dT
+        return MapEvaluation(z, params, image, M, dp, rec)
+
+    def _stencil(self, params, j: int) -> Stencil:
+        def family(value):
+            q = list(params)
+            q[j] = value
+            return self.section(q)
+
+        return Stencil(family, params[j], self.scales[j])
+
+    def with_names(self, names, scales=None) -> MapProblem:
+        """The same problem with other free parameters."""
+        return MapProblem(self.base, names, self.n, self.section_phase, self.backend, self.options, scales)
