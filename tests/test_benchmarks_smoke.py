@@ -96,3 +96,12 @@ def test_speed_quick(tmp_path):
     assert "## Targets (issue 12)" in md and "compiled closed form: >= 1e6 events/s" in md
     nums = _table_numbers(md)
     assert nums and all(math.isfinite(float(c.replace(",", ""))) for c in nums)
+
+
+def test_continuation_speed_quick(tmp_path):
+    mod = _load("continuation_speed")
+    assert mod.main(["--quick", "--repeats", "1", "--out", str(tmp_path)]) == 0
+    md = (tmp_path / "continuation_speed.md").read_text()
+    assert "grazing curve" in md and "branch of the contact case" in md
+    nums = _table_numbers(md)
+    assert nums and all(math.isfinite(float(c.replace(",", ""))) for c in nums)

@@ -10,7 +10,7 @@ from .._common import advanced, check_base, check_parameter, oscillator_of
 from ..shooting import PeriodicOrbit
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
-from ._branch import Branch, SpecialPoint
+from ._branch import SPECIAL_KINDS, Branch, SpecialPoint
 from ._follow import follow, make_node
 from ._problem import MapProblem
 
@@ -21,8 +21,8 @@ _DIRECTIONS = ("both", "forward", "backward")
 
 def continuation(start, parameter, limits, *, base=None, backend: str | None = None, direction: str = "both",
                  step: float = 0.02, min_step: float = 1e-7, max_step: float = 0.1, max_points: int = 500,
-                 tol: float = 1e-10, max_iter: int = 8, locate: bool = True, locate_tol: float = 1e-12,
-                 **options) -> Branch:
+                 tol: float = 1e-10, max_iter: int = 8, locate=True, locate_tol: float = 1e-12,
+                 stop_at=(), **options) -> Branch:
     """Follow a family of periodic orbits as parameters change (pseudo-arclength continuation).
 
     The orbits are fixed points of the stroboscopic map ``P^n`` (:func:`periodic_orbit`),
@@ -67,10 +67,16 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
         Newton tolerance on ``|G|`` (relative to ``max(1, |z|)``).
     max_iter : int
         Newton iterations per point.
-    locate : bool
-        Locate special points (default True).
+    locate : bool or sequence of str
+        Locate special points: True (default) every kind of :data:`SPECIAL_KINDS`, False none,
+        or the kinds to locate (e.g. ``("grazing",)``: where a drive's orbit creeps in
+        stick-slip, the number of sticks per period changes often, and each change is a
+        border point worth locating only when asked).
     locate_tol : float
         Width of the final bracket (scaled arclength) of a located point.
+    stop_at : sequence of str
+        Kinds of special point whose first located point ends the run in that direction
+        (status 0, the message says so), e.g. ``("grazing",)`` for a contact onset.
     **options
         The backend's options (``tol`` of heyoka, ``rtol`` of scipy, ...).
 
@@ -92,7 +98,7 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     di Bernardo, Budd, Champneys & Kowalczyk, *Piecewise-smooth Dynamical Systems* (2008);
     Dankowicz & Schilder, *Recipes for Continuation* (2013) (COCO's ``hspo``).
     """
-    settings = _settings(step, min_step, max_step, max_points, tol, max_iter, locate, locate_tol)
+    settings = _settings(step, min_step, max_step, max_points, tol, max_iter, locate, locate_tol, stop_at)
     if direction not in _DIRECTIONS:
         raise ValueError(f"direction must be one of {', '.join(_DIRECTIONS)}, got {direction!r}")
     if isinstance(start, SpecialPoint):
@@ -112,15 +118,32 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     return _run(problem, z0, (lo, hi), direction, settings, max_points)
 
 
-def _settings(step, min_step, max_step, max_points, tol, max_iter, locate, locate_tol) -> Settings:
+def _settings(step, min_step, max_step, max_points, tol, max_iter, locate, locate_tol, stop_at) -> Settings:
     step, min_step, max_step = (_v.positive(n, x) for n, x in (("step", step), ("min_step", min_step),
                                                                ("max_step", max_step)))
     if not min_step <= step <= max_step:
         raise ValueError(f"the steps must satisfy min_step <= step <= max_step, got {min_step!r}, {step!r}, "
                          f"{max_step!r}")
+    kinds = _kinds("locate", SPECIAL_KINDS if locate is True else () if locate is False else locate)
+    stops = _kinds("stop_at", stop_at)
+    if not stops <= kinds:
+        raise ValueError(f"stop_at kinds must also be located: {sorted(stops - kinds)} are not in locate")
     return Settings(step, min_step, max_step, _v.integer("max_points", max_points, minimum=1),
-                    _v.positive("tol", tol), _v.integer("max_iter", max_iter, minimum=1), bool(locate),
-                    _v.positive("locate_tol", locate_tol))
+                    _v.positive("tol", tol), _v.integer("max_iter", max_iter, minimum=1), kinds,
+                    _v.positive("locate_tol", locate_tol), stops)
+
+
+def _kinds(name: str, kinds) -> frozenset:
+    if isinstance(kinds, str):
+        kinds = (kinds,)
+    try:
+        out = frozenset(kinds)
+    except TypeError:
+        raise TypeError(f"{name} must be a bool or a sequence of special-point kinds, got {kinds!r}") from None
+    unknown = out - set(SPECIAL_KINDS)
+    if unknown:
+        raise ValueError(f"{name} names unknown kinds {sorted(unknown)}; the kinds are {', '.join(SPECIAL_KINDS)}")
+    return out
 
 
 def default_backend(osc: Oscillator, backend, options) -> str:
@@ -177,6 +200,7 @@ def _start_node(problem: MapProblem, z0, settings: Settings):
     if not isinstance(result, Corrected):
         return f"no periodic orbit was found from the start ({z0[0]!r}, {z0[1]!r}): {result}"
     node = make_node(problem, result, None, 0.0)
+    problem.limit_events(result.ev.recorder.n_events)
     if node.t[2] < 0.0:
         node.t = -node.t
     return node

@@ -38,8 +38,9 @@ class Settings:
     max_points: int
     tol: float
     max_iter: int
-    locate: bool
+    locate: frozenset  #: the kinds of special point to locate (empty: none)
     locate_tol: float
+    stop_at: frozenset = frozenset()  #: kinds whose first located point ends a direction
 
 
 @dataclass(frozen=True, eq=False)

@@ -27,6 +27,9 @@ __all__ = ["boundary"]
 #: Kinds of special point that have a boundary in two parameters.
 BOUNDARY_KINDS = ("grazing", "stick_onset", "fold", "period_doubling", "neimark_sacker")
 _FD_STEP = 1e-7
+#: Where the orbit that touches a flange exactly has no Jacobian (it sticks or impacts there),
+#: a grazing boundary is traced this far (in X) off the flange on the contact-free side.
+GRAZING_OFFSET = 1e-9
 
 
 def boundary(point, names: tuple, limits, settings: Settings, backend, options):
@@ -45,25 +48,33 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     bounds = _bounds(names, limits, here)
     curve = MapProblem(here, names, problem.n, problem.section_phase, backend or problem.backend,
                        options or problem.options)
-    test = extra_info.get("test", point.kind)
-    extra = _extra(curve, test)
+    test = extra_info.get("margin", extra_info.get("test", point.kind))  # an end: the margin of its flange
     z0 = np.array([point.x, point.v])
     u0 = scaled(curve, z0, curve.values())
     fix = np.zeros_like(u0)
     fix[3] = 1.0  # the second parameter held at its value: solve for the first
-    result = correct(curve, u0, fix, settings, extra=extra)
+    curve.limit_events(problem.orbit_events or 0)
+    for offset in (0.0, GRAZING_OFFSET) if test in ("upper_margin", "lower_margin") else (0.0,):
+        extra = _extra(curve, test, offset)
+        result = correct(curve, u0, fix, settings, extra=extra)
+        if isinstance(result, Corrected) or "not differentiable" not in result:
+            break
     if not isinstance(result, Corrected):
         return assemble(curve, [], [], [(-1, f"the {point.kind} point could not be solved in {names}: {result}")], 0)
     start = make_node(curve, result, None, 0.0, extra)
     if start.t[3] < 0.0:
         start.t = -start.t
     plain = Settings(settings.step, settings.min_step, settings.max_step, settings.max_points, settings.tol,
-                     settings.max_iter, False, settings.locate_tol)
+                     settings.max_iter, frozenset(), settings.locate_tol)
     back = follow(curve, start, -1, bounds, plain, settings.max_points, extra)
     fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra)
     nodes = list(reversed(back[0])) + [start] + fwd[0]
-    branch = assemble(curve, nodes, [], [tuple(back[2:]), tuple(fwd[2:])], len(back[0]))
-    return branch
+    ends = [tuple(back[2:]), tuple(fwd[2:])]
+    if offset:
+        note = (f" (traced {offset:g} in X off the flange, on the contact-free side: the orbit that touches it exactly "
+                "sticks or impacts there, where the map has no Jacobian)")
+        ends = [(status, message + note) for status, message in ends]
+    return assemble(curve, nodes, [], ends, len(back[0]))
 
 
 def _bounds(names, limits, here):
@@ -76,8 +87,8 @@ def _bounds(names, limits, here):
             for name in names]
 
 
-def _extra(curve: MapProblem, test: str):
-    """``extra(ev, u) -> (psi, gradient row)`` of the test ``test``."""
+def _extra(curve: MapProblem, test: str, offset: float = 0.0):
+    """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: ``offset`` off the flange)."""
     scales = np.asarray(curve.scales)
     if test in ("upper_margin", "lower_margin"):
         upper = test == "upper_margin"
@@ -86,7 +97,7 @@ def _extra(curve: MapProblem, test: str):
             rec = ev.recorder
             x, row, sig = rec.top if upper else rec.bottom
             sign = -1.0 if upper else 1.0
-            psi = 1.0 + sign * x
+            psi = 1.0 + sign * x - offset
             grad = sign * np.concatenate([np.asarray(row, float), np.asarray(sig, float) * scales])
             return np.array([psi]), grad[None, :]
 

@@ -114,6 +114,9 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
         if settings.locate:
             found += locate_between(problem, node, new, t, settings, index=len(nodes) - 1)
         nodes.append(new)
+        stop = [f for f in found if f.kind in settings.stop_at]
+        if stop:
+            return nodes, found, 0, f"stopped at the first {stop[0].kind} point, as asked (stop_at)"
         if at_limit is not None:
             return nodes, found, 0, f"reached the limit {at_limit[0]} = {at_limit[1]!r}"
         if result.iterations <= 2:
@@ -169,8 +172,15 @@ def _grazing_end(problem, nodes, start: Node, node: Node) -> Found:
                   f"the branch ends at a grazing: its last point is {g1:.3g} from touching a flange (in distance or "
                   "entry speed); the parameter is extrapolated (a secant through the last two points) to where that "
                   "vanishes", len(nodes) - 1,
-                  {"test": "end", "value": value})
+                  {"test": "end", "value": value, "margin": _nearest_side(node.info)})
     return found
+
+
+def _nearest_side(info: PointInfo) -> str:
+    """``"upper_margin"`` or ``"lower_margin"``: the flange the orbit is nearest to touching."""
+    near = {side: min(abs(info.upper_margin if side > 0 else info.lower_margin), info.approach[side],
+                      info.slowest_entry[side]) for side in (1, -1)}
+    return "upper_margin" if near[1] <= near[-1] else "lower_margin"
 
 
 def _jump(problem, node: Node, t, h: float, bounds, settings: Settings, extra):
@@ -205,16 +215,21 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
     h = float(np.dot(b.u - a.u, t))
     same = a.info.signature == b.info.signature
     for name, kind in MARGIN_TESTS:
+        if kind not in settings.locate:
+            continue
         va, vb = _test_value(a.info, name), _test_value(b.info, name)
         if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
             out.append(_illinois(problem, a, t, h, name, kind, va, vb, settings, index))
             out[-1].after = b.info.signature
     if same:
         for kind in SMOOTH_TESTS:
+            if kind not in settings.locate:
+                continue
             va, vb = _test_value(a.info, kind), _test_value(b.info, kind)
             if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
                 out.append(_illinois(problem, a, t, h, kind, kind, va, vb, settings, index))
-    elif not any(f.kind in ("grazing", "stick_onset") for f in out):
+    elif (not any(f.kind in ("grazing", "stick_onset") for f in out)
+          and _signature_kind(a.info.signature, b.info.signature) in settings.locate):
         out.append(_bisect_signature(problem, a, b, t, h, settings, index))
     return out
 
@@ -271,17 +286,22 @@ def _bisect_signature(problem, a: Node, b: Node, t, h: float, settings, index) -
         else:
             hi, best = s, node
     before, after = a.info.signature, b.info.signature
-    kind = "border"
-    if contact_counts(before) != contact_counts(after):
-        kind = "grazing"
-    elif stick_counts(before) != stick_counts(after):
-        kind = "stick_onset"
+    kind = _signature_kind(before, after)
     found = _found(problem, kind, best, a, abs(hi - lo), index, "signature")
     found.after = after
     if failed:
         found.message += (f"; located only to within {found.accuracy:.3g} in the parameter (no orbit could be "
                           "corrected inside the final bracket)")
     return found
+
+
+def _signature_kind(before, after) -> str:
+    """What a change of the event signature is: a contact appearing or vanishing, a stick, or another border."""
+    if contact_counts(before) != contact_counts(after):
+        return "grazing"
+    if stick_counts(before) != stick_counts(after):
+        return "stick_onset"
+    return "border"
 
 
 def _found(problem, kind: str, node: Node, a: Node, width: float, index: int, test: str) -> Found:

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from ...backends._simulate import DEFAULT_MAX_EVENTS
+from ...engine._driver import drive
 from ...model._oscillator import Oscillator
 from .._common import advanced, check_parameter, oscillator_of, parameter_value, periods_in, with_parameter
 from ..saltation import vector_field
@@ -80,6 +82,9 @@ class MapProblem:
         self.options = dict(options)
         self.scales = tuple(scales) if scales is not None else tuple(
             max(abs(parameter_value(base, name)), 1e-3) for name in self.names)
+        #: Events a map evaluation may take before it counts as failed (see :meth:`limit_events`).
+        self.max_events = DEFAULT_MAX_EVENTS
+        self.orbit_events = 0
         base_osc = oscillator_of(base)
         #: Rigid flanges: no state beyond them (the corrector keeps its iterates on the walls).
         self.rigid = base_osc.rigid
@@ -133,17 +138,19 @@ class MapProblem:
                                  f"X = {z[0]!r} lies beyond a rigid flange (|X| <= 1)")
         stencils = [self._stencil(params, j) for j in range(k)]
         span = self.span(sec)
-        from ...backends._simulate import DEFAULT_MAX_EVENTS
-        from ...engine._driver import drive
 
         try:
             stepper, evaluator = piece_stepper(self.backend, sec, self.options)
             rec = SensitivityRecorder(record, self.backend, evaluator, stencils)
-            drive(stepper, sec, span, float(z[0]), float(z[1]), rec, DEFAULT_MAX_EVENTS, ())
+            drive(stepper, sec, span, float(z[0]), float(z[1]), rec, self.max_events, ())
         except (ValueError, FloatingPointError) as exc:
             return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, str(exc))
         if rec.status != 0:
-            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), rec, rec.message)
+            message = rec.message
+            if rec.n_events >= self.max_events:
+                message = (f"the map took more than {self.max_events} events (an orbit of the branch takes "
+                           f"{self.orbit_events}): this state is far from the branch's orbits")
+            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), rec, message)
         image = np.array([rec.x_final, rec.v_final])
         if rec.singular is not None:
             return MapEvaluation(z, params, image, nan2, np.full((2, k), math.nan), rec)
@@ -155,6 +162,17 @@ class MapProblem:
             if dT != 0.0:
                 dp[:, j] += np.array([fx, fv]) * dT
         return MapEvaluation(z, params, image, M, dp, rec)
+
+    def limit_events(self, orbit_events: int) -> None:
+        """Let a map evaluation take at most ``max(5000, 20 * orbit_events)`` events.
+
+        A Newton iterate far from the branch can start a motion with orders of magnitude more
+        events than the orbits followed (a tape drive that creeps in stick-slip along a flange
+        has ~1e5 per period where the contact-free orbit has a few hundred): such an iterate
+        fails fast instead, and the step is shortened.
+        """
+        self.orbit_events = int(orbit_events)
+        self.max_events = max(5000, 20 * self.orbit_events)
 
     def _stencil(self, params, j: int) -> Stencil:
         def family(value):

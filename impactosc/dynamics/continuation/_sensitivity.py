@@ -28,6 +28,7 @@ the state's propagation is exact. (Finite differences of the *map* are the tests
 
 from __future__ import annotations
 
+import cmath
 import math
 
 import numpy as np
@@ -135,22 +136,38 @@ class SensitivityRecorder(TangentRecorder):
         if r == 0 or osc.rigid or osc.exponent == 1.0:
             w2 = 1.0 + osc.K if (r != 0 and not osc.rigid) else 1.0
             phi = _linear_phi(w2, osc.zeta, t1 - t0)
-            n_panels = max(1, math.ceil((t1 - t0) / PANEL))
-            edges = np.linspace(t0, t1, n_panels + 1)
-            half = 0.5 * np.diff(edges)
-            nodes = (0.5 * (edges[:-1] + edges[1:])[:, None] + half[:, None] * _NODES[None, :]).ravel()
-            weights = (half[:, None] * _WEIGHTS[None, :]).ravel()
-            xs, vs = self.evaluator(mode, t0, x0, v0, nodes)[:2]
-            c12, c22 = _duhamel_column(w2, osc.zeta, t1 - nodes)
-            sigma = np.array([[phi[0], phi[1]], [phi[2], phi[3]]]) @ self.sigma
+            Phi = np.array([[phi[0], phi[1]], [phi[2], phi[3]]])
+            sigma = Phi @ self.sigma
+            quadrature = []
             for j, stencil in enumerate(self.stencils):
-                dadp = stencil.derivative(lambda m: m.acceleration(nodes, xs, vs, r, s))
-                sigma[0, j] += float(np.sum(weights * c12 * dadp))
-                sigma[1, j] += float(np.sum(weights * c22 * dadp))
+                forced = _particular_column(stencil, r, s, t0, t1, Phi)
+                if forced is None:
+                    quadrature.append(j)
+                else:
+                    sigma[:, j] += forced
+            if quadrature:
+                sigma[:, quadrature] += self._duhamel(mode, t0, x0, v0, t1, w2, [self.stencils[j] for j in quadrature])
             self.sigma = sigma
         else:
             self.sigma = _power_law_sensitivity(self, mode, t0, x0, v0, t1)
         self._extremes(x1)
+
+    def _duhamel(self, mode, t0, x0, v0, t1, w2, stencils):
+        """``int Phi(t1, s) df/dp(s) ds`` over a linear piece by composite Gauss-Legendre quadrature."""
+        r, s = mode.region, mode.motion
+        n_panels = max(1, math.ceil((t1 - t0) / PANEL))
+        edges = np.linspace(t0, t1, n_panels + 1)
+        half = 0.5 * np.diff(edges)
+        nodes = (0.5 * (edges[:-1] + edges[1:])[:, None] + half[:, None] * _NODES[None, :]).ravel()
+        weights = (half[:, None] * _WEIGHTS[None, :]).ravel()
+        xs, vs = self.evaluator(mode, t0, x0, v0, nodes)[:2]
+        c12, c22 = _duhamel_column(w2, self.osc.zeta, t1 - nodes)
+        out = np.zeros((2, len(stencils)))
+        for j, stencil in enumerate(stencils):
+            dadp = stencil.derivative(lambda m: m.acceleration(nodes, xs, vs, r, s))
+            out[0, j] = float(np.sum(weights * c12 * dadp))
+            out[1, j] = float(np.sum(weights * c22 * dadp))
+        return out
 
     def _extremes(self, x):
         """Keep the state's derivatives where ``X`` is largest / smallest so far (an end of a monotonic piece)."""
@@ -212,6 +229,62 @@ class SensitivityRecorder(TangentRecorder):
         self.x_max = max(self.x_max, x)
         self.x_min = min(self.x_min, x)
         self._extremes(x)
+
+
+def piece_constants(osc, region: int, motion: int) -> tuple[float, float, float]:
+    """``(w2, zeta, c0)`` of a linear piece ``X'' + 2 zeta X' + w2 X = forcing(t) + c0`` (eq. 3 and its family).
+
+    Read off :meth:`Oscillator.acceleration`: a linear spring flange adds ``K`` to the
+    stiffness and ``region K`` to the constant, friction ``-beta motion``.
+    """
+    if region != 0 and not osc.rigid:
+        return 1.0 + osc.K, osc.zeta, region * osc.K - osc.beta * motion
+    return 1.0, osc.zeta, -osc.beta * motion
+
+
+#: Relative distance from resonance (``|w2 - Omega^2| + 2 zeta Omega`` against ``w2``) below which the
+#: particular solution is not used (it grows without bound there); the quadrature takes over.
+RESONANCE = 1e-6
+
+
+def particular(osc, region: int, motion: int, t: float):
+    """``(X_p, V_p)`` at ``t``: the periodic particular solution of the linear piece, or None near resonance."""
+    w2, zeta, c0 = piece_constants(osc, region, motion)
+    x, v = c0 / w2, 0.0
+    for F, Om, ph in osc.terms:
+        if F == 0.0:
+            continue
+        if Om == 0.0:
+            x += F * math.cos(ph) / w2
+            continue
+        den = complex(w2 - Om * Om, 2.0 * zeta * Om)
+        if abs(den) < RESONANCE * w2:
+            return None
+        z = F * cmath.exp(1j * (Om * t + ph)) / den
+        x += z.real
+        v += (1j * Om * z).real
+    return np.array([x, v])
+
+
+def _particular_column(stencil: Stencil, r: int, s: int, t0: float, t1: float, Phi: np.ndarray):
+    """``d/dp [x_p(t1) - Phi x_p(t0)]``: the forced part of the sensitivity over a linear piece.
+
+    Over the piece ``x(t) = x_p(t) + Phi(t - t0) (x(t0) - x_p(t0))``; when the parameter leaves
+    the piece's matrix ``A`` alone (its ``w2`` and ``zeta``), ``Phi`` does not depend on it and
+    the forced part is exactly this derivative of an algebraic expression. None when ``A``
+    depends on the parameter (a flange stiffness in a contact piece, the damping) or near
+    resonance: the quadrature does those.
+    """
+    members = [stencil.center] + [m for m, _ in stencil.members if m is not None]
+    if any(piece_constants(m, r, s)[:2] != piece_constants(stencil.center, r, s)[:2] for m in members):
+        return None
+    ends = []
+    for t in (t0, t1):
+        values = [particular(m, r, s, t) for m in members]
+        if any(v is None for v in values):
+            return None
+        ends.append(stencil.derivative(lambda m, t=t: particular(m, r, s, t)))
+    return ends[1] - Phi @ ends[0]
 
 
 def _linear_phi(w2: float, zeta: float, tau: float):
