@@ -151,6 +151,8 @@ html_theme_options = {
     "footer_end": ["sphinx-version"],
 }
 html_show_sourcelink = False
+# Pages without sub-pages: no empty "Section Navigation" column beside them.
+html_sidebars = {page: [] for page in ("install", "gallery", "theory", "architecture", "changelog")}
 html_static_path = ["_static"]
 html_css_files = ["gallery.css"]
 

@@ -293,7 +293,8 @@ def index_page(topics: list[dict], home: dict[str, str], package: str = PACKAGE)
              "*Simulation*); modules whose names start with ``_`` and the internals described on the "
              ":doc:`architecture page <../architecture>` are not part of the reference.\n"]
     for topic in topics:
-        modules = [m for m in home if home[m] == topic["title"]]
+        listed = [m for m in topic.get("modules", ()) if home.get(m) == topic["title"]]
+        modules = listed + sorted(m for m in home if home[m] == topic["title"] and m not in listed)
         if not modules:
             continue  # a topic whose modules are all pending
         parts.append(_title(topic["title"]).replace("=", "-"))
@@ -301,7 +302,10 @@ def index_page(topics: list[dict], home: dict[str, str], package: str = PACKAGE)
         for modname in modules:
             # Each table in its module's context: the summaries' references are written relative to it.
             parts.append(f".. currentmodule:: {modname}\n")
-            parts.append(f":mod:`{modname}`: {description(modname)}\n")
+            summary = description(modname)
+            if summary.lower().startswith(modname.rsplit(".", 1)[-1] + ":"):  # "impactosc: event-driven ..."
+                summary = summary.split(":", 1)[1].strip()
+            parts.append(f":mod:`{modname}`: {summary}\n")
             names = names_documented_here(modname, package)
             if names:
                 parts.append(_autosummary(names, toctree=None))

@@ -237,7 +237,7 @@ from impactosc.cli import main as impactosc_cli
 
 out = Path(mkdtemp(prefix="impactosc-cli-"))
 argv = ["bifurcation", "--F", "0.3", "--Omega", str(Om_dh), "--beta", str(beta_dh), "--K", "1e4",
-        "--param", "F", "--range", "0.2", "0.6", "--n", "12" if QUICK else "50", "--x0", "0",
+        "--param", "F", "--range", "0.2", "0.6", "--n", "25" if QUICK else "50", "--x0", "0",
         "--transient-periods", "40" if QUICK else "200", "--record-periods", "8",
         "--out", str(out / "bif.nc"), "--plot", str(out / "bif.png"), "--no-progress"]
 print("impactosc " + " ".join(argv[:-5]) + " --out bif.nc --plot bif.png")

@@ -178,7 +178,7 @@ for name, sol in runs_2.items():
           f"X({tau[0]:g} after) = {x_tau[0]:.6e} (leading term {expected:.6e})")
 
 # %%
-fig, axd = plt.subplot_mosaic("AA;BC", figsize=(9.2, 7.5))  # at most ~9.3 in: the page column is ~730 px (100 dpi)
+fig, axd = plt.subplot_mosaic("AA;BC", figsize=(9.2, 7.5))  # fits the page column
 axes = [axd["A"], axd["B"], axd["C"]]
 ax = axes[0]
 t = np.linspace(0.0, 20.0, 3000)
@@ -284,17 +284,6 @@ print(f"then at rest on the wall from {imp.start[-1]:.6f} to {imp.end[-1]:g}, wa
       f"(the push F - 1 = {p:g})")
 
 # %% [markdown]
-# **About warnings from heyoka.** If lines such as `[heyoka] [warning] polynomial root
-# finding during event detection failed due to too many iterations` appear under the cell
-# above, they come from heyoka's C++ core (its log, not Python's `warnings`) while the
-# flights between impacts shrink geometrically towards `t_inf`: on such a short piece the
-# Taylor polynomial of a guard has roots so close together that heyoka's root isolation
-# stops at its iteration limit and says so. They are not hidden here because they are
-# real; what matters is whether the run is still right, and the cell checks that against
-# the closed form: the impact times, the accumulation time and the speed ratio printed
-# above agree with the series to the digits shown.
-
-# %% [markdown]
 # Under **harmonic** forcing the push on the wall changes sign. A slow forcing,
 # `F cos(Omega Lambda + phase)` with `F = 2, Omega = 0.1, phase = -1` and
 # `beta_static = 0.15`: from rest at `X = 0` the mass is pushed into the upper wall,
@@ -322,6 +311,17 @@ print("chatter events (time, side, impacts followed):",
       [(round(float(c.t), 4), int(c.side), int(c.count)) for c in ev[ev.kind == "chatter"]])
 print(f"releases at {np.round(releases, 6)}; closed form {np.round(expected, 6)}; "
       f"largest difference {np.max(np.abs(releases - expected)):.1e}")
+
+# %% [markdown]
+# **About warnings from heyoka.** If lines such as `[heyoka] [warning] polynomial root
+# finding during event detection failed due to too many iterations` appear under the cell
+# above, they come from heyoka's C++ core (its own log on the standard error, not Python's
+# `warnings`). They are printed while the mass chatters to rest on a wall: the flights
+# between impacts shrink geometrically, and on such a short piece the Taylor polynomial of
+# a guard has roots so close together that heyoka's root isolation stops at its iteration
+# limit and says so. They are shown, not hidden, because they are real; what matters is
+# whether the run is still right, and the cell checks it against the closed form: the
+# releases printed above agree with `Lambda_k` to the largest difference shown.
 
 # %% tags=["gallery"]
 fig, axes = plt.subplots(2, 1, figsize=(9.2, 8), gridspec_kw={"height_ratios": [1, 1.2]})
