@@ -408,3 +408,26 @@ def test_a_broken_reference_fails_the_build_and_known_warnings_are_narrow(tmp_pa
     assert still.returncode != 0 and "no_such_function" not in still.stderr and "no_such_page" in still.stderr
     both = _scratch_build(tmp_path / "c", [(r"index\.rst:", "no_such_function"), (r"index\.rst:", "no_such_page")])
     assert both.returncode == 0, both.stderr
+
+
+def test_a_gallery_card_without_its_figure_fails_the_build(tmp_path):
+    """A card whose notebook, tag or figure cannot be found is a warning, so -W fails the build."""
+    src = tmp_path / "src"
+    (src / "notebooks").mkdir(parents=True)
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_markdown_cell("# A notebook"), nbformat.v4.new_code_cell("x = 1")]
+    nb.cells[1].metadata["tags"] = ["gallery"]
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nbformat.write(nb, src / "notebooks" / "01-x.ipynb")
+    (src / "conf.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(DOCS / '_ext')!r})\n"
+        "extensions = ['myst_nb', 'gallery']\nnb_execution_mode = 'off'\n")
+    (src / "index.md").write_text(
+        "# Scratch\n\n````{grid} 1\n\n"
+        "```{notebook-card} notebooks/01-x\n:title: no figure\n:tag: gallery\nText\n```\n\n"
+        "```{notebook-card} notebooks/02-missing\n:title: no notebook\n:tag: gallery\nText\n```\n````\n\n"
+        "```{toctree}\nnotebooks/01-x\n```\n")
+    out = subprocess.run([sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-q", str(src),
+                          str(tmp_path / "out" / "html")], capture_output=True, text=True, timeout=300)
+    assert out.returncode != 0
+    assert "has no figure output" in out.stderr and "no document 'notebooks/02-missing'" in out.stderr, out.stderr
