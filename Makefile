@@ -29,8 +29,9 @@ test-fast: $(STAMP) lint
 demo: $(STAMP)
 	$(PY) -m impactosc demo
 
-# The whole site from scratch (-E): the notebooks are executed again, in quick mode.
+# The whole site from scratch (-E, and a fresh html folder): the notebooks are executed again, in quick mode.
 docs: $(STAMP)
+	rm -rf $(DOCS_OUT)/html  # no page of a removed module or notebook survives from an earlier build
 	$(PY) -m sphinx -b html -E $(SPHINXOPTS) -d $(DOCS_OUT)/doctrees docs $(DOCS_OUT)/html
 	@echo "The site is in $(DOCS_OUT)/html/index.html"
 
@@ -39,4 +40,4 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis .mypy_cache build dist $(DOCS_OUT) \
-		docs/api/generated docs/api/modules docs/api/cli.rst
+		docs/api/generated docs/api/modules docs/api/cli.rst docs/api/index.rst

@@ -25,6 +25,7 @@ sys.path.insert(0, str(HERE / "_ext"))
 sys.path.insert(0, str(ROOT))
 os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
 
+import apitopics  # noqa: E402
 from numpydoc.xref import DEFAULT_LINKS  # noqa: E402
 
 import impactosc  # noqa: E402
@@ -40,9 +41,12 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # MathJax from the site itself: the equations need no network
+    "sphinx_design",  # the gallery's cards
     "numpydoc",
     "myst_nb",
     "apipages",
+    "gallery",
     "linkedfolders",
     "knownwarnings",
 ]
@@ -76,6 +80,10 @@ nitpick_ignore_regex = [
     ("py:.*", "|".join(re.escape(name) for name in _PLAIN_TYPES)),
 ]
 
+# -- the API reference, by topic (_ext/apipages.py; the topics are in _ext/apitopics.py) -----
+api_topics = apitopics.TOPICS
+api_internal = apitopics.INTERNAL
+
 # -- autodoc, autosummary, numpydoc --------------------------------------------------------
 autosummary_generate = True
 autosummary_ignore_module_all = False
@@ -99,8 +107,14 @@ nb_execution_timeout = 600  # s per cell; quick mode needs far less, but the mac
 nb_execution_raise_on_error = False
 nb_execution_show_tb = True
 nb_merge_streams = True
+# Markdown that a cell displays (display(Markdown(...)): the notebooks' tables) is read as GitHub-flavoured
+# Markdown, as Jupyter reads it: CommonMark, the default, has no tables.
+nb_render_markdown_format = "gfm"
 nb_mime_priority_overrides = [("html", "application/vnd.jupyter.widget-view+json", None)]
-myst_enable_extensions = ["dollarmath", "amsmath"]
+myst_enable_extensions = ["dollarmath", "amsmath", "substitution"]
+# {{ version }} and {{ n_notebooks }} in the pages: facts read from the package and the repository.
+myst_substitutions = {"version": release,
+                      "n_notebooks": str(len(list((ROOT / "notebooks").glob("[0-9][0-9]-*.ipynb"))))}
 myst_heading_anchors = 3
 
 
@@ -137,7 +151,10 @@ html_theme_options = {
     "footer_end": ["sphinx-version"],
 }
 html_show_sourcelink = False
-html_static_path: list[str] = []
+# Pages without sub-pages: no empty "Section Navigation" column beside them.
+html_sidebars = {page: [] for page in ("install", "gallery", "theory", "architecture", "changelog")}
+html_static_path = ["_static"]
+html_css_files = ["gallery.css"]
 
 # -- known defects outside docs/ -------------------------------------------------------------
 # Each entry drops exactly one kind of warning at one place (see _ext/knownwarnings.py). They
@@ -154,11 +171,5 @@ known_warnings = [
     (r"docstring of impactosc\.paper:", r"target not found: impactosc\.tape\.TapeDrive$"),
     # The generated report jumps from "#" to "###" (benchmarks/work_precision.py writes it).
     (r"benchmarks/results/work_precision\.md:", r"Non-consecutive header level increase"),
-    # References to names that are not public (not in their module's __all__), or written
-    # without their module.
-    (r"docstring of impactosc\.paper\.rk4_default_step_cost:", r"target not found: rk4_batch"),
-    # Notebook 02 displays benchmarks/results/work_precision.md as Markdown output, whose
-    # image links are relative to benchmarks/results/: broken in Jupyter too (the figures
-    # are displayed again as images right after). tests/test_docs.py lists the same links.
-    (r"notebooks/02-events-vs-rk4\.ipynb:", r"image file not readable: \.\./notebooks/work_precision_[a-d]\.png"),
 ]
+

@@ -1,13 +1,17 @@
 """Build the notebooks from their percent-format sources: ``python notebooks/build.py``.
 
 Each ``notebooks/src/NN-name.py`` becomes ``notebooks/NN-name.ipynb``, one cell per
-``# %%`` block (``# %% [markdown]`` blocks are markdown, written as ``# `` comments). The
+``# %%`` block (``# %% [markdown]`` blocks are markdown, written as ``# `` comments; a marker
+may carry cell tags as jupytext writes them, ``# %% tags=["gallery"]``: the docs' gallery
+shows the figure of the cell tagged ``gallery``). The
 notebooks are written without outputs; ``tests/test_notebooks.py`` checks that they match
 their sources and runs them.
 """
 
 from __future__ import annotations
 
+import json
+import re
 import sys
 from pathlib import Path
 
@@ -33,23 +37,28 @@ def _markdown(lines: list[str]) -> str:
 
 def cells_from_script(text: str) -> list:
     """Split a percent-format script into notebook cells."""
-    blocks: list[tuple[str, list[str]]] = []
+    blocks: list[tuple[str, list[str], list[str]]] = []
     for line in text.splitlines():
         if line.startswith("# %%"):
             kind = "markdown" if "[markdown]" in line else "code"
-            blocks.append((kind, []))
+            tags = re.search(r"\btags=(\[.*?\])", line)
+            blocks.append((kind, [], json.loads(tags.group(1)) if tags else []))
         elif blocks:
             blocks[-1][1].append(line)
         elif line.strip():
             raise ValueError(f"text before the first '# %%' cell marker: {line!r}")
     cells = []
-    for kind, lines in blocks:
+    for kind, lines, tags in blocks:
         if kind == "markdown":
             cells.append(nbformat.v4.new_markdown_cell(_markdown(lines)))
         else:
             source = "\n".join(lines).strip("\n")
             if source:
                 cells.append(nbformat.v4.new_code_cell(source))
+            else:
+                continue
+        if tags:
+            cells[-1].metadata["tags"] = tags
     return cells
 
 

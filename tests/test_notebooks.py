@@ -37,10 +37,21 @@ def test_every_source_has_a_notebook():
 def test_notebook_matches_source_and_has_no_outputs(path):
     nb = nbformat.read(path, as_version=4)
     built = _builder().build(NOTEBOOKS / "src" / f"{path.stem}.py")
-    assert [(c.cell_type, c.source) for c in nb.cells] == [(c.cell_type, c.source) for c in built.cells], (
+    def cells(notebook):
+        return [(c.cell_type, c.source, c.metadata.get("tags", [])) for c in notebook.cells]
+
+    assert cells(nb) == cells(built), (
         f"{path.name} differs from notebooks/src/{path.stem}.py: run python notebooks/build.py")
     for cell in nb.cells:
         if cell.cell_type == "code":
             assert cell.outputs == [] and cell.execution_count is None, f"{path.name} is committed with outputs"
     first = next(c for c in nb.cells if c.cell_type == "code")
     assert 'QUICK = os.environ.get("IMPACTOSC_QUICK", "1") == "1"' in first.source
+
+
+def test_cell_tags_of_a_source_reach_the_notebook():
+    """``# %% tags=[...]`` (jupytext's spelling) becomes the cell's tags: the docs' gallery reads them."""
+    cells = _builder().cells_from_script('# %% [markdown]\n# Title\n\n# %% tags=["gallery"]\nx = 1\n\n# %%\ny = 2\n')
+    assert [c.cell_type for c in cells] == ["markdown", "code", "code"]
+    assert cells[1].metadata["tags"] == ["gallery"] and "tags" not in cells[2].metadata
+    assert cells[1].source == "x = 1"

@@ -1,14 +1,20 @@
 """Sphinx extension: the API reference of impactosc, generated from the package itself.
 
-Nothing in the reference is listed by hand, so a name added to the package appears in the
-documentation without editing ``docs/``:
+No name is listed by hand, so a name added to the package appears in the documentation
+without editing ``docs/``. What ``conf.py`` lists is the *topics*: ``api_topics``, each a
+title, a sentence and the public modules it covers, and ``api_internal``, the public-looking
+modules that are internals of the library (documented on the architecture page, not in the
+reference). A public module (no part of its dotted name starts with ``_``) that is in no
+topic and not internal stops the build: a new module cannot be left out silently. A topic's
+``pending`` modules (``fnmatch`` patterns) are documented once they exist.
 
+* ``api/index.rst``: the reference's front page, one section per topic: its modules and its
+  names, each with the first line of its documentation (a name without one is a warning);
 * ``api/generated/impactosc.rst``: the package page, one autosummary entry (and so one page)
   per name in ``impactosc.__all__``;
-* ``api/modules/<module>.rst``: one page per public submodule (found by walking the package;
-  a module is public when no part of its dotted name starts with ``_``), with a page for
-  every name in its ``__all__`` that is not re-exported at the top level, and links to the
-  top-level pages of those that are;
+* ``api/modules/<module>.rst``: one page per documented module, with a page for every name
+  in its ``__all__`` that is not re-exported at the top level, and links to the top-level
+  pages of those that are;
 * ``api/cli.rst``: the ``--help`` of the command line and of each of its subcommands.
 
 The files are written when the extension is set up, before autosummary scans the sources
@@ -24,6 +30,8 @@ from __future__ import annotations
 import __future__
 
 import argparse
+import fnmatch
+import functools
 import importlib
 import inspect
 import pkgutil
@@ -33,13 +41,17 @@ from pathlib import Path
 
 from numpydoc.docscrape import NumpyDocString
 from sphinx.application import Sphinx
-from sphinx.errors import PycodeError
+from sphinx.errors import ExtensionError, PycodeError
 from sphinx.pycode import ModuleAnalyzer
+from sphinx.util import logging as sphinx_logging
+
+logger = sphinx_logging.getLogger(__name__)
 
 PACKAGE = "impactosc"
 GENERATED = Path("api", "generated")
 MODULES = Path("api", "modules")
 CLI_PAGE = Path("api", "cli.rst")
+INDEX_PAGE = Path("api", "index.rst")
 
 
 # -- what is public ------------------------------------------------------------------------
@@ -79,17 +91,77 @@ def _reexported(module: types.ModuleType, name: str, top: types.ModuleType) -> b
     return name in top.__all__ and getattr(top, name, None) is getattr(module, name, None)
 
 
+def _public_home(dotted: str) -> str:
+    """The public module a dotted module name belongs to: ``a.b._c._d`` -> ``a.b``."""
+    parts = dotted.split(".")
+    for i, part in enumerate(parts):
+        if part.startswith("_"):
+            return ".".join(parts[:i])
+    return dotted
+
+
 def _from_submodule(module: types.ModuleType, name: str) -> str | None:
     """For a subpackage (``impactosc.dynamics``) re-exporting ``name`` from one of its public
-    submodules, that submodule's dotted name (the object is documented there, once)."""
+    submodules (``impactosc.dynamics.shooting``, or a subpackage such as
+    ``impactosc.dynamics.continuation`` that defines it in a private module of its own), that
+    submodule's dotted name: the object is documented there, once."""
     if not hasattr(module, "__path__"):
         return None
     home = getattr(getattr(module, name, None), "__module__", None)
-    if (isinstance(home, str) and home.startswith(module.__name__ + ".")
-            and not any(part.startswith("_") for part in home.split("."))
-            and name in public_names(importlib.import_module(home))):
+    if not isinstance(home, str):
+        return None
+    home = _public_home(home)
+    if home.startswith(module.__name__ + ".") and name in public_names(importlib.import_module(home)):
         return home
     return None
+
+
+# -- topics ----------------------------------------------------------------------------------
+class TopicError(ValueError):
+    """The topics of ``conf.py`` do not cover the package's public modules exactly."""
+
+
+def _topic_modules(topic: dict) -> tuple[list[str], list[str]]:
+    return list(topic.get("modules", ())), list(topic.get("pending", ()))
+
+
+def assign_topics(modules: list[str], topics: list[dict], internal: list[str],
+                  package: str = PACKAGE) -> dict[str, str]:
+    """Public module -> the title of its topic, for every module of ``modules`` not internal.
+
+    Raises `TopicError` naming every public module that is in no topic and not in
+    ``internal`` (a new module must be given a topic), every module that two topics claim,
+    and every module a topic lists (not as pending) that does not exist.
+    """
+    existing = set(modules) | {package}
+    home: dict[str, str] = {}
+    problems = []
+    for topic in topics:
+        listed, pending = _topic_modules(topic)
+        for modname in listed:
+            if modname not in existing:
+                problems.append(f"topic {topic['title']!r} lists {modname}, which is not a public module")
+        matched = [m for m in sorted(existing) if m in listed or any(fnmatch.fnmatchcase(m, pat) for pat in pending)]
+        for modname in matched:
+            if modname in home:
+                problems.append(f"{modname} is in two topics: {home[modname]!r} and {topic['title']!r}")
+            home[modname] = topic["title"]
+    for modname in internal:
+        if modname in home:
+            problems.append(f"{modname} is internal and in topic {home[modname]!r}")
+    orphans = sorted(existing - set(home) - set(internal))
+    if orphans:
+        problems.append("public modules in no topic of docs/conf.py's api_topics (give each a topic, or "
+                        "list it in api_internal if it is not for users): " + ", ".join(orphans))
+    if problems:
+        raise TopicError("; ".join(problems))
+    return home
+
+
+def documented_modules(topics: list[dict], internal: list[str], package: str = PACKAGE) -> list[str]:
+    """The public modules that have a page: every module of every topic (sorted)."""
+    home = assign_topics(public_modules(package), topics, internal, package)
+    return sorted(m for m in home if m != package)
 
 
 # -- the pages -----------------------------------------------------------------------------
@@ -171,13 +243,91 @@ def module_page(modname: str, package: str = PACKAGE) -> str:
     if own:
         parts.append(".. rubric:: Defined here\n")
         parts.append(_members(module, own))
+    # Rubrics are short plain text (the theme sets inline code in a rubric as a block).
     if shared:
-        parts.append(f".. rubric:: Re-exported as ``{package}.<name>``\n")
+        parts.append(".. rubric:: Documented at the top level\n")
+        parts.append(f"Importable from ``{package}`` itself as well, and documented as ``{package}.<name>``:\n")
         parts.append(_autosummary([f"~{package}.{n}" for n in shared], toctree=None))
     if from_submodules:
-        parts.append(f".. rubric:: Importable as ``{modname}.<name>``, documented in its submodules\n")
+        parts.append(".. rubric:: From its submodules\n")
+        parts.append(f"Importable as ``{modname}.<name>``, and documented with the submodule that defines it:\n")
         parts.append(_autosummary(from_submodules, toctree=None))
     return "\n".join(parts)
+
+
+def _first_line(text: str | None) -> str:
+    return next((line.strip() for line in (text or "").strip().splitlines() if line.strip()), "")
+
+
+def description(modname: str, name: str | None = None) -> str:
+    """The first line of the documentation of module ``modname`` or of its ``name``: the text
+    of the reference's tables ("" when there is none)."""
+    module = importlib.import_module(modname)
+    if name is None:
+        return _first_line(module.__doc__)
+    obj = getattr(module, name)
+    if inspect.isclass(obj) or inspect.isroutine(obj) or inspect.ismodule(obj):
+        return _first_line(inspect.getdoc(obj))
+    return _first_line(" ".join(_doc_comment(obj, name)))
+
+
+def names_documented_here(modname: str, package: str = PACKAGE) -> list[str]:
+    """The names whose documentation is on the page of ``modname``: for the package, every
+    name of its ``__all__``; for a module, those it neither re-exports at the top level nor
+    from a public submodule (its page's "Defined here")."""
+    module = importlib.import_module(modname)
+    if modname == package:
+        return [n for n in public_names(module) if not inspect.ismodule(getattr(module, n, None))]
+    top = importlib.import_module(package)
+    return [n for n in public_names(module)
+            if not inspect.ismodule(getattr(module, n, None)) and not _reexported(module, n, top)
+            and _from_submodule(module, n) is None]
+
+
+def index_page(topics: list[dict], home: dict[str, str], package: str = PACKAGE) -> str:
+    """The front page of the reference: per topic, its modules, each with the names
+    documented on its page, and a toctree of the topic's pages."""
+    parts = [_title("API reference"),
+             "Every public module and name of the library, by topic, generated from the docstrings. "
+             f"The names of ``{package}.__all__`` are documented once, as ``{package}.<name>`` (under "
+             "*Simulation*); modules whose names start with ``_`` and the internals described on the "
+             ":doc:`architecture page <../architecture>` are not part of the reference.\n"]
+    for topic in topics:
+        listed = [m for m in topic.get("modules", ()) if home.get(m) == topic["title"]]
+        modules = listed + sorted(m for m in home if home[m] == topic["title"] and m not in listed)
+        if not modules:
+            continue  # a topic whose modules are all pending
+        parts.append(_title(topic["title"]).replace("=", "-"))
+        parts.append(topic["blurb"].strip() + "\n")
+        for modname in modules:
+            # Each table in its module's context: the summaries' references are written relative to it.
+            parts.append(f".. currentmodule:: {modname}\n")
+            summary = description(modname)
+            if summary.lower().startswith(modname.rsplit(".", 1)[-1] + ":"):  # "impactosc: event-driven ..."
+                summary = summary.split(":", 1)[1].strip()
+            parts.append(f":mod:`{modname}`: {summary}\n")
+            names = names_documented_here(modname, package)
+            if names:
+                parts.append(_autosummary(names, toctree=None))
+        pages = [f"generated/{package}" if m == package else f"modules/{m}" for m in modules]
+        pages += list(topic.get("pages", ()))
+        parts.append(".. toctree::\n   :hidden:\n   :caption: " + topic["title"] + "\n\n"
+                     + "\n".join(f"   {p}" for p in pages) + "\n")
+    return "\n".join(parts)
+
+
+def undocumented(modules: list[str], package: str = PACKAGE) -> list[str]:
+    """Modules, classes and functions of ``modules`` (and the package) without a docstring."""
+    missing = []
+    for modname in [package, *modules]:
+        module = importlib.import_module(modname)
+        if not description(modname):
+            missing.append(modname)
+        for name in public_names(module):
+            obj = getattr(module, name)
+            if (inspect.isclass(obj) or inspect.isroutine(obj)) and not description(modname, name):
+                missing.append(f"{modname}.{name}")
+    return sorted(set(missing))
 
 
 def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
@@ -217,13 +367,18 @@ def cli_page(package: str = PACKAGE) -> str:
     return "\n".join(parts)
 
 
-def write_pages(srcdir: Path, package: str = PACKAGE) -> list[Path]:
-    """(Re)write every generated page under ``srcdir``; returns the files written."""
+def write_pages(srcdir: Path, topics: list[dict], internal: list[str], package: str = PACKAGE) -> list[Path]:
+    """(Re)write every generated page under ``srcdir``; returns the files written.
+
+    Raises `TopicError` when the topics do not cover the public modules (see `assign_topics`).
+    """
+    home = assign_topics(public_modules(package), topics, internal, package)
     for folder in (GENERATED, MODULES):
         shutil.rmtree(srcdir / folder, ignore_errors=True)
         (srcdir / folder).mkdir(parents=True)
-    written = {srcdir / GENERATED / f"{package}.rst": package_page(package)}
-    for modname in public_modules(package):
+    written = {srcdir / INDEX_PAGE: index_page(topics, home, package),
+               srcdir / GENERATED / f"{package}.rst": package_page(package)}
+    for modname in sorted(m for m in home if m != package):
         written[srcdir / MODULES / f"{modname}.rst"] = module_page(modname, package)
     written[srcdir / CLI_PAGE] = cli_page(package)
     for path, text in written.items():
@@ -339,9 +494,19 @@ def _import_object(dotted: str):
 
 
 # -- module-level data -----------------------------------------------------------------------
+@functools.cache
+def _all_modules(package: str = PACKAGE) -> tuple[str, ...]:
+    """Every module of the package, private ones included (where constants are defined)."""
+    pkg = importlib.import_module(package)
+    return (package, *sorted(info.name for info in pkgutil.walk_packages(pkg.__path__, prefix=package + ".")))
+
+
 def _doc_comment(obj, name: str, package: str = PACKAGE) -> list[str]:
-    """The ``#:`` comment above ``name = ...`` in the public module that defines ``obj``."""
-    for modname in [package, *public_modules(package)]:
+    """The ``#:`` comment above ``name = ...`` in the module that defines ``obj``: the public
+    modules first, then the private ones (a constant re-exported by a public module is often
+    defined, with its comment, in a private one)."""
+    public = [package, *public_modules(package)]
+    for modname in [*public, *(m for m in _all_modules(package) if m not in public)]:
         module = importlib.import_module(modname)
         if getattr(module, name, None) is not obj:
             continue
@@ -354,12 +519,19 @@ def _doc_comment(obj, name: str, package: str = PACKAGE) -> list[str]:
     return []
 
 
+def _value_line(obj) -> list[str]:
+    text = repr(obj)
+    return [f"Value: ``{text if len(text) <= 100 else text[:97] + '...'}``."]
+
+
 def data_docstring(app: Sphinx, what: str, name: str, obj, options, lines: list[str]) -> None:
     """A constant's documentation is its ``#:`` comment, never its type's docstring.
 
     autodoc falls back to ``type(obj).__doc__`` for a constant without a comment (a tuple
     would be documented as "Built-in immutable sequence", a dtype with numpy's page), and a
     re-exported constant's comment is in the module that defines it, not in the package.
+    A constant without any comment is described by its value (and listed at the end of the
+    build, so that it gets one).
     """
     if what not in ("data", "attribute") or inspect.isroutine(obj) or inspect.isclass(obj):
         return
@@ -367,16 +539,60 @@ def data_docstring(app: Sphinx, what: str, name: str, obj, options, lines: list[
     type_doc = inspect.cleandoc(type_doc).splitlines() if isinstance(type_doc, str) else []
     if lines and [line.strip() for line in lines if line.strip()] != [t.strip() for t in type_doc if t.strip()]:
         return
-    lines[:] = _doc_comment(obj, name.rsplit(".", 1)[-1])
+    short = name.rsplit(".", 1)[-1]
+    lines[:] = _doc_comment(obj, short)
+    if not lines and what == "data":
+        lines[:] = _value_line(obj)
+        _UNCOMMENTED.add(name)
+
+
+_UNCOMMENTED: set[str] = set()
+
+
+def _is_internal(target: str, internal: list[str]) -> bool:
+    return any(target == mod or target.startswith(mod + ".") for mod in internal)
+
+
+def internal_reference(app: Sphinx, env, node, contnode):
+    """A reference to an internal module (``impactosc.engine``) or one of its names is shown as
+    code without a link: those modules have no page (see ``api_internal``). Private names
+    (``_``) are not covered: a public docstring must not name them."""
+    if node.get("refdomain") != "py":
+        return None
+    target = node["reftarget"].lstrip(".~")
+    if any(part.startswith("_") for part in target.split(".")):
+        return None
+    context = (node.get("py:module") or "").split(".")
+    candidates = [target] + [".".join([*context[:i], target]) for i in range(len(context), 0, -1)]
+    if any(_is_internal(c, app.config.api_internal) for c in candidates):
+        return contnode
+    return None
 
 
 def _on_config_inited(app: Sphinx, config) -> None:
-    write_pages(Path(app.srcdir))
+    try:
+        write_pages(Path(app.srcdir), config.api_topics, config.api_internal)
+    except TopicError as exc:
+        raise ExtensionError(f"apipages: {exc}") from exc
+    missing = undocumented(documented_modules(config.api_topics, config.api_internal))
+    for dotted in missing:
+        logger.warning("apipages: %s has no docstring: its entry in the API reference has no description",
+                       dotted)
+
+
+def _on_build_finished(app: Sphinx, exc) -> None:
+    if _UNCOMMENTED:
+        logger.info("apipages: constants described by their value only (give each a #: comment): %s",
+                    ", ".join(sorted(_UNCOMMENTED)))
 
 
 def setup(app: Sphinx) -> dict:
+    app.add_config_value("api_topics", [], "env", types=[list])
+    app.add_config_value("api_internal", [], "env", types=[list])
     app.connect("config-inited", _on_config_inited)
     app.connect("missing-reference", resolve_reexports)
+    app.connect("missing-reference", internal_reference, priority=600)  # after resolve_reexports
+    app.connect("build-finished", _on_build_finished)
     app.connect("autodoc-process-docstring", data_docstring, priority=100)  # before numpydoc's (500)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
 

@@ -29,6 +29,7 @@ SUBCOMMANDS = (_demo, _simulate, _sweep, _bifurcation, _orbit, _onset, _chart, _
 
 
 def build_parser() -> Parser:
+    """The ``argparse`` parser of ``impactosc`` and of every subcommand in ``SUBCOMMANDS``."""
     from .._version import __version__
 
     parser = Parser(prog="impactosc", description="Event-driven tape-edge / flange impact oscillator.")
@@ -52,6 +53,7 @@ def _drop_stdout() -> None:
 
 
 def main(argv=None) -> int:
+    """Run ``impactosc`` with the arguments ``argv`` (default: the command line's); the exit status."""
     args = build_parser().parse_args(argv)
     try:
         status = args.handler(args)

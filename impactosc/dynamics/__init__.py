@@ -1,4 +1,4 @@
-"""Dynamics of the nonsmooth impact oscillator, built on the exact event-driven engine (issue #11).
+"""Dynamics of the nonsmooth impact oscillator, built on the exact event-driven engine.
 
 What users of an impact oscillator ask about is its dynamics: which steady states exist,
 whether they are stable, where the motion starts touching a flange, where it becomes

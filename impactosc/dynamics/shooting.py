@@ -201,7 +201,7 @@ class Monodromy(NamedTuple):
     jacobian : ndarray (2, 2)
         ``dP^n / d(X, V)`` from the saltation product; NaN where no Jacobian exists
         (``singular``).
-    recorder : TangentRecorder
+    recorder : impactosc.dynamics.tangent.TangentRecorder
         The run's tangent recorder (:mod:`.tangent`).
     """
 

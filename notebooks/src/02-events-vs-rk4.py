@@ -175,7 +175,7 @@ print(f"{'5 pi':>26} = {5 * math.pi:.15f}")
 # spurious "reversals", drifting towards `X = 0`.
 
 # %%
-fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)
+fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(9.2, 3.6), constrained_layout=True)
 tt = np.linspace(0.0, t_c, 4000)
 tail = tt[tt > 5 * math.pi]
 colors = ["k", "tab:blue", "tab:red", "tab:orange"]
@@ -193,15 +193,15 @@ for (name, s), color in zip(free.items(), colors, strict=True):
 a1.axvline(5 * math.pi, color="tab:gray", ls=":", lw=1)
 a1.set_xlabel("nondimensional time Λ [-]")
 a1.set_ylabel("X = x/L [-]")
-a1.set_title("free Coulomb oscillator, β = 0.1 (dotted: 5π)")
+a1.set_title("free Coulomb oscillator, β = 0.1 (dotted: 5π)", fontsize=9)
 a1.legend(fontsize=8)
 a2.set_xlabel("nondimensional time Λ [-]")
 a2.set_ylabel("X − 0.05 [1e-3]")
-a2.set_title("after 5π, fine step: RK4 creeps")
+a2.set_title("after 5π, fine step: RK4 creeps", fontsize=9)
 a2.legend(fontsize=8)
 a3.set_xlabel("nondimensional time Λ [-]")
 a3.set_ylabel("velocity X' = dX/dΛ [-]")
-a3.set_title("after 5π, coarse step: RK4 chatters")
+a3.set_title("after 5π, coarse step: RK4 chatters", fontsize=9)
 a3.legend(fontsize=8)
 plt.show()
 
@@ -246,13 +246,13 @@ xs, _ = gr[f"RK4, dt = {coarse}"].sample(ts)
 print("step ends:", ", ".join(f"{t:.1f}" for t in ts))
 print("exact X − 1 there:", ", ".join(f"{d:.2e}" for d in ex.sample(ts)[0] - 1.0))
 
-fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.2), constrained_layout=True)
+fig, (a1, a2) = plt.subplots(1, 2, figsize=(9.2, 3.8), constrained_layout=True)
 a1.plot(tz, xz - 1.0, color="k", label="exact X − 1")
 a1.plot(ts, xs - 1.0, "o", color="tab:red", label=f"RK4 step ends, dt = {coarse}")
 a1.axhline(0.0, color="tab:gray", ls="--", lw=0.8, label="flange")
 a1.set_xlabel("nondimensional time Λ [-]")
 a1.set_ylabel("X − 1 [-]")
-a1.set_title("step ends never see X > 1")
+a1.set_title("step ends never see X > 1", fontsize=9)
 a1.legend(fontsize=8)
 half = math.pi / 2 - t_touch                     # half the contact duration
 tzz = np.linspace(math.pi / 2 - 1.6 * half, math.pi / 2 + 1.6 * half, 801)
@@ -263,7 +263,7 @@ for e in ex.events:
         a2.axvline(e.t, color="tab:green", ls=":", label=e.kind)
 a2.set_xlabel("nondimensional time Λ [-]")
 a2.set_ylabel("X − 1 [-]")
-a2.set_title(f"the located contact: 1e-9 deep, {2 * half:.1e} long")
+a2.set_title(f"the located contact: 1e-9 deep, {2 * half:.1e} long", fontsize=9)
 a2.legend(fontsize=8)
 plt.show()
 
@@ -272,24 +272,32 @@ plt.show()
 #
 # How much accuracy does each method buy per second of computing? The benchmark
 # `benchmarks/work_precision.py` measures errors against the exact backend versus wall
-# time on four cases (see `benchmarks/README.md`). If its results are in
-# `benchmarks/results/`, they are shown first; then a small version of the comparison on
-# the contact case is computed here, on this machine.
+# time on four cases (see `benchmarks/README.md`; its tables are in
+# `benchmarks/results/work_precision.md`). If its figures are in `benchmarks/results/`,
+# they are shown first; then a small version of the comparison on the contact case is
+# computed here, on this machine.
 
 # %%
 results = Path("..") / "benchmarks" / "results"
 pngs = sorted(results.glob("work_precision_*.png"))
+md = results / "work_precision.md"
+# The figures, each under its case's title in the report (the full tables are in the
+# report itself: benchmarks/results/work_precision.md, the benchmarks page of the docs).
+cases = {}
+if md.exists():
+    for line in md.read_text().splitlines():
+        if line.startswith("### ("):
+            cases[line[5]] = line[4:].strip()
 if pngs:
-    md = results / "work_precision.md"
-    if md.exists():
-        display(Markdown(md.read_text()))
     for png in pngs:
-        display(Image(filename=str(png), width=800))
+        case = png.stem.rsplit("_", 1)[-1]
+        display(Markdown(f"**{cases.get(case, png.stem)}**"))
+        display(Image(filename=str(png), width=720))
 else:
     print(f"no benchmark results in {results.resolve()} (run benchmarks/work_precision.py); "
           "the small comparison below is all there is")
 
-# %%
+# %% tags=["gallery"]
 def timed(fn, repeats=3):
     """Best-of wall time of fn() (the machine is shared: the minimum is the least noisy)."""
     best, out = math.inf, None

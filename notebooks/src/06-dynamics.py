@@ -24,16 +24,14 @@ QUICK = os.environ.get("IMPACTOSC_QUICK", "1") == "1"
 
 import math
 import time
-import warnings
+from pathlib import Path
+from tempfile import mkdtemp
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 import impactosc as io
 from impactosc import dynamics as dy
-
-# Without ipywidgets, tqdm's notebook bar falls back to text and says so; text is fine here.
-warnings.filterwarnings("ignore", message="IProgress not found")
 
 print("impactosc", io.__version__, "| quick mode" if QUICK else "| full mode")
 
@@ -57,7 +55,7 @@ hits = dy.event_section(contact, n_points, "contact_start", side=1, transient_pe
 print(f"{len(strobe)} stroboscopic points, {len(hits)} upper-flange contacts over {n_points} periods")
 print("period of the stroboscopic sequence:", dy.detect_period(strobe.x, strobe.v, tol=1e-2))
 
-fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+fig, axes = plt.subplots(1, 2, figsize=(9.2, 3.8))
 strobe.plot(ax=axes[0])
 axes[1].scatter(hits.phase, hits.v, s=6)
 axes[1].set_xlabel("forcing phase at contact [rad]")
@@ -102,7 +100,7 @@ print(orbit3.summary())
 # so the multipliers are the squares of the eigenvalues of `diag(1, rho) R(pi/Omega)`.
 # Shooting reproduces both to rounding:
 
-# %%
+# %% tags=["gallery-orbit"]
 F_dh, Om_dh, beta_dh = 0.3, 0.8, 0.05
 den_hartog = io.Oscillator(F_dh, Om_dh, beta_dh, K=1e4)
 orbit = dy.periodic_orbit(den_hartog, 1, transient_periods=200)
@@ -112,7 +110,7 @@ print(orbit.summary())
 print(f"amplitude: closed form {A:.15f}, shooting {np.abs(orbit.events.x).max():.15f}")
 print(f"multipliers: closed form {np.round(mu, 12)}\n             shooting    {np.round(orbit.multipliers, 12)}")
 
-fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+fig, axes = plt.subplots(1, 2, figsize=(9.2, 3.8))
 orbit.plot(ax=axes[0])
 orbit3.plot(ax=axes[1])
 plt.tight_layout()
@@ -135,7 +133,7 @@ plt.show()
 # Above `F_c` the forward pass jumps to a contact motion; the backward pass stays on
 # contact motions below `F_c`: the two coexist, and the diagram shows the hysteresis.
 
-# %%
+# %% tags=["gallery"]
 Fc = dy.den_hartog_onset(Om_dh, beta_dh)
 onset = dy.contact_onset(den_hartog, "F", (0.8 * Fc, 1.1 * Fc), tol=1e-10, scan=4, orbit=1, x0=0.0,
                          transient_periods=300)
@@ -145,7 +143,8 @@ print(f"contact onset: closed form F_c = {Fc:.12f}, numerical {onset.value:.12f}
 values = np.linspace(0.05, 1.5, 30 if QUICK else 300)
 t0 = time.perf_counter()
 bif = dy.bifurcation_diagram(den_hartog, "F", values, transient_periods=40 if QUICK else 200,
-                             record_periods=8 if QUICK else 50, continuation="both", x0=0.0)
+                             record_periods=8 if QUICK else 50, continuation="both", x0=0.0,
+                             progress=False)  # the time is printed below; a progress bar would stay on the page
 print(f"{bif.sizes['F']} values x 2 passes in {time.perf_counter() - t0:.1f} s")
 
 ax = dy.plot_bifurcation(bif, onset=onset.value, onset_label=f"contact onset F = {onset.value:.4f}")
@@ -193,14 +192,15 @@ plt.show()
 # a micrometre of the run-out (120 um at mid pack), because the in-plane bending stiffness
 # `k = 5.2e5 N/m` makes the friction deflection tiny.
 
-# %%
+# %% tags=["gallery-chart"]
 drive = io.TapeDrive()
 print(drive.describe())
 speeds = np.array([4.0, 8.0] if QUICK else [1.0, 2.0, 4.0, 6.0, 8.0, 12.0])          # m/s
 tensions = np.array([0.5, 2.0] if QUICK else [0.25, 0.5, 1.0, 1.5, 2.0, 3.0])        # N
 t0 = time.perf_counter()
 chart = dy.onset_chart(drive, "clearance", (110e-6, 125e-6), {"speed": speeds, "tension": tensions},
-                       tol=1e-7 if QUICK else 2e-9, transient_periods=0.25, record_periods=1, stop_at_contact=True)
+                       tol=1e-7 if QUICK else 2e-9, transient_periods=0.25, record_periods=1, stop_at_contact=True,
+                       progress=False)
 print(f"{chart['critical'].size} chart points in {time.perf_counter() - t0:.1f} s")
 
 quasi = np.array([[dy.quasi_static_critical_clearance(drive.replace(speed=s, tension=t)) for t in tensions]
@@ -220,3 +220,27 @@ plt.show()
 # force at all. The same tools chart any other pair (`pack_diameter` moves the run-out,
 # `friction` the lag), and `contact_onset(drive, "runout_full", ...)` gives the critical
 # run-out for a fixed clearance.
+
+# %% [markdown]
+# ## 6. The same from the command line
+#
+# Each tool has a subcommand that writes its result to a file and its figure to a PNG:
+# `impactosc bifurcation`, `orbit`, `onset` and `chart` (`impactosc <subcommand> --help`
+# lists the options). The diagram of section 3 over a narrower range of `F`, run here
+# through the command line's own entry point (in a shell: `impactosc bifurcation --F 0.3
+# ...`), and the figure it wrote:
+
+# %% tags=["gallery-cli"]
+from IPython.display import Image, display
+
+from impactosc.cli import main as impactosc_cli
+
+out = Path(mkdtemp(prefix="impactosc-cli-"))
+argv = ["bifurcation", "--F", "0.3", "--Omega", str(Om_dh), "--beta", str(beta_dh), "--K", "1e4",
+        "--param", "F", "--range", "0.2", "0.6", "--n", "25" if QUICK else "50", "--x0", "0",
+        "--transient-periods", "40" if QUICK else "200", "--record-periods", "8",
+        "--out", str(out / "bif.nc"), "--plot", str(out / "bif.png"), "--no-progress"]
+print("impactosc " + " ".join(argv[:-5]) + " --out bif.nc --plot bif.png")
+status = impactosc_cli(argv)
+print("exit status", status, "| wrote", sorted(p.name for p in out.iterdir()))
+display(Image(filename=str(out / "bif.png"), width=640))
