@@ -65,9 +65,32 @@ def test_orbit_prints_and_writes_the_den_hartog_multipliers(capsys, tmp_path):
     assert png.stat().st_size > 10_000
 
 
-def test_onset_finds_the_den_hartog_grazing_value(capsys, tmp_path):
+def test_onset_follows_the_branch_to_the_den_hartog_grazing_value(capsys, tmp_path):
     path, png = tmp_path / "onset.json", tmp_path / "onset.png"
-    assert main(["onset", *DEN_HARTOG, "--param", "F", "--bracket", "0.33", "0.45", "--scan", "4", "--orbit", "1",
+    assert main(["onset", *DEN_HARTOG, "--param", "F", "--bracket", "0.33", "0.45", "--guess", "0.8", "0",
+                 "--json", str(path), "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "contact above it" in out and "(continuation)" in out and "through the guess" in out
+    rec = json.loads(path.read_text())
+    assert rec["status"] == 0 and rec["method"] == "continuation" and rec["start"] == "lo"
+    assert rec["stable"] is True and rec["direction"] == 1 and "GR1" in rec["branch"]
+    assert abs(rec["value"] - den_hartog_onset(0.8, 0.05)) < 1e-9
+    assert png.stat().st_size > 10_000
+
+
+def test_onset_refuses_the_options_of_the_other_method(capsys):
+    assert main(["onset", *DEN_HARTOG, "--param", "F", "--bracket", "0.33", "0.45", "--scan", "4"]) == 2
+    err = capsys.readouterr().err
+    assert "--scan: an option of --method transient" in err
+    assert main(["onset", *DEN_HARTOG, "--param", "F", "--bracket", "0.33", "0.45", "--method", "transient",
+                 "--guess", "0.8", "0"]) == 2
+    assert "--guess: an option of --method continuation" in capsys.readouterr().err
+
+
+def test_onset_transient_finds_the_den_hartog_grazing_value(capsys, tmp_path):
+    path, png = tmp_path / "onset.json", tmp_path / "onset.png"
+    assert main(["onset", *DEN_HARTOG, "--param", "F", "--bracket", "0.33", "0.45", "--method", "transient",
+                 "--scan", "4", "--orbit", "1",
                  "--x0", "0", "--transient-periods", "300", "--value-tol", "1e-10", "--plot-values", "8",
                  "--json", str(path), "--plot", str(png)]) == 0
     out = capsys.readouterr().out
@@ -83,7 +106,7 @@ def test_onset_without_a_sign_change_is_status_1_and_null_in_json(capsys, tmp_pa
     assert main(["onset", "--F", "0.1", "--Omega", "0.8", "--beta", "0.05", "--K", "1e4", "--param", "F",
                  "--bracket", "0.05", "0.2", "--transient-periods", "50", "--json", str(path)]) == 1
     rec = json.loads(path.read_text())  # strict JSON: NaN is written as null
-    assert rec["status"] == 1 and rec["value"] is None and "stays off the flanges" in rec["message"]
+    assert rec["status"] == 1 and rec["value"] is None and "stays clear of the flanges" in rec["message"]
 
 
 def test_chart_writes_the_quasi_static_critical_clearance(capsys, tmp_path):
@@ -91,8 +114,8 @@ def test_chart_writes_the_quasi_static_critical_clearance(capsys, tmp_path):
 
     nc, png = tmp_path / "chart.nc", tmp_path / "chart.png"
     assert main(["chart", "--param", "clearance", "--bracket", "115e-6", "125e-6", "--grid", "speed=2,8",
-                 "--grid", "tension=0.5,2", "--transient-periods", "0.25", "--record-periods", "1",
-                 "--stop-at-contact", "--value-tol", "5e-8", "--serial", "--no-progress",
+                 "--grid", "tension=0.5,2", "--method", "transient", "--transient-periods", "0.25",
+                 "--record-periods", "1", "--stop-at-contact", "--value-tol", "5e-8", "--serial", "--no-progress",
                  "--out", str(nc), "--plot", str(png)]) == 0
     out = capsys.readouterr().out
     assert "speed[2] x tension[2] points" in out and "dataset written" in out
