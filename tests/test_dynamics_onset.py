@@ -17,6 +17,7 @@ from impactosc.dynamics import (
     contact_onset,
     den_hartog_onset,
     onset_chart,
+    periodic_orbit,
     plot_onset_chart,
     quasi_static_critical_clearance,
 )
@@ -37,6 +38,33 @@ def test_continuation_follows_the_given_den_hartog_orbit_to_its_grazing():
     assert "through the guess" in res.followed and "stable" in res.followed
     assert isinstance(res.branch, Branch) and res.bracket[0] <= res.value <= res.bracket[1]
     assert res.margins[0] > 0.0 > res.margins[1]  # clear below, in contact above
+    # the branch returned is the model's own: contact-free up to the onset, which it ends on
+    assert all(min(p.upper_margin, p.lower_margin) > 0.0 for p in res.branch.points)
+    assert res.branch.special[-1].kind == "grazing" and res.branch.special[-1].parameter == res.value
+    p = res.branch.points[-1]
+    again = periodic_orbit(Oscillator(p.parameter, 1.5, 0.1, 24.0), guess=(p.x, p.v), backend="exact")
+    assert again.status == 0 and abs(again.x - p.x) < 1e-9 and abs(again.v - p.v) < 1e-9
+
+
+# A stable contact orbit of the Den Hartog oscillator just above Fc (on the branch through the
+# guess above): its contact branch folds at 1.000217 Fc going up, and loses its contacts at Fc going down.
+CONTACT = (1.2583732909684309, (-0.9937457694004849, 0.165050446979377))
+
+
+def test_continuation_a_fold_before_the_onset_is_status_2():
+    Fc = den_hartog_onset(1.5, 0.1)
+    F0, guess = CONTACT
+    res = contact_onset(Oscillator(Fc, 1.5, 0.1, 24.0), "F", (F0, 1.1 * Fc), guess=guess)
+    assert res.status == 2 and math.isnan(res.value) and "folds back" in res.message
+    assert "touching a flange" in res.followed
+
+
+def test_continuation_from_an_orbit_in_contact_finds_where_it_leaves_the_flange():
+    Fc = den_hartog_onset(1.5, 0.1)
+    F0, guess = CONTACT
+    res = contact_onset(Oscillator(Fc, 1.5, 0.1, 24.0), "F", (0.9 * Fc, F0), start="hi", guess=guess)
+    assert res.status == 0 and res.direction == 1 and res.stable is True
+    assert abs(res.value / Fc - 1.0) < 1e-9 and "leaves the flange" in res.message
 
 
 @pytest.mark.parametrize("backend", ["exact", "heyoka"])
@@ -52,8 +80,7 @@ def test_continuation_finds_the_linear_textbook_onset(backend):
 
 def test_continuation_tape_drive_clearance_from_the_wide_end():
     drive = TapeDrive()
-    res = contact_onset(drive, "clearance", (100e-6, 140e-6), start="hi", transient_periods=1, locate_tol=1e-4,
-                        max_step=0.3)
+    res = contact_onset(drive, "clearance", (100e-6, 140e-6), start="hi", transient_periods=1)
     Lc = quasi_static_critical_clearance(drive)
     print(f"critical clearance {res.value * 1e6:.9f} um, quasi-static {Lc * 1e6:.9f} um: {res.message}")
     assert res.status == 0 and res.direction == -1 and res.start == "hi" and res.stable is True

@@ -27,6 +27,7 @@ tape touches the flange when the run-out exceeds the clearance plus the friction
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from dataclasses import dataclass, replace
@@ -207,6 +208,9 @@ METHODS = ("continuation", "transient")
 TRANSIENT_ONLY = ("scan", "follow", "record_periods", "stop_at_contact", "max_evaluations")
 #: Settings of :func:`~impactosc.dynamics.continuation.continuation` that ``**options`` may carry.
 CONTINUATION_SETTINGS = ("step", "min_step", "max_step", "max_points", "max_iter", "locate_tol")
+#: Continuation's default ``locate_tol`` here: a coarse location, then the secant on the
+#: contact-free orbits alone to ``tol`` (fewer runs than locating every point finely).
+LOCATE_TOL = 1e-4
 #: Flange stiffness of the model whose contact-free orbits are followed (see _shadow).
 SHADOW_K = 1e-9
 
@@ -373,6 +377,7 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
     from .shooting import periodic_orbit
 
     settings = {k: options.pop(k) for k in CONTINUATION_SETTINGS if k in options}
+    settings.setdefault("locate_tol", LOCATE_TOL)
     check_base(base)
     check_parameter(base, parameter)
     lo, hi = _check_bracket(bracket)
@@ -446,15 +451,22 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
                              f"the way ({len(br.points)} points; {end[1]})", br, len(br.points))
         return failed(-1, f"the continuation stopped before an onset: {end[1]}", br, len(br.points))
     a, b = _neighbours(br, onset, forward)
+    n_points = len(br.points)
     value = onset.parameter
     polished = ""
     if onset.accuracy > tol or (onset.context[2] or {}).get("test") == "end":
         try:
-            value, note = _polish(_shadow(model), parameter, onset, n, tol, backend, options)
-            polished = f"; polished to {note}"
+            value, step, z, note = _polish(_shadow(model), parameter, onset, n, tol, backend, options)
         except (RuntimeError, ValueError, FloatingPointError) as exc:
             return failed(-1, f"the grazing found near {parameter} = {onset.parameter!r} could not be located to "
-                              f"tol = {tol:g}: {exc}", br, len(br.points))
+                              f"tol = {tol:g}: {exc}", br, n_points)
+        polished = f"; polished to {note}"
+        new = dataclasses.replace(onset, parameters={**onset.parameters, parameter: value}, x=float(z[0]),
+                                  v=float(z[1]), accuracy=step)
+        br = dataclasses.replace(br, special=[new if s is onset else s for s in br.special])
+        onset = new
+    if not touching:
+        br = _up_to(br, onset, forward, model)
     direction = (1 if forward else -1) * (-1 if touching else 1)
     stable = a.stable
     pa, pb = a.parameter, b.parameter
@@ -462,11 +474,31 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
     ms = (_clear(a), _clear(b)) if pa <= pb else (_clear(b), _clear(a))
     side = "above" if direction > 0 else "below"
     return ContactOnset(value=float(value), bracket=brk, direction=direction, margins=ms,
-                        evaluations=len(br.points), status=0,
+                        evaluations=n_points, status=0,
                         message=(f"contact {side} {parameter} = {value:.12g}: the followed branch ({followed}) "
                                  f"{'grazes' if not touching else 'leaves'} the flange there ({onset.label}: "
                                  f"{onset.message}), {'stable' if stable else a.stability} just before{polished}"),
                         stable=stable, branch=br, **head)
+
+
+def _up_to(br, onset, forward: bool, model):
+    """The part of a branch followed with inert flanges that is the model's own: up to the onset.
+
+    Its points before the onset (along the followed direction) are contact-free, hence
+    orbits of ``model`` too; beyond it they are not, and are left out.
+    """
+    if forward:
+        points = br.points[:onset.index + 1]
+        special = [s for s in br.special if s.index < onset.index or s is onset]
+    else:
+        cut = onset.index + 1
+        points = br.points[cut:]
+        special = [dataclasses.replace(s, index=s.index - cut) for s in br.special
+                   if s.index > onset.index or s is onset]
+    end = (0, f"stopped at the contact onset {onset.label} ({br.names[0]} = {onset.parameter!r}): the points beyond it "
+              "were followed with inert flanges and are left out")
+    return dataclasses.replace(br, points=points, special=special, status=0, message=end[1], ends=(end,),
+                               base=model)
 
 
 def _neighbours(br, s, forward: bool):
@@ -500,8 +532,11 @@ def _shadow_margin(shadow, parameter, p, z, n, backend, options):
     return 1.0 - extreme, (orb.x, orb.v)
 
 
-def _polish(shadow, parameter, s, n, tol, backend, options) -> tuple[float, str]:
-    """The zero of ``1 - max|X|`` along the contact-free family next to the located grazing ``s`` (secant)."""
+def _polish(shadow, parameter, s, n, tol, backend, options):
+    """The zero of ``1 - max|X|`` along the contact-free family next to the located grazing ``s`` (secant).
+
+    Returns ``(value, last step, section state of the last orbit, note)``.
+    """
     p1 = s.parameter
     m1, z = _shadow_margin(shadow, parameter, p1, (s.x, s.v), n, backend, options)
     h = max(1e3 * tol, 1e-7 * max(1.0, abs(p1)))
@@ -512,7 +547,8 @@ def _polish(shadow, parameter, s, n, tol, backend, options) -> tuple[float, str]
             break
         p2 = p1 - m1 * (p1 - p0) / (m1 - m0)
         if abs(p2 - p1) <= tol:  # converged: the orbit at p2 itself grazes, where Newton may not run
-            return p2, f"|1 - max|X|| = {abs(m1):.1g} at the last orbit computed (secant step {abs(p2 - p1):.1g})"
+            return (p2, abs(p2 - p1), z,
+                    f"|1 - max|X|| = {abs(m1):.1g} at the last orbit computed (secant step {abs(p2 - p1):.1g})")
         p0, m0 = p1, m1
         p1 = p2
         m1, z = _shadow_margin(shadow, parameter, p1, z, n, backend, options)
