@@ -526,6 +526,8 @@ def _shadow_margin(shadow, parameter, p, z, n, backend, options):
     orb = periodic_orbit(with_parameter(shadow, parameter, float(p)), n, guess=z, backend=backend, tol=1e-13,
                          **options)
     if orb.status != 0:
+        if "guard is crossed tangentially" in orb.message and "enter_" in orb.message:
+            return 0.0, z  # the orbit touches a flange tangentially to rounding: the grazing itself
         raise RuntimeError(f"no orbit at {parameter} = {p!r}: {orb.message}")
     ev = orb.events
     extreme = max(abs(orb.x), float(np.max(np.abs(ev.x))) if len(ev) else 0.0)
