@@ -87,6 +87,13 @@ def test_continuation_tape_drive_clearance_from_the_wide_end():
     assert abs(res.value - Lc) < 1e-10  # the quasi-static closed form is itself ~3e-11 m off
 
 
+def test_continuation_tape_drive_point_whose_polish_meets_the_grazing_itself():
+    # a chart point that failed (status -1): Newton met the grazing orbit itself during the polish
+    drive = TapeDrive(speed=8.0, tension=0.5)
+    res = contact_onset(drive, "clearance", (100e-6, 140e-6), start="hi", transient_periods=1)
+    assert res.status == 0 and abs(res.value - quasi_static_critical_clearance(drive)) < 1e-10
+
+
 def test_continuation_without_an_onset_is_a_status():
     res = contact_onset(Oscillator(0.1, 0.8, 0.05, 1e4), "F", (0.05, 0.2))
     assert res.status == 1 and math.isnan(res.value) and "stays clear of the flanges" in res.message

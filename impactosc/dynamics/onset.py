@@ -10,8 +10,12 @@ sign says whether the motion touches a flange:
 * a rigid flange in contact: the largest impact speed ``max |V_impact| >= 0``, which tends to
   0 at grazing like the square root of the distance to the boundary.
 
-:func:`contact_onset` brackets a sign change of the margin along one parameter and refines
-it with Brent's method to the requested tolerance; :func:`onset_chart` does that at every
+:func:`contact_onset` follows one branch of periodic orbits with
+:func:`~impactosc.dynamics.continuation.continuation` (the orbit the user gives, or the one
+a stated transient reaches) to the grazing at which it first touches a flange, and says
+whether that orbit is stable there; ``method="transient"`` instead brackets a sign change of
+the margin of the steady states that transients reach and refines it by regula falsi (the
+search of earlier versions). :func:`onset_chart` does that at every
 point of a 2-D grid of two other parameters, in parallel: for a :class:`~impactosc.TapeDrive`
 the design chart of critical clearance (or run-out) against speed and tension, in SI units.
 
@@ -184,8 +188,10 @@ class ContactOnset:
         one a stated transient reached (empty for ``method="transient"``).
     stable : bool or None
         Whether the followed orbit is stable just before the onset (None when unknown).
-    branch : Branch or None
-        The followed branch (:func:`~impactosc.dynamics.continuation.continuation`).
+    branch : impactosc.dynamics.continuation.Branch or None
+        The followed branch (:func:`~impactosc.dynamics.continuation.continuation`), up to the
+        onset when it was followed with inert flanges (its points beyond it would not be the
+        model's own orbits).
     """
 
     parameter: str
