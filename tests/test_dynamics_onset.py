@@ -37,7 +37,7 @@ def test_continuation_follows_the_given_den_hartog_orbit_to_its_grazing():
     assert res.stable is True and res.direction == 1
     assert "through the guess" in res.followed and "stable" in res.followed
     assert isinstance(res.branch, Branch) and res.bracket[0] <= res.value <= res.bracket[1]
-    assert res.margins[0] > 0.0 > res.margins[1]  # clear below, in contact above
+    assert res.margins[0] > 0.0 == res.margins[1] and res.bracket[1] == res.value  # clear below, grazing at it
     # the branch returned is the model's own: contact-free up to the onset, which it ends on
     assert all(min(p.upper_margin, p.lower_margin) > 0.0 for p in res.branch.points)
     assert res.branch.special[-1].kind == "grazing" and res.branch.special[-1].parameter == res.value

@@ -165,13 +165,13 @@ class ContactOnset:
     bracket : (float, float)
         ``method="transient"``: final bracket of the sign change of the margin (no contact
         at one end, contact at the other; its width is below the tolerance).
-        ``method="continuation"``: the parameter values of the two branch points on either
-        side of the onset.
+        ``method="continuation"``: the last point of the followed branch before the onset,
+        and the onset.
     direction : int
         +1: contact above ``value``; -1: contact below it; 0 none found.
     margins : (float, float)
         Contact margins at the ends of ``bracket`` (continuation: ``min(upper_margin,
-        lower_margin)`` of the two branch points).
+        lower_margin)`` of that branch point, and 0 at the onset).
     evaluations : int
         Steady states computed (continuation: points of the followed branch).
     status : int
@@ -456,7 +456,7 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
             return failed(1, f"no contact onset in [{lo!r}, {hi!r}]: the followed branch ({followed}) {where} all "
                              f"the way ({len(br.points)} points; {end[1]})", br, len(br.points))
         return failed(-1, f"the continuation stopped before an onset: {end[1]}", br, len(br.points))
-    a, b = _neighbours(br, onset, forward)
+    a, _ = _neighbours(br, onset, forward)
     n_points = len(br.points)
     value = onset.parameter
     polished = ""
@@ -475,9 +475,10 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
         br = _up_to(br, onset, forward, model)
     direction = (1 if forward else -1) * (-1 if touching else 1)
     stable = a.stable
-    pa, pb = a.parameter, b.parameter
+    # the last branch point before the onset and the onset itself (margin 0 there)
+    pa, pb = a.parameter, float(value)
     brk = (min(pa, pb), max(pa, pb))
-    ms = (_clear(a), _clear(b)) if pa <= pb else (_clear(b), _clear(a))
+    ms = (_clear(a), 0.0) if pa <= pb else (0.0, _clear(a))
     side = "above" if direction > 0 else "below"
     return ContactOnset(value=float(value), bracket=brk, direction=direction, margins=ms,
                         evaluations=n_points, status=0,
