@@ -1,4 +1,4 @@
-"""Speed of the dynamics toolkit (issue 11): bifurcation diagram, periodic orbit, Lyapunov, contact onset.
+"""Speed of the dynamics toolkit (issues 11, 19): bifurcation diagram, periodic orbit, Lyapunov, contact onset.
 
 Run: ``.venv/bin/python benchmarks/dynamics_speed.py [--quick] [--workers N] [--out DIR]``.
 Prints a markdown table and writes it to ``DIR/dynamics_speed.md`` (default
@@ -98,18 +98,38 @@ def other_rows(quick: bool):
     rows.append((f"Lyapunov exponent, contact case, {periods} periods (+100 transient)", f"{med:.2f} s",
                  f"lambda = {res.exponent:.6f}"))
     Fc = dy.den_hartog_onset(0.8, 0.05)
-    med, n, res = timed(lambda: dy.contact_onset(DEN_HARTOG, "F", (0.8 * Fc, 1.1 * Fc), tol=1e-10, scan=4, orbit=1,
-                                                 x0=0.0, transient_periods=300), 1 if quick else 3, 120.0, 120.0)
-    rows.append(("contact onset, Den Hartog grazing boundary to 1e-10 (orbit continuation)", f"{med:.2f} s",
+    med, n, res = timed(lambda: dy.contact_onset(DEN_HARTOG, "F", (0.8 * Fc, 1.1 * Fc), method="transient", tol=1e-10,
+                                                 scan=4, orbit=1, x0=0.0, transient_periods=300),
+                        1 if quick else 3, 120.0, 120.0)
+    rows.append(("contact onset, Den Hartog grazing boundary to 1e-10 (transient search, shooting)", f"{med:.2f} s",
                  f"error {abs(res.value - Fc):.1e}, {res.evaluations} orbits"))
+    # issue 19: the same boundary by continuation of a given orbit (Omega 1.5, beta 0.1, K 24)
+    Fc2 = dy.den_hartog_onset(1.5, 0.1)
+    med, n, res = timed(lambda: dy.contact_onset(io.Oscillator(Fc2, 1.5, 0.1, 24.0), "F", (0.8 * Fc2, 1.1 * Fc2),
+                                                 guess=(-0.7891869048001374, 0.16283153617831878)),
+                        1 if quick else 3, 120.0, 120.0)
+    rows.append(("contact onset by continuation, Den Hartog (Omega 1.5, beta 0.1) from a given orbit", f"{med:.2f} s",
+                 f"value/Fc - 1 = {res.value / Fc2 - 1:.1e}, {'stable' if res.stable else 'not stable'}, "
+                 f"{res.evaluations} branch points"))
+    exact = abs(1 - 0.8**2 + 2j * 0.05 * 0.8)
+    for backend in ("exact", "heyoka"):
+        med, n, res = timed(lambda b=backend: dy.contact_onset(io.Oscillator(0.3, 0.8, 0.0, 1e4, zeta=0.05), "F",
+                                                               (0.2, 0.6), backend=b), 1 if quick else 3, 120.0, 120.0)
+        rows.append((f"contact onset by continuation, damped linear textbook case ({backend})", f"{med:.2f} s",
+                     f"error {abs(res.value - exact):.1e}"))
     drive = io.TapeDrive()
+    Lc = dy.quasi_static_critical_clearance(drive)
     tol = 1e-7 if quick else 1e-9
-    med, n, res = timed(lambda: dy.contact_onset(drive, "clearance", (100e-6, 140e-6), tol=tol,
+    med, n, res = timed(lambda: dy.contact_onset(drive, "clearance", (100e-6, 140e-6), method="transient", tol=tol,
                                                  transient_periods=0.25, record_periods=1, stop_at_contact=True),
                         1 if quick else 3, 120.0, 120.0)
-    Lc = dy.quasi_static_critical_clearance(drive)
-    rows.append((f"contact onset, tape critical clearance to {tol * 1e9:g} nm (one design-chart point)", f"{med:.2f} s",
+    rows.append((f"contact onset, tape critical clearance to {tol * 1e9:g} nm (transient search)", f"{med:.2f} s",
                  f"{res.value * 1e6:.4f} um vs quasi-static {Lc * 1e6:.4f} um, {res.evaluations} runs"))
+    med, n, res = timed(lambda: dy.contact_onset(drive, "clearance", (100e-6, 140e-6), start="hi",
+                                                 transient_periods=1), 1 if quick else 3, 120.0, 120.0)
+    rows.append(("contact onset by continuation, tape critical clearance from 140 um (one design-chart point)",
+                 f"{med:.2f} s", f"{res.value * 1e6:.7f} um, {abs(res.value - Lc):.1e} m from quasi-static, "
+                                 f"{res.evaluations} branch points"))
     return rows
 
 

@@ -71,6 +71,10 @@ def test_every_dynamics_entry_point_checks_its_start():
         contact_margin(SPRING, v0=1e200, stop_at_contact=True, backend="exact")
     with pytest.raises(ValueError, match=BEYOND_WALL):
         contact_onset(RIGID, "F", (0.5, 0.9), x0=1.5, backend="exact")
+    with pytest.raises(ValueError, match=r"guess\[0\].*" + BEYOND_WALL):
+        contact_onset(RIGID, "F", (0.5, 0.9), guess=(1.5, 0.0))
+    with pytest.raises(ValueError, match=BEYOND_WALL):
+        contact_onset(RIGID, "F", (0.5, 0.9), method="transient", x0=1.5, backend="exact")
 
 
 def test_monodromy_returns_a_named_result_that_still_unpacks():

@@ -15,14 +15,15 @@ import pytest
 
 from impactosc import Oscillator
 from impactosc.dynamics import bifurcation as _bifurcation
-from impactosc.dynamics import bifurcation_diagram, onset_chart
+from impactosc.dynamics import bifurcation_diagram, den_hartog_onset, onset_chart
 from impactosc.dynamics import chart as _chart
 from impactosc.runner import _pool, _run
 
 ROOT = Path(__file__).resolve().parent.parent
 OSC = Oscillator(0.3, 0.8, 0.05, 1e4)
 BIF = dict(transient_periods=5, record_periods=3, backend="exact", progress=False)
-CHART = dict(progress=False, backend="exact", tol=1e-3, transient_periods=5, record_periods=2, stop_at_contact=True)
+CHART = dict(progress=False, method="transient", backend="exact", tol=1e-3, transient_periods=5, record_periods=2,
+             stop_at_contact=True)
 
 
 class FailingExecutor(cf.Executor):
@@ -51,6 +52,19 @@ def test_a_chart_that_loses_every_point_raises():
     with pytest.raises(RuntimeError, match=r"onset_chart: all 4 points run were lost.*no worker would start"):
         onset_chart(OSC, "F", (0.2, 0.5), {"beta": [0.04, 0.05], "Omega": [0.8, 0.9]}, executor=FailingExecutor(),
                     **CHART)
+
+
+def test_a_continuation_chart_follows_the_branch_at_every_point():
+    # issue 19: the chart's points are contact onsets of the followed branch (method="continuation")
+    osc = Oscillator(0.3, 0.8, 0.05, 1e4)
+    ds = onset_chart(osc, "F", (0.2, 0.6), {"beta": [0.04, 0.05], "Omega": [0.7, 0.8]}, executor="serial",
+                     progress=False)
+    assert ds.attrs["method"] == "continuation"
+    assert np.all(ds["status"].values == 0) and np.all(ds["stable"].values == 1.0)
+    for beta in (0.04, 0.05):
+        for W in (0.7, 0.8):
+            Fc = den_hartog_onset(W, beta)  # the non-stop Den Hartog orbit grazes there
+            assert abs(float(ds["critical"].sel(beta=beta, Omega=W)) - Fc) < 1e-9
 
 
 def test_a_chart_on_a_thread_pool_equals_the_serial_one():
@@ -146,8 +160,8 @@ SCRIPT = textwrap.dedent("""\
     print("top level ran", flush=True)
     osc = io.Oscillator(0.3, 0.8, 0.05, 1e4)
     bif = dict(transient_periods=5, record_periods=3, backend="exact", progress=False)
-    chart = dict(progress=False, backend="exact", tol=1e-3, transient_periods=5, record_periods=2,
-                 stop_at_contact=True)
+    chart = dict(progress=False, method="transient", backend="exact", tol=1e-3, transient_periods=5,
+                 record_periods=2, stop_at_contact=True)
     drive = io.TapeDrive(clearance=50e-6)
 
     def run_all(executor):

@@ -13,8 +13,10 @@ def add_parser(sub) -> None:
                        description="impactosc onset at every point of a grid of two other parameters "
                                    "(impactosc.dynamics.onset_chart), in parallel. Example: impactosc chart "
                                    "--param clearance --bracket 100e-6 140e-6 --grid speed=2,4,8 "
-                                   "--grid tension=0.5,1,2 --transient-periods 0.25 --record-periods 1 "
-                                   "--stop-at-contact --value-tol 1e-8 --out chart.nc --plot chart.png")
+                                   "--grid tension=0.5,1,2 --start hi --transient-periods 1 --out chart.nc "
+                                   "--plot chart.png (each point follows the orbit at the wide end to its "
+                                   "grazing; --method transient --transient-periods 0.25 --record-periods 1 "
+                                   "--stop-at-contact: the search on transients)")
     add_model_options(p)
     add_onset_options(p)
     p.add_argument("--grid", action="append", required=True, metavar="FIELD=V1,V2,...",

@@ -1,4 +1,4 @@
-"""Command line: ``impactosc demo | simulate | sweep | bifurcation | orbit | onset | chart | paper``.
+"""Command line: ``impactosc demo | simulate | sweep | bifurcation | orbit | continue | onset | chart | paper``.
 
 Also ``python -m impactosc``. Errors are reported as one line (``impactosc: error: ...``)
 with exit status 2; output paths (and matplotlib, for a figure) are checked before anything
@@ -6,7 +6,7 @@ is computed. Exit status 1: the run finished but failed (a simulation's status, 
 failed points, an orbit that did not converge, no onset found) or its output went to a
 closed pipe (``impactosc demo | head``: the rest is dropped quietly); 130: interrupted (Ctrl-C).
 
-Adding a subcommand (e.g. ``continue``, on :mod:`impactosc.dynamics.continuation`): write a
+Adding a subcommand (as ``continue`` was, on :mod:`impactosc.dynamics.continuation`): write a
 private module ``impactosc/cli/_<name>.py`` with ``add_parser(sub)``, which adds its parser
 to the subparsers ``sub`` (:func:`._common.add_model_options` gives it the model options)
 and calls ``set_defaults(handler=run)`` with ``run(args) -> int`` the exit status; then add
@@ -19,13 +19,13 @@ from __future__ import annotations
 import os
 import sys
 
-from . import _bifurcation, _chart, _demo, _onset, _orbit, _paper, _simulate, _sweep
+from . import _bifurcation, _chart, _continue, _demo, _onset, _orbit, _paper, _simulate, _sweep
 from ._common import Parser, check_output_dir, check_output_file
 
 __all__ = ["main", "build_parser", "SUBCOMMANDS", "check_output_file", "check_output_dir"]
 
 #: The subcommand modules, in the order of ``impactosc --help``.
-SUBCOMMANDS = (_demo, _simulate, _sweep, _bifurcation, _orbit, _onset, _chart, _paper)
+SUBCOMMANDS = (_demo, _simulate, _sweep, _bifurcation, _orbit, _continue, _onset, _chart, _paper)
 
 
 def build_parser() -> Parser:

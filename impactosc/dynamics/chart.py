@@ -26,7 +26,7 @@ from ._common import (
     parameter_value,
     with_parameter,
 )
-from .onset import contact_onset
+from .onset import CONTINUATION_SETTINGS, METHODS, TRANSIENT_ONLY, _default_backend, contact_onset
 
 __all__ = ["onset_chart", "plot_onset_chart"]
 
@@ -36,8 +36,8 @@ def _chart_point(point: dict, base, parameter, bracket, kwargs: dict) -> tuple:
     try:
         res = contact_onset(_replace(base, point), parameter, bracket, **kwargs)
     except Exception as exc:  # noqa: BLE001 - a bad point is recorded, not raised
-        return math.nan, -2, f"{type(exc).__name__}: {exc}", 0
-    return res.value, res.status, res.message, res.direction
+        return math.nan, -2, f"{type(exc).__name__}: {exc}", 0, math.nan
+    return res.value, res.status, res.message, res.direction, (math.nan if res.stable is None else float(res.stable))
 
 
 def _replace(base, point: dict):
@@ -64,13 +64,19 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
     progress : bool
         tqdm progress bar.
     **kwargs
-        Passed to :func:`contact_onset` (``tol``, ``scan``, ``transient_periods``, ...).
+        Passed to :func:`contact_onset`: ``method`` (default ``"continuation"``: every point
+        follows the orbit at the ``start`` end of the bracket, from its ``guess`` or a
+        transient), ``tol``, ``transient_periods``, ... The keywords of the transient search
+        (``scan``, ``follow``, ``record_periods``, ``stop_at_contact``,
+        ``max_evaluations``) need ``method="transient"`` and are refused otherwise.
 
     Returns
     -------
     xarray.Dataset
         ``critical`` (the two grid dimensions; units of ``parameter``), ``direction``,
-        ``status`` and ``message`` per point.
+        ``status``, ``message`` and ``stable`` (continuation: the followed orbit just before
+        the onset, 1/0, NaN when unknown) per point; the attribute ``method`` says how
+        the critical values were found.
 
     Raises
     ------
@@ -89,22 +95,27 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
     direc = np.zeros((a1.size, a2.size), dtype=np.int8)
     status = np.full((a1.size, a2.size), -4, dtype=np.int32)
     message = np.full((a1.size, a2.size), "not computed", dtype=object)
+    stable = np.full((a1.size, a2.size), math.nan)
 
     def on_result(ij, result):
-        crit[ij], status[ij], message[ij], direc[ij] = result
+        crit[ij], status[ij], message[ij], direc[ij], stable[ij] = result
 
     run_points(_chart_point, points, (base, parameter, bracket, kwargs), executor=executor, on_result=on_result,
-               on_lost=lambda ij, msg: on_result(ij, (math.nan, -3, msg, 0)), progress=progress,
+               on_lost=lambda ij, msg: on_result(ij, (math.nan, -3, msg, 0, math.nan)), progress=progress,
                desc=f"onset of {parameter}", unit="point", what="onset_chart", try_here_first=True)
     attrs = parameter_attrs(base, parameter)
     return xr.Dataset(
         {"critical": ((k1, k2), crit, {**attrs, "long_name": f"critical {attrs['long_name']} (contact onset)"}),
          "direction": ((k1, k2), direc, {"long_name": f"+1: contact above the critical {parameter}; -1: below"}),
-         "status": ((k1, k2), status, {"long_name": "0 found; 1 no onset in the bracket; -1 run failed; "
-                                                    "-2 exception; -3 task lost"}),
-         "message": ((k1, k2), message.astype(str))},
+         "status": ((k1, k2), status, {"long_name": "0 found; 1 no onset in the bracket; 2 the followed branch "
+                                                    "folds before it touches; -1 run failed; -2 exception; "
+                                                    "-3 task lost"}),
+         "message": ((k1, k2), message.astype(str)),
+         "stable": ((k1, k2), stable, {"long_name": "1: the followed orbit is stable just before the onset; 0: "
+                                                    "not; NaN: unknown (method='transient')"})},
         coords={k1: (k1, a1, parameter_attrs(base, k1)), k2: (k2, a2, parameter_attrs(base, k2))},
-        attrs={"parameter": parameter, "bracket": list(map(float, bracket)), "base": repr(base),
+        attrs={"parameter": parameter, "method": kwargs.get("method", "continuation"),
+               "bracket": list(map(float, bracket)), "base": repr(base),
                "base_value": parameter_value(base, parameter)})
 
 
@@ -135,10 +146,28 @@ def _check(base, parameter, bracket, grid, executor, kwargs) -> dict:
     # Options: contact_onset's own, the rest go to the backend, which must take them.
     signature = inspect.signature(contact_onset)
     named = {k: v for k, v in kwargs.items() if k in signature.parameters}
-    options = {k: v for k, v in kwargs.items() if k not in signature.parameters}
+    options = {k: v for k, v in kwargs.items() if k not in signature.parameters and k not in CONTINUATION_SETTINGS}
+    method = named.get("method", "continuation")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    if method != "transient":
+        for name in TRANSIENT_ONLY:
+            if name in named:
+                raise ValueError(f"{name}={named[name]!r} applies to method='transient' only (the search on "
+                                 f"transients); use method='transient' with it, or leave it out")
+    else:
+        for name in ("guess", "start"):
+            if name in named:
+                raise ValueError(f"{name}={named[name]!r} applies to method='continuation' only")
+    if "start" in named and named["start"] not in ("lo", "hi"):
+        raise ValueError(f"start must be 'lo' or 'hi', got {named['start']!r}")
+    backend = named.get("backend") or ("heyoka" if method == "transient" else None)
     first = _replace(base, {k1: float(a1[0]), k2: float(a2[0])})
-    simulate(oscillator_of(with_parameter(first, parameter, lo)), 1e-9, _v.real("x0", named.get("x0", 0.95)),
-             _v.real("v0", named.get("v0", 0.0)), backend=named.get("backend", "heyoka"), record="stats", **options)
+    first_osc = oscillator_of(with_parameter(first, parameter, lo))
+    if backend is None:
+        backend = _default_backend(first_osc, None, options)
+    simulate(first_osc, 1e-9, _v.real("x0", named.get("x0", 0.95)), _v.real("v0", named.get("v0", 0.0)),
+             backend=backend, record="stats", **options)
     return axes
 
 

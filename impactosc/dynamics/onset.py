@@ -10,8 +10,12 @@ sign says whether the motion touches a flange:
 * a rigid flange in contact: the largest impact speed ``max |V_impact| >= 0``, which tends to
   0 at grazing like the square root of the distance to the boundary.
 
-:func:`contact_onset` brackets a sign change of the margin along one parameter and refines
-it with Brent's method to the requested tolerance; :func:`onset_chart` does that at every
+:func:`contact_onset` follows one branch of periodic orbits with
+:func:`~impactosc.dynamics.continuation.continuation` (the orbit the user gives, or the one
+a stated transient reaches) to the grazing at which it first touches a flange, and says
+whether that orbit is stable there; ``method="transient"`` instead brackets a sign change of
+the margin of the steady states that transients reach and refines it by regula falsi (the
+search of earlier versions). :func:`onset_chart` does that at every
 point of a 2-D grid of two other parameters, in parallel: for a :class:`~impactosc.TapeDrive`
 the design chart of critical clearance (or run-out) against speed and tension, in SI units.
 
@@ -27,14 +31,18 @@ tape touches the flange when the run-out exceeds the clearance plus the friction
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass
+import numbers
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
 from .._util import validation as _v
 from ..backends._simulate import DEFAULT_MAX_EVENTS, simulate
 from ..engine._driver import CHATTER, CONTACT_START, IMPACT, drive
+from ..model._oscillator import Oscillator
 from ..results._solution import Solution, _Recorder
 from ._common import advanced, check_base, check_parameter, forcing_period, oscillator_of, with_parameter
 from .tangent import check_backend, check_start, piece_stepper
@@ -155,18 +163,35 @@ class ContactOnset:
     value : float
         The critical value (NaN when none was found).
     bracket : (float, float)
-        Final bracket of the sign change (no contact at one end, contact at the other; its
-        width is below the tolerance).
+        ``method="transient"``: final bracket of the sign change of the margin (no contact
+        at one end, contact at the other; its width is below the tolerance).
+        ``method="continuation"``: the last point of the followed branch before the onset,
+        and the onset.
     direction : int
         +1: contact above ``value``; -1: contact below it; 0 none found.
     margins : (float, float)
-        Contact margins at the ends of the final bracket.
+        Contact margins at the ends of ``bracket`` (continuation: ``min(upper_margin,
+        lower_margin)`` of that branch point, and 0 at the onset).
     evaluations : int
-        Steady states computed.
+        Steady states computed (continuation: points of the followed branch).
     status : int
-        0 found; 1 no sign change in the bracket (the message says on which side it is);
-        -1 a run failed (see ``message``).
+        0 found; 1 no onset in the bracket (the message says on which side it is);
+        2 (continuation) the followed branch folds back before it touches a flange: it has
+        no contact onset; -1 a run failed or no orbit was found (see ``message``).
     message : str
+    method : str
+        ``"continuation"`` or ``"transient"``.
+    start : str
+        The end of the bracket the search started from (``"lo"`` or ``"hi"``).
+    followed : str
+        Which orbit the continuation followed: the one through the user's ``guess``, or the
+        one a stated transient reached (empty for ``method="transient"``).
+    stable : bool or None
+        Whether the followed orbit is stable just before the onset (None when unknown).
+    branch : impactosc.dynamics.continuation.Branch or None
+        The followed branch (:func:`~impactosc.dynamics.continuation.continuation`), up to the
+        onset when it was followed with inert flanges (its points beyond it would not be the
+        model's own orbits).
     """
 
     parameter: str
@@ -177,24 +202,55 @@ class ContactOnset:
     evaluations: int
     status: int
     message: str
+    method: str = "transient"
+    start: str = "lo"
+    followed: str = ""
+    stable: bool | None = None
+    branch: Any = None
 
 
-def contact_onset(base, parameter: str, bracket, *, tol: float | None = None, scan: int = 0,
-                  follow: bool = True, orbit: int | None = None, transient_periods: float = 200,
-                  record_periods: float = 20, x0: float = 0.95, v0: float = 0.0, stop_at_contact: bool = False,
-                  backend: str = "heyoka", max_evaluations: int = 100, **options) -> ContactOnset:
-    """Find the value of ``parameter`` at which the steady state of ``base`` first touches a flange.
+METHODS = ("continuation", "transient")
+#: Keywords of the transient search that mean nothing to continuation.
+TRANSIENT_ONLY = ("scan", "follow", "record_periods", "stop_at_contact", "max_evaluations")
+#: Settings of :func:`~impactosc.dynamics.continuation.continuation` that ``**options`` may carry.
+CONTINUATION_SETTINGS = ("step", "min_step", "max_step", "max_points", "max_iter", "locate_tol")
+#: Continuation's default ``locate_tol`` here: a coarse location, then the secant on the
+#: contact-free orbits alone to ``tol`` (fewer runs than locating every point finely).
+LOCATE_TOL = 1e-4
+#: Flange stiffness of the model whose contact-free orbits are followed (see _shadow).
+SHADOW_K = 1e-9
+
+
+def contact_onset(base, parameter: str, bracket, *, method: str = "continuation", guess=None, start: str = "lo",
+                  orbit: int | None = None, tol: float | None = None, transient_periods: float | None = None,
+                  x0: float = 0.95, v0: float = 0.0, backend: str | None = None, scan: int | None = None,
+                  follow: bool | None = None, record_periods: float | None = None, stop_at_contact: bool | None = None,
+                  max_evaluations: int | None = None, **options) -> ContactOnset:
+    """Find the value of ``parameter`` at which the followed steady state of ``base`` first touches a flange.
 
     Near a grazing boundary a contact attractor often coexists with the contact-free one
-    (hysteresis), so "the steady state" depends on where the motion comes from. With
-    ``follow=True`` (default) the contact-free branch is followed, as in a slow sweep:
-    the scan runs from ``lo`` to ``hi`` each value starting from the previous final state,
-    and every refinement starts from the final state at the contact-free end of the
-    current bracket. The onset is where that branch touches a flange (or ceases to exist).
-    With ``follow=False`` every value starts from ``(x0, v0)``.
+    (hysteresis), and an orbit may lose stability or fold back before it touches, so "the
+    steady state" must be one definite branch of orbits.
 
-    The refinement is regula falsi with the Illinois modification and a bisection
-    safeguard, on the contact margin (:func:`contact_margin`).
+    ``method="continuation"`` (default) takes the period-``orbit`` orbit at the ``start``
+    end of the bracket, through ``guess`` or from the state a transient of
+    ``transient_periods`` from ``(x0, v0)`` reaches (the result says which), and follows its
+    branch with :func:`~impactosc.dynamics.continuation.continuation` towards the other end.
+    The answer is the first contact onset along that branch: the grazing at which the first
+    contact with a flange appears (or, from an orbit that touches, the last one vanishes).
+    A contact-free branch is followed on the same model with the flanges made inert
+    (a spring of stiffness ``1e-9``): its orbits are the model's own up to the grazing, and
+    the margin ``1 - max|X|`` stays smooth through it, so the grazing is located as a plain
+    zero (to about ``1e-12`` relative) without ever running the stiff contact. If the branch
+    folds first, there is no onset on it (status 2); the result says whether the followed
+    orbit was stable just before the onset.
+
+    ``method="transient"`` is the search of earlier versions: brackets a sign change of the
+    contact margin (:func:`contact_margin`) of the steady state that transients reach and
+    refines it (regula falsi with the Illinois modification and a bisection safeguard). With
+    ``follow=True`` (default) every refinement starts from the final state at the
+    contact-free end of the current bracket; with ``orbit=n`` the steady state is the
+    period-``n`` orbit found by Newton shooting.
 
     Parameters
     ----------
@@ -204,36 +260,313 @@ def contact_onset(base, parameter: str, bracket, *, tol: float | None = None, sc
         ``"tension"``, ``"pack_diameter"``, ``"runout_full"`` ... of a drive (SI units).
     bracket : (float, float)
         Interval to search, ``lo < hi``.
-    tol : float, optional
-        Absolute tolerance on the critical value (default ``1e-6 * (hi - lo)``).
-    scan : int
-        Interior points evaluated first, from ``lo``; the first sign change is refined.
-    follow : bool
-        Follow the contact-free branch (see above).
+    method : {"continuation", "transient"}
+    guess : (float, float), optional
+        Continuation: ``(X, V)`` on the section near the orbit to follow at the ``start``
+        end. Default: the state after a transient (``transient_periods`` from ``(x0, v0)``).
+    start : {"lo", "hi"}
+        Continuation: the end of the bracket the followed orbit is taken at.
     orbit : int, optional
-        Take the steady state to be the period-``orbit`` orbit found by Newton shooting
-        (:func:`~impactosc.dynamics.periodic_orbit`), from the previous orbit when following,
-        instead of the end of a transient. Near a grazing boundary the basin of the
-        contact-free orbit shrinks to nothing (any finite step of the parameter can throw
-        a transient onto a coexisting contact attractor), so only shooting follows the
-        branch all the way to its grazing point.
-    transient_periods, record_periods : float
-        Forcing periods discarded, then examined, for every steady state (see
-        :func:`contact_margin`).
+        Continuation: the period ``n`` (in forcing periods) of the followed orbit (default 1).
+        Transient: take the steady state to be the period-``orbit`` orbit found by Newton
+        shooting instead of the end of a transient.
+    tol : float, optional
+        Absolute tolerance on the critical value. Transient default ``1e-6 * (hi - lo)``;
+        continuation default ``1e-12 * max(|lo|, |hi|)`` (the located grazing is polished to
+        it where continuation's bracket is wider).
+    transient_periods : float, optional
+        Forcing periods of the transient (default 100 for continuation, a whole number; 200
+        for the transient search, where it may be fractional).
     x0, v0 : float
-        Initial state (of the first value when following).
-    stop_at_contact : bool
-        Stop every run at its first contact in the window (see :func:`contact_margin`): the
-        refinement is then a bisection.
-    backend, **options
-        Backend of the runs and its options.
-    max_evaluations : int
-        Steady states computed at most (status -1 beyond).
+        Initial state of the transient.
+    backend : str, optional
+        Backend of the runs (continuation default: ``"exact"`` where it runs the model, else
+        ``"heyoka"``; transient default ``"heyoka"``).
+    scan, follow, record_periods, stop_at_contact, max_evaluations
+        ``method="transient"`` only (refused otherwise): interior points scanned first
+        (default 0), following the contact-free branch (default True), forcing periods
+        examined per steady state (default 20), stopping each run at its first contact
+        (default False), steady states computed at most (default 100).
+    **options
+        The backend's options; with ``method="continuation"`` also the continuation settings
+        ``step``, ``min_step``, ``max_step``, ``max_points``, ``max_iter`` and ``locate_tol``
+        (e.g. ``locate_tol=1e-4`` on a model whose runs are slow: the grazing is then located
+        coarsely and polished to ``tol`` on the contact-free orbits alone).
 
     Returns
     -------
     ContactOnset
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument (an unknown method or start, a guess that is not a pair of
+        finite reals, a transient-only keyword with ``method="continuation"``, ...).
     """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    if method == "continuation":
+        given = {"scan": scan, "follow": follow, "record_periods": record_periods,
+                 "stop_at_contact": stop_at_contact, "max_evaluations": max_evaluations}
+        for name in TRANSIENT_ONLY:
+            if given[name] is not None:
+                raise ValueError(f"{name}={given[name]!r} applies to method='transient' only (the search on "
+                                 f"transients); use method='transient' with it, or leave it out")
+        return _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, transient_periods, x0, v0,
+                                   backend, options)
+    if guess is not None:
+        raise ValueError(f"guess={guess!r} applies to method='continuation' only (the transient search starts "
+                         "from (x0, v0))")
+    if start != "lo":
+        raise ValueError(f"start={start!r} applies to method='continuation' only (the transient search scans "
+                         "from lo to hi)")
+    return _transient_onset(base, parameter, bracket, tol=tol, scan=0 if scan is None else scan,
+                            follow=True if follow is None else follow, orbit=orbit,
+                            transient_periods=200 if transient_periods is None else transient_periods,
+                            record_periods=20 if record_periods is None else record_periods, x0=x0, v0=v0,
+                            stop_at_contact=bool(stop_at_contact), backend="heyoka" if backend is None else backend,
+                            max_evaluations=100 if max_evaluations is None else max_evaluations, **options)
+
+
+def _check_bracket(bracket) -> tuple[float, float]:
+    try:
+        lo, hi = bracket
+    except (TypeError, ValueError):
+        raise TypeError(f"bracket must be a pair (lo, hi), got {bracket!r}") from None
+    lo, hi = _v.real("bracket[0]", lo), _v.real("bracket[1]", hi)
+    if not lo < hi:
+        raise ValueError(f"bracket must satisfy lo < hi, got ({lo!r}, {hi!r})")
+    return lo, hi
+
+
+def _default_backend(osc, backend, options) -> str:
+    if backend is not None:
+        if not isinstance(backend, str):
+            raise TypeError(f"backend must be a string or None, got {backend!r}")
+        check_backend(osc, backend, options)
+        return backend
+    try:
+        check_backend(osc, "exact", options)
+        return "exact"
+    except ValueError:
+        check_backend(osc, "heyoka", options)
+        return "heyoka"
+
+
+def _shadow(model):
+    """``model`` with inert flanges: a linear spring of stiffness :data:`SHADOW_K` on both sides.
+
+    Its contact-free orbits are exactly those of ``model`` (the flanges act only in
+    contact), and its margin ``1 - max|X|`` passes smoothly through 0 where they graze.
+    """
+    if isinstance(model, Oscillator):
+        return replace(model, K=SHADOW_K, flange="spring", exponent=1.0, restitution=1.0)
+    return model.replace(stiffness_ratio=SHADOW_K, flange_stiffness=None, flange="spring", flange_exponent=1.0,
+                         restitution=1.0)
+
+
+def _touches(orb) -> bool:
+    ev = orb.events
+    if len(ev) and np.any(np.isin(ev.kind, (CONTACT_START, IMPACT, CHATTER))):
+        return True
+    return max(abs(orb.x), float(np.max(np.abs(ev.x))) if len(ev) else 0.0) >= 1.0
+
+
+def _clear(point) -> float:
+    """``min(upper_margin, lower_margin)`` of a branch point: > 0 while clear of both flanges."""
+    return min(point.upper_margin, point.lower_margin)
+
+
+def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, transient_periods, x0, v0, backend,
+                        options) -> ContactOnset:
+    from .continuation import continuation
+    from .shooting import periodic_orbit
+
+    settings = {k: options.pop(k) for k in CONTINUATION_SETTINGS if k in options}
+    settings.setdefault("locate_tol", LOCATE_TOL)
+    check_base(base)
+    check_parameter(base, parameter)
+    lo, hi = _check_bracket(bracket)
+    if start not in ("lo", "hi"):
+        raise ValueError(f"start must be 'lo' or 'hi' (the end of the bracket the followed orbit is taken at), "
+                         f"got {start!r}")
+    n = 1 if orbit is None else _v.integer("orbit", orbit)
+    tol = 1e-12 * max(abs(lo), abs(hi)) if tol is None else _v.positive("tol", tol)
+    tp = 100 if transient_periods is None else transient_periods
+    if isinstance(tp, bool) or not isinstance(tp, numbers.Integral | float) or tp != int(tp) or tp < 0:
+        raise ValueError(f"transient_periods must be a whole number >= 0 with method='continuation', got {tp!r}")
+    tp = int(tp)
+    p0 = lo if start == "lo" else hi
+    model = with_parameter(base, parameter, p0)
+    osc = oscillator_of(model)
+    backend = _default_backend(osc, backend, options)
+    if guess is not None:
+        try:
+            gx, gv = guess
+        except (TypeError, ValueError):
+            raise TypeError(f"guess must be a pair (X, V) on the section, got {guess!r}") from None
+        gx, gv = check_start(osc, n * forcing_period(osc), gx, gv, names=("guess[0]", "guess[1]"))
+        orb = periodic_orbit(model, n, guess=(gx, gv), backend=backend, **options)
+        followed = f"the period-{n} orbit through the guess (X, V) = ({gx!r}, {gv!r}) at {parameter} = {p0!r}"
+    else:
+        x0, v0 = check_start(osc, (tp + n) * forcing_period(osc), x0, v0)
+        orb = periodic_orbit(model, n, x0=x0, v0=v0, transient_periods=tp, backend=backend, **options)
+        followed = (f"the period-{n} orbit reached at {parameter} = {p0!r} by a transient of {tp} forcing periods "
+                    f"from (x0, v0) = ({x0!r}, {v0!r})")
+    head = dict(parameter=parameter, method="continuation", start=start, followed=followed)
+
+    def failed(status, message, branch=None, evaluations=0):
+        return ContactOnset(value=math.nan, bracket=(lo, hi), direction=0, margins=(math.nan, math.nan),
+                            evaluations=evaluations, status=status, message=message, branch=branch, **head)
+
+    if orb.status != 0:
+        return failed(-1, f"no period-{n} orbit to follow at {parameter} = {p0!r} (Newton from "
+                          f"{'the guess' if guess is not None else 'the transient'}: {orb.message})")
+    touching = _touches(orb)
+    followed += f", {orb.stability}, {'touching a flange' if touching else 'clear of the flanges'}"
+    head["followed"] = followed
+    follow_base = model
+    if not touching:
+        follow_base = _shadow(model)
+        orb = periodic_orbit(follow_base, n, guess=(orb.x, orb.v), backend=backend, **options)
+        if orb.status != 0:
+            return failed(-1, f"the orbit did not converge again on the model with inert flanges: {orb.message}")
+    forward = start == "lo"
+    try:
+        br = continuation(orb, parameter, (lo, hi), base=follow_base, backend=backend,
+                          direction="forward" if forward else "backward", **settings, **options)
+    except (RuntimeError, FloatingPointError) as exc:
+        return failed(-1, f"the continuation failed: {type(exc).__name__}: {exc}")
+    specials = br.special if forward else list(reversed(br.special))
+    onset = None
+    for s in specials:
+        if s.kind == "fold":
+            return failed(2, f"the followed branch ({followed}) folds back at {parameter} = {s.parameter!r} before "
+                             f"it {'stops touching' if touching else 'touches'} a flange: it has no contact onset "
+                             f"in the bracket", br, len(br.points))
+        test = (s.context[2] or {}).get("test") if s.context else None
+        if s.kind == "grazing" and test in ("upper_margin", "lower_margin", "end"):
+            if not touching or _contact_free_beyond(br, s, forward):
+                onset = s
+                break
+    if onset is None:
+        end = br.ends[-1] if br.ends else (br.status, br.message)
+        if end[0] in (0, 2):
+            where = "touches a flange" if touching else "stays clear of the flanges"
+            return failed(1, f"no contact onset in [{lo!r}, {hi!r}]: the followed branch ({followed}) {where} all "
+                             f"the way ({len(br.points)} points; {end[1]})", br, len(br.points))
+        return failed(-1, f"the continuation stopped before an onset: {end[1]}", br, len(br.points))
+    a, _ = _neighbours(br, onset, forward)
+    n_points = len(br.points)
+    value = onset.parameter
+    polished = ""
+    if onset.accuracy > tol or (onset.context[2] or {}).get("test") == "end":
+        try:
+            value, step, z, note = _polish(_shadow(model), parameter, onset, n, tol, backend, options)
+        except (RuntimeError, ValueError, FloatingPointError) as exc:
+            return failed(-1, f"the grazing found near {parameter} = {onset.parameter!r} could not be located to "
+                              f"tol = {tol:g}: {exc}", br, n_points)
+        polished = f"; polished to {note}"
+        new = dataclasses.replace(onset, parameters={**onset.parameters, parameter: value}, x=float(z[0]),
+                                  v=float(z[1]), accuracy=step)
+        br = dataclasses.replace(br, special=[new if s is onset else s for s in br.special])
+        onset = new
+    if not touching:
+        br = _up_to(br, onset, forward, model)
+    direction = (1 if forward else -1) * (-1 if touching else 1)
+    stable = a.stable
+    # the last branch point before the onset and the onset itself (margin 0 there)
+    pa, pb = a.parameter, float(value)
+    brk = (min(pa, pb), max(pa, pb))
+    ms = (_clear(a), 0.0) if pa <= pb else (0.0, _clear(a))
+    side = "above" if direction > 0 else "below"
+    return ContactOnset(value=float(value), bracket=brk, direction=direction, margins=ms,
+                        evaluations=n_points, status=0,
+                        message=(f"contact {side} {parameter} = {value:.12g}: the followed branch ({followed}) "
+                                 f"{'grazes' if not touching else 'leaves'} the flange there ({onset.label}: "
+                                 f"{onset.message}), {'stable' if stable else a.stability} just before{polished}"),
+                        stable=stable, branch=br, **head)
+
+
+def _up_to(br, onset, forward: bool, model):
+    """The part of a branch followed with inert flanges that is the model's own: up to the onset.
+
+    Its points before the onset (along the followed direction) are contact-free, hence
+    orbits of ``model`` too; beyond it they are not, and are left out.
+    """
+    if forward:
+        points = br.points[:onset.index + 1]
+        special = [s for s in br.special if s.index < onset.index or s is onset]
+    else:
+        cut = onset.index + 1
+        points = br.points[cut:]
+        special = [dataclasses.replace(s, index=s.index - cut) for s in br.special
+                   if s.index > onset.index or s is onset]
+    end = (0, f"stopped at the contact onset {onset.label} ({br.names[0]} = {onset.parameter!r}): the points beyond it "
+              "were followed with inert flanges and are left out")
+    return dataclasses.replace(br, points=points, special=special, status=0, message=end[1], ends=(end,),
+                               base=model)
+
+
+def _neighbours(br, s, forward: bool):
+    """The branch points just before and just after ``s`` along the followed direction."""
+    if (s.context[2] or {}).get("test") == "end":
+        end = br.points[-1] if forward else br.points[0]
+        return end, end
+    i = min(max(s.index, 0), len(br.points) - 1)
+    j = min(i + 1, len(br.points) - 1)
+    return (br.points[i], br.points[j]) if forward else (br.points[j], br.points[i])
+
+
+def _contact_free_beyond(br, s, forward: bool) -> bool:
+    """From an orbit that touches: is the branch clear of both flanges just past the grazing ``s``?"""
+    if (s.context[2] or {}).get("test") == "end":
+        return True
+    _, after = _neighbours(br, s, forward)
+    return _clear(after) > 0.0
+
+
+def _shadow_margin(shadow, parameter, p, z, n, backend, options):
+    """``(1 - max|X|, (x, v))`` of the period-``n`` orbit of ``shadow`` at ``parameter = p`` near ``z``."""
+    from .shooting import periodic_orbit
+
+    orb = periodic_orbit(with_parameter(shadow, parameter, float(p)), n, guess=z, backend=backend, tol=1e-13,
+                         **options)
+    if orb.status != 0:
+        if "guard is crossed tangentially" in orb.message and "enter_" in orb.message:
+            return 0.0, z  # the orbit touches a flange tangentially to rounding: the grazing itself
+        raise RuntimeError(f"no orbit at {parameter} = {p!r}: {orb.message}")
+    ev = orb.events
+    extreme = max(abs(orb.x), float(np.max(np.abs(ev.x))) if len(ev) else 0.0)
+    return 1.0 - extreme, (orb.x, orb.v)
+
+
+def _polish(shadow, parameter, s, n, tol, backend, options):
+    """The zero of ``1 - max|X|`` along the contact-free family next to the located grazing ``s`` (secant).
+
+    Returns ``(value, last step, section state of the last orbit, note)``.
+    """
+    p1 = s.parameter
+    m1, z = _shadow_margin(shadow, parameter, p1, (s.x, s.v), n, backend, options)
+    h = max(1e3 * tol, 1e-7 * max(1.0, abs(p1)))
+    p0 = p1 - h
+    m0, _ = _shadow_margin(shadow, parameter, p0, z, n, backend, options)
+    for _ in range(30):
+        if m1 == m0:
+            break
+        p2 = p1 - m1 * (p1 - p0) / (m1 - m0)
+        if abs(p2 - p1) <= tol:  # converged: the orbit at p2 itself grazes, where Newton may not run
+            return (p2, abs(p2 - p1), z,
+                    f"|1 - max|X|| = {abs(m1):.1g} at the last orbit computed (secant step {abs(p2 - p1):.1g})")
+        p0, m0 = p1, m1
+        p1 = p2
+        m1, z = _shadow_margin(shadow, parameter, p1, z, n, backend, options)
+    raise RuntimeError(f"the secant on 1 - max|X| did not converge (last step {abs(p1 - p0):.3g})")
+
+
+def _transient_onset(base, parameter: str, bracket, *, tol, scan, follow, orbit, transient_periods, record_periods,
+                     x0, v0, stop_at_contact, backend, max_evaluations, **options) -> ContactOnset:
+    """The search of ``method="transient"`` (see :func:`contact_onset`)."""
     check_base(base)
     check_parameter(base, parameter)
     try:
@@ -296,6 +629,8 @@ def contact_onset(base, parameter: str, bracket, *, tol: float | None = None, sc
     return ContactOnset(parameter, float(root), (float(a), float(b)), direction, (ma, mb), calls[0], 0,
                         f"contact {'above' if direction > 0 else 'below'} {parameter} = {root:.10g} "
                         f"(bracket width {b - a:.2g}, {calls[0]} steady states)")
+
+
 
 
 def _refine(found, tol: float, evaluate, follow: bool, origin):

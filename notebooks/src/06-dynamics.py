@@ -135,10 +135,11 @@ plt.show()
 
 # %% tags=["gallery"]
 Fc = dy.den_hartog_onset(Om_dh, beta_dh)
-onset = dy.contact_onset(den_hartog, "F", (0.8 * Fc, 1.1 * Fc), tol=1e-10, scan=4, orbit=1, x0=0.0,
-                         transient_periods=300)
+# continuation of the orbit found above (at F = 0.3) up to the value where it grazes the flange
+onset = dy.contact_onset(den_hartog, "F", (F_dh, 1.1 * Fc), guess=(orbit.x, orbit.v))
 print(f"contact onset: closed form F_c = {Fc:.12f}, numerical {onset.value:.12f} "
-      f"(error {abs(onset.value - Fc):.1e}, {onset.evaluations} periodic orbits)")
+      f"(error {abs(onset.value - Fc):.1e}, status {onset.status})")
+print(f"followed: {onset.followed}; just before the onset it is {'stable' if onset.stable else 'not stable'}")
 
 values = np.linspace(0.05, 1.5, 30 if QUICK else 300)
 t0 = time.perf_counter()
