@@ -230,7 +230,7 @@ class Branch:
 
         Parameters
         ----------
-        ax : matplotlib Axes, optional
+        ax : matplotlib.axes.Axes, optional
         y : {"x", "v", "max_x"}
             What to draw against the first parameter: the section state, or ``max X`` over
             the orbit (``1 - upper_margin`` where the orbit is clear of the flange).
