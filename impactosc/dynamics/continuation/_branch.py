@@ -269,7 +269,11 @@ class Branch:
         if y == "v":
             return self.v
         if y == "max_x":
-            return np.array([1.0 - p.upper_margin if p.upper_margin >= 0 else 1.0 for p in self.points])
+            from .._common import oscillator_of
+            from ._sensitivity import flange_gap
+
+            gap = flange_gap(oscillator_of(self.base), 1)
+            return np.array([gap - p.upper_margin if p.upper_margin >= 0 else gap for p in self.points])
         raise ValueError(f"y must be 'x', 'v' or 'max_x', got {y!r}")
 
     def _special_ordinate(self, s: SpecialPoint, y: str) -> float:
