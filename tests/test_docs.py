@@ -44,7 +44,7 @@ import apitopics  # noqa: E402  (the topics of the API reference: conf.py's api_
 # are shrunk into the page's column (~730 px) until their labels are unreadable.
 MAX_FIGURE_WIDTH = 960
 # The notebooks whose figures are sized for the column (the others: see the report of the docs work).
-SIZED_NOTEBOOKS = ("02-events-vs-rk4", "06-dynamics", "07-model-family")
+SIZED_NOTEBOOKS = ("02-events-vs-rk4", "06-dynamics", "07-model-family", "08-continuation")
 
 
 @dataclass

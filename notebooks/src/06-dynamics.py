@@ -184,7 +184,10 @@ plt.show()
 # 03, `reports/paper_reproduction.md`). The useful question is then: **at which clearance
 # does contact start**, and how does that depend on tape speed and tension? For every
 # grid point `onset_chart` brackets the clearance at which the steady state first
-# touches a flange (each run stops at its first contact, so contact-side runs are cheap).
+# touches a flange. Here by the search from transients (`method="transient"`: each run
+# stops at its first contact, so contact-side runs are cheap); the default follows the
+# branch of one orbit by continuation instead, and notebook 08 traces the same boundary
+# as one continued curve.
 #
 # At these speeds the reel turns four orders of magnitude slower than the tape span
 # resonates (`Omega ~ 2e-4`): the response is quasi-static. The tape creeps after the
@@ -200,7 +203,7 @@ speeds = np.array([4.0, 8.0] if QUICK else [1.0, 2.0, 4.0, 6.0, 8.0, 12.0])     
 tensions = np.array([0.5, 2.0] if QUICK else [0.25, 0.5, 1.0, 1.5, 2.0, 3.0])        # N
 t0 = time.perf_counter()
 chart = dy.onset_chart(drive, "clearance", (110e-6, 125e-6), {"speed": speeds, "tension": tensions},
-                       tol=1e-7 if QUICK else 2e-9, transient_periods=0.25, record_periods=1, stop_at_contact=True,
+                       method="transient", tol=1e-7 if QUICK else 2e-9, transient_periods=0.25, record_periods=1, stop_at_contact=True,
                        progress=False)
 print(f"{chart['critical'].size} chart points in {time.perf_counter() - t0:.1f} s")
 

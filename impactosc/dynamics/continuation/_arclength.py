@@ -87,9 +87,9 @@ def correct(problem: MapProblem, u_pred: np.ndarray, constraint: np.ndarray, set
     last_step = math.inf
     rigid = problem.rigid
     for it in range(settings.max_iter + 1):
-        if rigid and abs(u[0]) > 1.0:
-            u = u.copy()
-            u[0] = math.copysign(1.0, u[0])  # no state lies beyond a rigid wall: the iterate rests on it
+        if rigid and not -problem.walls[0] <= u[0] <= problem.walls[1]:
+            u = u.copy()  # no state lies beyond a rigid wall: the iterate rests on it
+            u[0] = min(max(u[0], -problem.walls[0]), problem.walls[1])
         z, params = unscaled(problem, u)
         ev = problem.evaluate(z, params)
         if not ev.ok:

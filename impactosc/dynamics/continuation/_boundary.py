@@ -16,11 +16,12 @@ import math
 
 import numpy as np
 
-from .._common import check_parameter, parameter_value
+from .._common import check_parameter, oscillator_of, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
 from ._points import SMOOTH_TESTS, point_info
 from ._problem import MapProblem
+from ._sensitivity import flange_gap
 
 __all__ = ["boundary"]
 
@@ -92,12 +93,13 @@ def _extra(curve: MapProblem, test: str, offset: float = 0.0):
     scales = np.asarray(curve.scales)
     if test in ("upper_margin", "lower_margin"):
         upper = test == "upper_margin"
+        gap = flange_gap(oscillator_of(curve.base), 1 if upper else -1)
 
         def grazing(ev, u):
             rec = ev.recorder
             x, row, sig = rec.top if upper else rec.bottom
             sign = -1.0 if upper else 1.0
-            psi = 1.0 + sign * x - offset
+            psi = gap + sign * x - offset
             grad = sign * np.concatenate([np.asarray(row, float), np.asarray(sig, float) * scales])
             return np.array([psi]), grad[None, :]
 

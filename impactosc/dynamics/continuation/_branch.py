@@ -15,7 +15,7 @@ import numpy as np
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 
-#: The kinds of special point a branch labels (AUTO's abbreviations in :data:`LABELS`).
+#: The kinds of special point a branch labels (each with AUTO's abbreviation: LP, PD, NS, GR, ST, BP, EP).
 SPECIAL_KINDS = ("fold", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border", "end")
 LABELS = {"fold": "LP", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "GR", "stick_onset": "ST",
           "border": "BP", "end": "EP"}
@@ -230,7 +230,7 @@ class Branch:
 
         Parameters
         ----------
-        ax : matplotlib Axes, optional
+        ax : matplotlib.axes.Axes, optional
         y : {"x", "v", "max_x"}
             What to draw against the first parameter: the section state, or ``max X`` over
             the orbit (``1 - upper_margin`` where the orbit is clear of the flange).
@@ -269,7 +269,11 @@ class Branch:
         if y == "v":
             return self.v
         if y == "max_x":
-            return np.array([1.0 - p.upper_margin if p.upper_margin >= 0 else 1.0 for p in self.points])
+            from .._common import oscillator_of
+            from ._sensitivity import flange_gap
+
+            gap = flange_gap(oscillator_of(self.base), 1)
+            return np.array([gap - p.upper_margin if p.upper_margin >= 0 else gap for p in self.points])
         raise ValueError(f"y must be 'x', 'v' or 'max_x', got {y!r}")
 
     def _special_ordinate(self, s: SpecialPoint, y: str) -> float:

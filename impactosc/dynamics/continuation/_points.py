@@ -27,6 +27,7 @@ import numpy as np
 from ...results._solution import Solution
 from ..shooting import floquet_multipliers
 from ._problem import MapEvaluation, MapProblem
+from ._sensitivity import flange_gap
 
 __all__ = ["PointInfo", "point_info", "SMOOTH_TESTS", "MARGIN_TESTS"]
 
@@ -63,7 +64,7 @@ class PointInfo:
         """The smallest of the margins, approaches and entry speeds: how far the orbit is from a grazing."""
         values = [abs(self.upper_margin), abs(self.lower_margin)]
         values += list(self.approach.values()) + list(self.slowest_entry.values())
-        return min(v for v in values if not math.isnan(v))
+        return min((v for v in values if not math.isnan(v)), default=math.inf)
 
 
 def _stability(mus) -> str:
@@ -90,21 +91,22 @@ def point_info(problem: MapProblem, ev: MapEvaluation) -> PointInfo:
     complex_pair = bool(abs(mus[0].imag) > 0.0) if not ev.singular else False
     tests = {"fold": det - tr + 1.0, "period_doubling": det + tr + 1.0,
              "neimark_sacker": det - 1.0 if complex_pair else math.nan}
-    approach, slowest = _approaches(events)
+    approach, slowest = _approaches(osc, events)
     return PointInfo(mus, _stability(mus), bool(rec.collapsed), signature(osc, events),
                      _flange_margin(osc, rec, 1), _flange_margin(osc, rec, -1), _stick_margin(osc, events, rec),
                      tests, events, ev.singular, approach, slowest)
 
 
-def _approaches(events):
+def _approaches(osc, events):
     """``(approach, slowest_entry)`` of :class:`PointInfo`."""
     approach = {1: math.inf, -1: math.inf}
     slowest = {1: math.inf, -1: math.inf}
+    gaps = {1: flange_gap(osc, 1), -1: flange_gap(osc, -1)}
     for e in events:
         kind, x = str(e.kind), float(e.x)
         side = 1 if x > 0.0 else -1
-        if kind == "reversal" and abs(x) < 1.0:
-            approach[side] = min(approach[side], 1.0 - abs(x))
+        if kind == "reversal" and abs(x) < gaps[side]:
+            approach[side] = min(approach[side], gaps[side] - abs(x))
         elif kind in ("impact", "contact_start"):
             slowest[side] = min(slowest[side], abs(float(e.v)))
     return approach, slowest
@@ -140,7 +142,7 @@ def _flange_margin(osc, rec, side: int) -> float:
     extreme = rec.x_max if side > 0 else -rec.x_min
     if osc.rigid and math.isfinite(rec.impact_speed[side]):
         return -rec.impact_speed[side]
-    return 1.0 - extreme
+    return flange_gap(osc, side) - extreme
 
 
 def _stick_margin(osc, events, rec) -> float:

@@ -21,7 +21,7 @@ from ...model._oscillator import Oscillator
 from .._common import advanced, check_parameter, oscillator_of, parameter_value, periods_in, with_parameter
 from ..saltation import vector_field
 from ..tangent import check_backend, piece_stepper
-from ._sensitivity import SensitivityRecorder, Stencil
+from ._sensitivity import SensitivityRecorder, Stencil, flange_gap
 
 __all__ = ["MapProblem", "MapEvaluation"]
 
@@ -88,6 +88,8 @@ class MapProblem:
         base_osc = oscillator_of(base)
         #: Rigid flanges: no state beyond them (the corrector keeps its iterates on the walls).
         self.rigid = base_osc.rigid
+        #: Distances of the lower and the upper flange from X = 0.
+        self.walls = (flange_gap(base_osc, -1), flange_gap(base_osc, 1))
         # The section time of the base, kept when the parameter is the phase itself.
         self._t_section = self._section_time(base_osc)
         check_backend(self.section(self.values(base)), backend, self.options)
@@ -133,9 +135,9 @@ class MapProblem:
             return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, str(exc))
         if not (math.isfinite(z[0]) and math.isfinite(z[1])):
             return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, f"state {z} is not finite")
-        if sec.rigid and abs(z[0]) > 1.0:
+        if sec.rigid and not -flange_gap(sec, -1) <= z[0] <= flange_gap(sec, 1):
             return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None,
-                                 f"X = {z[0]!r} lies beyond a rigid flange (|X| <= 1)")
+                                 f"X = {z[0]!r} lies beyond a rigid flange")
         stencils = [self._stencil(params, j) for j in range(k)]
         span = self.span(sec)
 

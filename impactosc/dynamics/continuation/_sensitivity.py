@@ -37,7 +37,7 @@ from ...engine._driver import AT_WALL, IMPACT, N_GUARDS, guard_gradient, guard_v
 from ..saltation import vector_field
 from ..tangent import TangentRecorder
 
-__all__ = ["SensitivityRecorder", "Stencil", "PANEL"]
+__all__ = ["SensitivityRecorder", "Stencil", "PANEL", "flange_gap", "piece_constants", "particular"]
 
 #: Longest sub-interval (time units) of the composite Gauss-Legendre rule on a piece.
 PANEL = 1.0
@@ -231,14 +231,25 @@ class SensitivityRecorder(TangentRecorder):
         self._extremes(x)
 
 
+def flange_gap(osc, side: int) -> float:
+    """Distance of the flange on ``side`` (+1 upper, -1 lower) from ``X = 0`` (inf: no flange there).
+
+    1 for the paper's symmetric guide; a model with flanges at their own distances says so
+    through its ``gap(side)``.
+    """
+    gap = getattr(osc, "gap", None)
+    return float(gap(side)) if callable(gap) else 1.0
+
+
 def piece_constants(osc, region: int, motion: int) -> tuple[float, float, float]:
     """``(w2, zeta, c0)`` of a linear piece ``X'' + 2 zeta X' + w2 X = forcing(t) + c0`` (eq. 3 and its family).
 
-    Read off :meth:`Oscillator.acceleration`: a linear spring flange adds ``K`` to the
-    stiffness and ``region K`` to the constant, friction ``-beta motion``.
+    Read off :meth:`Oscillator.acceleration`: a linear spring flange at ``X = region gap``
+    adds ``K`` to the stiffness and ``region K gap`` to the constant, friction ``-beta motion``.
     """
     if region != 0 and not osc.rigid:
-        return 1.0 + osc.K, osc.zeta, region * osc.K - osc.beta * motion
+        gap = flange_gap(osc, region)
+        return 1.0 + osc.K, osc.zeta, region * osc.K * gap - osc.beta * motion
     return 1.0, osc.zeta, -osc.beta * motion
 
 
