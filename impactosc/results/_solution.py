@@ -467,7 +467,12 @@ class Solution(SolutionFramesMixin):
         _, _, q, k = self._evaluate(t_arr)
         seg = _kept(self._segments, "the piece starts")[k[0]]
         cum = float(seg["impulse_upper" if side == 1 else "impulse_lower"])
-        cum += float(q[0]) if int(seg["region"]) == side else 0.0
+        if int(seg["region"]) == side and self.oscillator.rigid:
+            # Resting against a rigid wall: the piece evaluators know no wall force (the
+            # recorder integrates the wall's push per piece); integrate it up to t the same way.
+            cum += self.oscillator.wall_force_integrals(side, float(seg["t"]), t)[0]
+        elif int(seg["region"]) == side:
+            cum += float(q[0])
         for jump in self._tails:  # the impacts of a chatter tail before t
             if jump.side == side and jump.t0 < t < jump.t_inf:
                 cum += jump.state_at(t)[3]
