@@ -154,3 +154,50 @@ def test_near_resonant_piece_bounds_hold():
             else:
                 assert np.max(np.abs(vals[:, 1])) <= lo
                 assert np.max(np.abs(np.gradient(vals[:, 1], taus))) <= hi
+
+
+# -- item 7: refused before a user waits minutes -----------------------------------------------
+@pytest.mark.parametrize("backend", ["exact", "heyoka", "scipy", "rk4"])
+def test_absurd_damping_is_refused_on_every_backend(backend):
+    # zeta = 1e150 failed with a FloatingPointError (status -1) instead of a clear refusal.
+    with pytest.raises(ValueError, match=r"zeta=1e\+150 is above .*1e\+100.*use zeta <= 1e\+100"):
+        simulate(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=1e150), 1.0, 0.95, 0.0, backend=backend)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_overdamped_runs_that_step_at_the_fast_rate_are_refused(backend):
+    # Overdamped, the work of heyoka and of scipy's explicit methods grows with 2 zeta t_end
+    # (and a single creeping piece holds off Ctrl-C): refused, naming the implicit remedy.
+    osc = Oscillator(0.5, 1.1, 0.01, 1e4, zeta=1e5)
+    with pytest.raises(ValueError, match=r"zeta \* t_end = 2e\+06 \(zeta=100000.0, t_end=20.0\) is above 1e\+06.*"
+                       r"method='Radau'"):
+        simulate(osc, 20.0, 0.95, 0.0, backend=backend, record="stats")
+    # The remedy runs, and agrees with heyoka inside the limit.
+    radau = simulate(osc, 20.0, 0.95, 0.0, backend="scipy", method="Radau", record="stats")
+    assert radau.status == 0
+    ok = simulate(osc, 9.0, 0.95, 0.0, backend=backend, record="stats")
+    assert ok.status == 0
+
+
+def test_exact_refuses_damping_its_guard_search_cannot_follow():
+    # zeta = 1e4 with a fast start: the guard search lost the sign of the creeping velocity
+    # and the run ended with status -1 ("the guard search ... did not converge").
+    osc = Oscillator(0.6362932012307487, 2.7726506895204723, 0.14127296562472724, 595.7106560460162, zeta=1e4)
+    with pytest.raises(ValueError, match=r"zeta=10000.0 is above 1000, the largest damping ratio backend='exact'"):
+        simulate(osc, 5.0, 0.03319792070873118, 3.671450168230974, backend="exact", record="stats")
+    sol = simulate(osc, 5.0, 0.03319792070873118, 3.671450168230974, backend="heyoka", record="stats")
+    assert sol.status == 0
+
+
+def test_heyoka_refuses_more_harmonics_than_it_compiles_quickly():
+    # heyoka's compile time grows faster than linearly with the number of forcing terms
+    # (35 s for 60, over 2 minutes for 200); the exact backend runs them in closed form.
+    import time
+
+    osc = Oscillator(0.1, 1.1, 0.01, 1e4, harmonics=[(0.01, 1.1 * (k + 2), 0.0) for k in range(40)])
+    with pytest.raises(ValueError, match=r"41 forcing terms .* more than the 40 backend='heyoka' .*backend='exact'"):
+        simulate(osc, 10.0, 0.5, 0.0, record="stats")
+    many = Oscillator(0.1, 1.1, 0.01, 1e4, harmonics=[(1e-3, 1.1 * (k + 2), 0.0) for k in range(999)])
+    start = time.perf_counter()
+    assert simulate(many, 10.0, 0.5, 0.0, backend="exact", record="stats").status == 0
+    assert time.perf_counter() - start < 30.0
