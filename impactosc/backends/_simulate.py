@@ -11,7 +11,7 @@ from ..results._solution import RECORD_OPTIONS, Solution
 from ._registry import get_backend
 
 __all__ = ["simulate", "check_magnitudes", "check_cost", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE", "MAX_ZETA",
-           "MAX_OVERDAMPED_SPAN", "MAX_ZETA_OF", "MAX_HEYOKA_TERMS"]
+           "MAX_OVERDAMPED_SPAN_OF", "MAX_ZETA_OF", "MAX_HEYOKA_TERMS"]
 
 DEFAULT_MAX_EVENTS = 10_000_000
 
@@ -26,8 +26,10 @@ MAX_MAGNITUDE = 1e300
 #: mass is locked anyway (its creep speed ``|f| / (2 zeta)`` is below 1e-100).
 MAX_ZETA = 1e100
 #: Largest ``zeta * t_end`` with ``zeta > 1`` for the backends whose work grows with the
-#: fast decay rate ``~2 zeta`` of overdamped motion (see :func:`check_cost`).
-MAX_OVERDAMPED_SPAN = 1e6
+#: fast decay rate ``~2 zeta`` of overdamped motion (see :func:`check_cost`), each about 3 s
+#: of one core at its limit (measured: exact 2.7 s at 1e6, heyoka 3.5 s at 1e7, scipy's
+#: DOP853 24 s at 9e5); ``"scipy"`` stands for its explicit methods.
+MAX_OVERDAMPED_SPAN_OF = {"exact": 1e6, "heyoka": 1e7, "scipy": 1e5}
 #: Largest damping ratio per backend, where it is below :data:`MAX_ZETA` (measured on random
 #: members and starts): the exact backend's guard search loses the sign of a velocity that
 #: creeps at ``|f_net| / (2 zeta)`` next to its fast transient (status -1 in 2 of 30 runs at
@@ -158,15 +160,16 @@ def check_cost(osc: Oscillator, t_end: float, backend: str, options: dict) -> No
 
     * ``zeta <= MAX_ZETA`` (1e100) on every backend; ``backend="exact"``: ``zeta <= 1e3``,
       ``"heyoka"``: ``zeta <= 1e12`` (:data:`MAX_ZETA_OF`, where they stop following it).
-    * With ``zeta > 1`` (overdamped free motion) ``zeta * t_end <= MAX_OVERDAMPED_SPAN``
-      (1e6) on the backends whose work grows with the fast decay rate
+    * With ``zeta > 1`` (overdamped free motion) ``zeta * t_end`` at most
+      :data:`MAX_OVERDAMPED_SPAN_OF` (exact 1e6, heyoka 1e7, scipy's explicit methods
+      1e5: about 3 s each) on the backends whose work grows with the fast decay rate
       ``zeta + sqrt(zeta^2 - 1) ~ 2 zeta``: ``"exact"`` (its guard search proves signs on
       windows of that time scale), ``"heyoka"`` (an explicit Taylor method, stability-bound
       steps) and ``"scipy"`` with an explicit method. A creeping piece can span the whole
       run, so this also bounds how long Ctrl-C waits (the exact backend's compiled loop
-      checks it between pieces): ~2 s at the limit, 20 s at ``zeta = 1e5, t_end = 100``
-      before. scipy's implicit methods (``method="Radau"``, ``"BDF"``, ``"LSODA"``) step
-      with the slow motion: 2 s at ``zeta = 1e8``.
+      checks it between pieces; 20 s at ``zeta = 1e5, t_end = 100`` before). scipy's
+      implicit methods (``method="Radau"``, ``"BDF"``, ``"LSODA"``) step with the slow
+      motion: 2 s at ``zeta = 1e8``.
     * ``backend="heyoka"``: at most ``MAX_HEYOKA_TERMS`` (40) forcing terms.
 
     Raises
@@ -185,13 +188,14 @@ def check_cost(osc: Oscillator, t_end: float, backend: str, options: dict) -> No
                          "follows (beyond it the run can fail with status -1: the fast transient of the "
                          "overdamped motion drowns the slow creep in rounding); use backend='scipy' with "
                          "method='Radau' (implicit: its steps follow the slow creep)")
-    stiff_steps = backend in ("exact", "heyoka") or (
-        backend == "scipy" and options.get("method", "DOP853") not in _STIFF_METHODS)
-    if stiff_steps and zeta > 1.0 and zeta * t_end > MAX_OVERDAMPED_SPAN:
+    span = MAX_OVERDAMPED_SPAN_OF.get(backend)
+    if backend == "scipy" and options.get("method", "DOP853") in _STIFF_METHODS:
+        span = None
+    if span is not None and zeta > 1.0 and zeta * t_end > span:
         which = (f"backend={backend!r}" if backend != "scipy"
                  else f"backend='scipy' with method={options.get('method', 'DOP853')!r}")
         raise ValueError(f"zeta * t_end = {zeta * t_end:.3g} (zeta={zeta!r}, t_end={t_end!r}) is above "
-                         f"{MAX_OVERDAMPED_SPAN:g} for {which}: overdamped, its work grows with the fast decay "
+                         f"{span:.0e} for {which}: overdamped, its work grows with the fast decay "
                          "rate ~2 zeta (a creeping piece can span the run, minutes, without a Ctrl-C check); "
                          "use backend='scipy' with method='Radau' (implicit: its steps follow the slow creep), "
                          "or a shorter t_end")
