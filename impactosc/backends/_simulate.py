@@ -10,7 +10,8 @@ from ..model._oscillator import Oscillator
 from ..results._solution import RECORD_OPTIONS, Solution
 from ._registry import get_backend
 
-__all__ = ["simulate", "check_magnitudes", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE"]
+__all__ = ["simulate", "check_magnitudes", "check_cost", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE", "MAX_ZETA",
+           "MAX_OVERDAMPED_SPAN_OF", "MAX_ZETA_OF", "MAX_HEYOKA_TERMS"]
 
 DEFAULT_MAX_EVENTS = 10_000_000
 
@@ -18,6 +19,26 @@ DEFAULT_MAX_EVENTS = 10_000_000
 #: (see :func:`impactosc.simulate.check_magnitudes`): double precision overflows at 1.8e308, and the
 #: backends square and sum these quantities again internally.
 MAX_MAGNITUDE = 1e300
+
+#: Largest damping ratio any backend accepts: beyond it the overdamped rates
+#: ``zeta +- sqrt(zeta^2 - w^2)`` and the powers of them the solvers form overflow double
+#: precision (``zeta = 1e150`` failed with a FloatingPointError, issue 20 item 7), and the
+#: mass is locked anyway (its creep speed ``|f| / (2 zeta)`` is below 1e-100).
+MAX_ZETA = 1e100
+#: Largest ``zeta * t_end`` with ``zeta > 1`` for the backends whose work grows with the
+#: fast decay rate ``~2 zeta`` of overdamped motion (see :func:`check_cost`), each about 3 s
+#: of one core at its limit (measured: exact 2.7 s at 1e6, heyoka 3.5 s at 1e7, scipy's
+#: DOP853 24 s at 9e5); ``"scipy"`` stands for its explicit methods.
+MAX_OVERDAMPED_SPAN_OF = {"exact": 1e6, "heyoka": 1e7, "scipy": 1e5}
+#: Largest damping ratio per backend, where it is below :data:`MAX_ZETA` (measured on random
+#: members and starts): the exact backend's guard search loses the sign of a velocity that
+#: creeps at ``|f_net| / (2 zeta)`` next to its fast transient (status -1 in 2 of 30 runs at
+#: ``zeta = 1e4``, none of 30 at 1e3); heyoka works at 1e12 and stops at 1e20.
+MAX_ZETA_OF = {"exact": 1e3, "heyoka": 1e12}
+#: Most forcing terms (the fundamental and the harmonics) the heyoka backend compiles an
+#: integrator for: its compile time grows faster than linearly (measured 8 s for 30 terms,
+#: 35 s for 60, over 2 minutes for 200), once per process and number of terms.
+MAX_HEYOKA_TERMS = 40
 
 
 def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *,
@@ -65,7 +86,10 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     TypeError, ValueError
         For a bad argument or option; the message names it. Also when ``x0``, ``v0``,
         ``F * t_end`` or ``K`` are so large that the run's integrals could overflow double
-        precision (see :func:`impactosc.simulate.check_magnitudes`).
+        precision (see :func:`impactosc.simulate.check_magnitudes`), and when the run would
+        cost minutes that another backend or option avoids: a heavily overdamped run on
+        a backend that steps at its fast decay rate, or too many harmonics for heyoka's
+        compiler (``check_cost`` in ``impactosc.backends._simulate``).
     KeyboardInterrupt
         Ctrl-C stops a run within milliseconds (measured on event-free and event-dense
         runs of every backend); the exception propagates, no partial result is returned,
@@ -77,6 +101,7 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     _v.choice("record", record, RECORD_OPTIONS)
     stops = check_sample_times(sample_at, t_end)
     check_magnitudes(osc, t_end, x0, v0)
+    check_cost(osc, t_end, backend, options)
     try:
         return run(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=stops, **options)
     except TypeError as exc:
@@ -122,3 +147,61 @@ def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> Non
                      f"x0={x0!r}, v0={v0!r}, F={osc.F!r}, K={osc.K!r} and t_end={t_end!r} the integral of "
                      f"the squared flange force could reach 1e{log_q2:.0f}, beyond {MAX_MAGNITUDE:g} "
                      "(K R^2 t_end with R = sqrt(2 E0) + F t_end, see impactosc.simulate.check_magnitudes)")
+
+
+#: scipy's implicit methods: their steps follow the slow motion of a stiff (overdamped) run.
+_STIFF_METHODS = ("Radau", "BDF", "LSODA")
+
+
+def check_cost(osc: Oscillator, t_end: float, backend: str, options: dict) -> None:
+    """Refuse a run that would take minutes (and ignore Ctrl-C for long) where another choice does not.
+
+    Rules, each with the remedy in its message:
+
+    * ``zeta <= MAX_ZETA`` (1e100) on every backend; ``backend="exact"``: ``zeta <= 1e3``,
+      ``"heyoka"``: ``zeta <= 1e12`` (:data:`MAX_ZETA_OF`, where they stop following it).
+    * With ``zeta > 1`` (overdamped free motion) ``zeta * t_end`` at most
+      :data:`MAX_OVERDAMPED_SPAN_OF` (exact 1e6, heyoka 1e7, scipy's explicit methods
+      1e5: about 3 s each) on the backends whose work grows with the fast decay rate
+      ``zeta + sqrt(zeta^2 - 1) ~ 2 zeta``: ``"exact"`` (its guard search proves signs on
+      windows of that time scale), ``"heyoka"`` (an explicit Taylor method, stability-bound
+      steps) and ``"scipy"`` with an explicit method. A creeping piece can span the whole
+      run, so this also bounds how long Ctrl-C waits (the exact backend's compiled loop
+      checks it between pieces; 20 s at ``zeta = 1e5, t_end = 100`` before). scipy's
+      implicit methods (``method="Radau"``, ``"BDF"``, ``"LSODA"``) step with the slow
+      motion: 2 s at ``zeta = 1e8``.
+    * ``backend="heyoka"``: at most ``MAX_HEYOKA_TERMS`` (40) forcing terms.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter, the rule, its value and what to use instead.
+    """
+    zeta = osc.zeta
+    if zeta > MAX_ZETA:
+        raise ValueError(f"zeta={zeta!r} is above the largest damping ratio the backends follow, {MAX_ZETA:g}: "
+                         "beyond it the overdamped decay rates overflow double precision, and the mass is locked "
+                         f"(its creep speed |f_net| / (2 zeta) is below {1 / MAX_ZETA:g}); use zeta <= {MAX_ZETA:g}")
+    limit = MAX_ZETA_OF.get(backend)
+    if limit is not None and zeta > limit:
+        raise ValueError(f"zeta={zeta!r} is above {limit:g}, the largest damping ratio backend={backend!r} "
+                         "follows (beyond it the run can fail with status -1: the fast transient of the "
+                         "overdamped motion drowns the slow creep in rounding); use backend='scipy' with "
+                         "method='Radau' (implicit: its steps follow the slow creep)")
+    span = MAX_OVERDAMPED_SPAN_OF.get(backend)
+    if backend == "scipy" and options.get("method", "DOP853") in _STIFF_METHODS:
+        span = None
+    if span is not None and zeta > 1.0 and zeta * t_end > span:
+        which = (f"backend={backend!r}" if backend != "scipy"
+                 else f"backend='scipy' with method={options.get('method', 'DOP853')!r}")
+        raise ValueError(f"zeta * t_end = {zeta * t_end:.3g} (zeta={zeta!r}, t_end={t_end!r}) is above "
+                         f"{span:.0e} for {which}: overdamped, its work grows with the fast decay "
+                         "rate ~2 zeta (a creeping piece can span the run, minutes, without a Ctrl-C check); "
+                         "use backend='scipy' with method='Radau' (implicit: its steps follow the slow creep), "
+                         "or a shorter t_end")
+    if backend == "heyoka" and len(osc.terms) > MAX_HEYOKA_TERMS:
+        alternative = "backend='exact' (closed forms, no compile) or " if osc.linear else ""
+        raise ValueError(f"the member has {len(osc.terms)} forcing terms (the fundamental and "
+                         f"{len(osc.harmonics)} harmonics), more than the {MAX_HEYOKA_TERMS} backend='heyoka' "
+                         "compiles an integrator for: its compile time grows faster than linearly (8 s for 30 "
+                         f"terms, 35 s for 60, over 2 minutes for 200); use {alternative}backend='scipy'")

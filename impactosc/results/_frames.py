@@ -126,9 +126,9 @@ def impacts_frame(sol, drive: TapeDrive | None = None) -> pd.DataFrame:
 
     Columns: ``start``, ``end``, ``duration`` (time), ``side``, ``entry_velocity``,
     ``exit_velocity``, ``peak_penetration`` (length: ``|X| - 1`` times ``L``),
-    ``peak_force`` (``K`` times the penetration, force), ``impulse`` (the integral of the
-    flange force over the contact, force times time) and ``complete``. Needs
-    ``record="events"`` or ``"full"``.
+    ``peak_force`` (force: the member's flange law at its peak, see ``Solution.impacts``),
+    ``impulse`` (the integral of the flange force over the contact, force times time) and
+    ``complete``. Needs ``record="events"`` or ``"full"``.
     """
     import pandas as pd
 
@@ -214,16 +214,17 @@ def sample_grid(sol, dt: float, drive: TapeDrive | None = None, *, t0: float | N
     lam = np.clip(t / u.time, sol.t0, hi_lam)
     if lo == start:
         lam[0] = sol.t0
-    x, v = sol.sample(lam)
+    x, v, _, k = sol._evaluate(sol._sample_times(lam, "resample"))
+    force = sol._force_at(lam, x, k)  # the member's flange law (a rigid wall's push included)
     osc = sol.oscillator
     return {"t": t, "Lambda": lam, "x": x * u.length, "v": v * u.velocity,
-            "flange_force": osc.flange_force(x) * u.force, "forcing": osc.forcing(lam) * u.force, "units": u}
+            "flange_force": force * u.force, "forcing": osc.forcing(lam) * u.force, "units": u}
 
 
 _VARIABLES = {  # name -> (units attribute of Units, long name)
     "x": ("length_unit", "lateral tape position (eq. 3: X = x/L)"),
     "v": ("velocity_unit", "lateral tape velocity"),
-    "flange_force": ("force_unit", "flange force K(|X|-1)+ (eq. 3)"),
+    "flange_force": ("force_unit", "flange force of the member's flange law (K d^p, or a rigid wall's push)"),
     "forcing": ("force_unit", "run-out forcing F cos(Omega Lambda + phase) (eq. 3)"),
 }
 

@@ -46,8 +46,10 @@ def plot_solution(sol: Solution, path=None, *, n_samples: int = 4000, time_scale
     ax_x.set_xlabel(time_unit)
     ax_x.legend(loc="upper right", fontsize=8)
     ax_x.set_title(sol.summary().replace(": ", ":\n", 1), fontsize=8)
-    ax_f.plot(ts, sol.oscillator.flange_force(x), lw=0.8, color="tab:red")
-    ax_f.set_ylabel("flange force K(|X|-1)+ [units of kL]")
+    ax_f.plot(ts, sol.flange_force(t), lw=0.8, color="tab:red")  # the member's law (a rigid wall's push too)
+    law = ("rigid wall's push" if sol.oscillator.rigid
+           else "K d" if sol.oscillator.exponent == 1.0 else f"K d^{sol.oscillator.exponent:g}")
+    ax_f.set_ylabel(f"flange force {law} [units of kL]")
     ax_f.set_xlabel(time_unit)
     ax_p.plot(x, v, lw=0.6, color="k")
     ax_p.axvline(-1, color="tab:red", lw=0.8, ls="--")

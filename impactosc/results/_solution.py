@@ -9,8 +9,10 @@ options. What is kept is chosen with ``record``:
 ``"events"``  events and impacts only.
 ``"stats"``   counts and integrals only: memory stays flat however many events occur.
 
-Averages are integrals, not samples: the flange impulse ``int K(|X|-1)+ dLambda`` is
-integrated by the backend over every piece, per flange, in every recording mode.
+Averages are integrals, not samples: the flange impulse, the integral of the member's
+flange force (``K d^p`` on the penetration ``d = (|X| - 1)+`` of a spring flange; the wall's
+push on a mass resting against a rigid flange, plus the impulses ``(1 + e)|V|`` of its
+impacts) is integrated by the backend over every piece, per flange, in every recording mode.
 """
 
 from __future__ import annotations
@@ -98,6 +100,9 @@ class _Recorder:
         self.impulse_sq = {1: 0.0, -1: 0.0}
         self.contact_time = {1: 0.0, -1: 0.0}
         self.max_pen = {1: 0.0, -1: 0.0}
+        # The peak wall push of a rigid flange (a spring's peak force follows max_pen). Not yet
+        # streamed: the compiled exact loop must stream it too (issue 20 item 2, see the tests).
+        self.max_force = {1: 0.0, -1: 0.0}
         self.forcing_work = 0.0
         self.slip_path = 0.0
         self.v_squared = 0.0  # int V^2: the damping loss is 2 zeta times it
@@ -271,6 +276,7 @@ class Solution(SolutionFramesMixin):
         self._impulse_sq = dict(rec.impulse_sq)
         self._contact_time = dict(rec.contact_time)
         self._max_pen = dict(rec.max_pen)
+        self._max_force = dict(rec.max_force)
         self._evaluator = rec.evaluator
         self._events = (np.rec.array(rec.events, dtype=EVENT_DTYPE) if len(rec.events)
                         else np.recarray((0,), dtype=EVENT_DTYPE)) if rec.keep_events else None
@@ -314,10 +320,14 @@ class Solution(SolutionFramesMixin):
         """One row per contact: ``start, end, side, entry_velocity, exit_velocity,
         peak_penetration, peak_force, impulse, complete``.
 
-        ``peak_force = K * peak_penetration`` in units of ``k L``; ``impulse`` is
-        ``int K(|X|-1) dLambda`` over the contact. ``complete`` is False for a contact in
-        progress at the start or end of the run (then ``exit_velocity`` is NaN if it had
-        not ended).
+        Forces are in units of ``k L`` and follow the member's flange law. A spring flange:
+        ``peak_force = K * peak_penetration**p`` (``p`` the ``exponent``) and ``impulse`` the
+        integral of ``K d^p`` over the contact. A rigid flange: an impact is a row with
+        ``start == end``, ``peak_penetration`` 0, ``peak_force`` inf and ``impulse``
+        ``(1 + e)|V|``; a mass resting against the wall is a row with ``peak_penetration``
+        0, ``peak_force`` the wall's peak push and ``impulse`` the integral of the push.
+        ``complete`` is False for a contact in progress at the start or end of the run
+        (then ``exit_velocity`` is NaN if it had not ended).
         """
         self._need("events", "Solution.impacts")
         return _kept(self._impacts, "the impact table")
@@ -336,21 +346,35 @@ class Solution(SolutionFramesMixin):
         return sum(self._entries[s] for s in self._sides(side))
 
     def contact_time(self, side: int | None = None) -> float:
-        """Total time spent with the flange spring of ``side`` compressed."""
+        """Total time spent in contact with ``side``: a spring flange compressed, or resting on a rigid one."""
         return sum(self._contact_time[s] for s in self._sides(side))
 
     def max_penetration(self, side: int | None = None) -> float:
-        """Deepest penetration ``max(|X| - 1)`` into ``side`` over the run (0 without contact)."""
+        """Deepest penetration ``max(|X| - 1)`` into ``side`` over the run (0 without contact, or rigid)."""
         return max(self._max_pen[s] for s in self._sides(side))
 
     def max_flange_force(self, side: int | None = None) -> float:
-        """Peak flange force ``K * max_penetration`` in units of ``k L``."""
-        return self.oscillator.K * self.max_penetration(side)
+        """Peak flange force over the run, in units of ``k L``, by the member's flange law.
+
+        A spring flange: ``K * max_penetration**p`` (``p`` the ``exponent``; the law grows
+        with the penetration, so this is its peak). A rigid flange: the peak of the wall's
+        push on a mass resting against it; its impacts are impulses (in
+        :meth:`flange_impulse`, and rows with ``peak_force`` inf in :attr:`impacts`), not
+        counted here. 0 without contact.
+        """
+        osc = self.oscillator
+        sides = self._sides(side)
+        if osc.rigid:
+            return max(self._max_force[s] for s in sides)
+        pen = self.max_penetration(side)
+        return osc.K * (pen if osc.exponent == 1.0 else pen**osc.exponent)
 
     def rms_flange_force(self, side: int | None = None) -> float:
         """Root mean square of the flange force over the whole run, in units of ``k L``.
 
-        NaN for a run of zero duration (one that failed at its start, see ``status``).
+        The force of the member's flange law (see :meth:`max_flange_force`); the impulses of
+        a rigid flange's impacts have no finite square and are left out. NaN for a run of
+        zero duration (one that failed at its start, see ``status``).
         """
         dur = self.t_final - self.t0
         sq = sum(self._impulse_sq[s] for s in self._sides(side))
@@ -358,7 +382,13 @@ class Solution(SolutionFramesMixin):
 
     def flange_impulse(self, side: int | None = None, t0: float | None = None,
                        t1: float | None = None) -> float:
-        """Integral of the flange force ``K (|X| - 1)+`` over ``[t0, t1]`` (default: the whole run)."""
+        """Integral of the flange force over ``[t0, t1]`` (default: the whole run), in units of ``k L``.
+
+        The force of the member's flange law: ``K d^p`` on the penetration ``d = (|X| - 1)+``
+        of a spring flange; for a rigid flange the wall's push on a mass resting against it
+        plus the impulses ``(1 + e)|V|`` of the impacts in the window. ``side`` is +1 (upper
+        flange), -1 (lower) or None (both). Exact integrals, not sums of samples.
+        """
         sides = self._sides(side)
         if t0 is None and t1 is None:  # the whole run, also one of zero duration
             return sum(self._impulse[s] for s in sides)
@@ -370,9 +400,10 @@ class Solution(SolutionFramesMixin):
 
     def mean_flange_force(self, side: int | None = None, t0: float | None = None,
                           t1: float | None = None) -> float:
-        """Time average of the flange force ``K (|X| - 1)+`` over ``[t0, t1]``, in units of ``k L``.
+        """Time average of the flange force over ``[t0, t1]``, in units of ``k L``.
 
-        This is the quantity the paper averages over 1 s (its Fig. 7 and 8). ``side`` is
+        The force is that of :meth:`flange_impulse` (the member's flange law). This is
+        the quantity the paper averages over 1 s (its Fig. 7 and 8). ``side`` is
         +1 (upper flange), -1 (lower) or None (both). The default window is the whole run;
         on a run of zero duration (one that failed at its start, see ``status``) the
         average over it is NaN. It is computed from the exactly integrated impulse, not
@@ -444,21 +475,48 @@ class Solution(SolutionFramesMixin):
         Exact at event times (the recorded event states); in between, each smooth piece
         is re-integrated by the backend that produced the run. Needs ``record="full"``.
         """
-        self._need("full", "Solution.sample")
-        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
-        if t_arr.size and (not np.all(np.isfinite(t_arr)) or t_arr.min() < self.t0
-                           or t_arr.max() > self.t_final):
-            raise ValueError(f"sample times must be finite and within [{self.t0!r}, t_final={self.t_final!r}], "
-                             f"got values in [{t_arr.min()!r}, {t_arr.max()!r}]")
+        t_arr = self._sample_times(t, "Solution.sample")
         x, v, _, _ = self._evaluate(t_arr)
         if np.ndim(t) == 0:
             return x[0], v[0]
         return x, v
 
-    def flange_force(self, t) -> np.ndarray:
-        """Flange force ``K (|X| - 1)+`` at times ``t`` (from :meth:`sample`)."""
-        x, _ = self.sample(t)
-        return self.oscillator.flange_force(x)
+    def _sample_times(self, t, what: str) -> np.ndarray:
+        """``t`` as a 1-d float array, checked to lie in the run (which must be recorded in full)."""
+        self._need("full", what)
+        t_arr = np.atleast_1d(np.asarray(t, dtype=float))
+        if t_arr.size and (not np.all(np.isfinite(t_arr)) or t_arr.min() < self.t0
+                           or t_arr.max() > self.t_final):
+            raise ValueError(f"sample times must be finite and within [{self.t0!r}, t_final={self.t_final!r}], "
+                             f"got values in [{t_arr.min()!r}, {t_arr.max()!r}]")
+        return t_arr
+
+    def flange_force(self, t):
+        """Magnitude of the flange force at times ``t``, in units of ``k L``. Needs ``record="full"``.
+
+        The member's flange law at the state of :meth:`sample`: ``K d^p`` on the penetration
+        ``d = (|X| - 1)+`` of a spring flange; for a rigid flange the wall's push on a mass
+        resting against it (``max(side f_net, 0)``, see
+        :meth:`Oscillator.wall_force_integrals`)
+        and 0 in flight (its impacts are impulses, see :meth:`flange_impulse`).
+        """
+        t_arr = self._sample_times(t, "Solution.flange_force")
+        x, _, _, k = self._evaluate(t_arr)
+        force = self._force_at(t_arr, x, k)
+        return force[0] if np.ndim(t) == 0 else force
+
+    def _force_at(self, t: np.ndarray, x: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """The flange force at times ``t`` with states ``x`` on the pieces ``k`` (see :meth:`flange_force`)."""
+        osc = self.oscillator
+        if not osc.rigid:
+            return osc.flange_force(x)
+        region = _kept(self._segments, "the piece starts")["region"][k].astype(float)
+        resting = region != 0.0
+        force = np.zeros_like(t)
+        if np.any(resting):
+            r = region[resting]
+            force[resting] = np.maximum(r * osc.net_force(t[resting], r), 0.0)
+        return force
 
     def _cumulative_impulse(self, side: int, t: float) -> float:
         if t == self.t_final:
@@ -467,7 +525,12 @@ class Solution(SolutionFramesMixin):
         _, _, q, k = self._evaluate(t_arr)
         seg = _kept(self._segments, "the piece starts")[k[0]]
         cum = float(seg["impulse_upper" if side == 1 else "impulse_lower"])
-        cum += float(q[0]) if int(seg["region"]) == side else 0.0
+        if int(seg["region"]) == side and self.oscillator.rigid:
+            # Resting against a rigid wall: the piece evaluators know no wall force (the
+            # recorder integrates the wall's push per piece); integrate it up to t the same way.
+            cum += self.oscillator.wall_force_integrals(side, float(seg["t"]), t)[0]
+        elif int(seg["region"]) == side:
+            cum += float(q[0])
         for jump in self._tails:  # the impacts of a chatter tail before t
             if jump.side == side and jump.t0 < t < jump.t_inf:
                 cum += jump.state_at(t)[3]

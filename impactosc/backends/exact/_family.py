@@ -25,17 +25,34 @@ start point, ``y0 + A (EC - 1) + (B + zeta A) ES + sum_i Re(Q_i (e^{i Omega_i ta
 with ``EC - 1`` and ``e^{i x} - 1`` formed without cancellation (``expm1`` and
 ``-2 sin^2(x / 2)``), so a huge ``cY`` (huge ``beta``) never cancels against ``A``.
 
-The steady response has no resonance singularity when ``zeta > 0``. With ``zeta = 0`` (or a
-tiny ``zeta``) it does, and near it ``Q_i`` and ``A`` cancel: the backend refuses members
-with ``|w^2 - Omega_i^2 + 2 i zeta Omega_i| < 1e-6 w^2`` (see :func:`near_resonance`);
-eq. 3 itself keeps the resonance-safe piece of :mod:`.exact`.
+Near a resonance
+----------------
+Where ``|D_i| = |w^2 - Omega_i^2 + 2 i zeta Omega_i|`` is small the steady response ``Q_i``
+is huge and cancels against its share of ``A, B``: ``Y`` loses ``log10(w^2 / |D_i|)``
+digits (1.4e-6 in the event times of a ``zeta = 2e-6`` resonance over t = 200, issue 20).
+A harmonic with ``|D_i| < NEAR_RESONANCE w^2`` (so underdamped, ``wd`` close to ``w``)
+is therefore kept out of ``Q``, ``A`` and ``B`` and enters as its response from rest,
+``Re(P_i g_i(tau))`` with ``P_i = F_i e^{i theta0_i}`` and ``g`` the convolution of
+``e^{i Omega tau}`` with the impulse response ``h = ES = (e^{lambda+ tau} - e^{lambda- tau}) / (2 i wd)``::
+
+    g = e^{i Omega tau} tau (phi1(a+ tau) - phi1(a- tau)) / (2 i wd),   phi1(z) = (e^z - 1) / z,
+
+``a+- = lambda+- - i Omega = -zeta + i (+-wd - Omega)``: a divided difference that needs no
+division by ``D_i`` (``a+`` is small near resonance and ``phi1`` tends to 1; an exact
+undamped resonance is the secular growth ``tau e^{i w tau} / (2 i w)``). Its derivatives
+``g_{k+1} = h_k + i Omega g_k`` and its integral ``(tau phi1(i Omega tau) - g_1 - 2 zeta g) / w^2``
+(the integrated equation of ``g``) follow without cancellation, and
+``|g| <= tau min(tau, 1 / wd)`` bounds it for the guard search. The backend still refuses
+``|D_i| < 1e-6 w^2`` (:func:`near_resonance`); eq. 3 itself keeps the resonance-safe piece
+of :mod:`.exact`.
 
 Derivative bounds
 -----------------
 On ``[a, b]``, with ``rho = zeta`` (overdamped ``zeta - mu``) and ``D = e^{-rho a}``:
 ``|EC| <= D`` and ``0 <= ES <= min(b D, D / wd, max_{[a, b]} tau e^{-rho tau})``
 underdamped (``D / (2 mu)`` in place of ``D / wd`` overdamped, neither when critical),
-so ``|Y^(k)| <= |A_k| D + |B_k + zeta A_k| max ES + sum_i |Q_i| Omega_i^k``: a bound of
+so ``|Y^(k)| <= |A_k| D + |B_k + zeta A_k| max ES + sum_i |Q_i| Omega_i^k`` (a
+near-resonant harmonic: ``|P_i|`` times the bound of ``|g_k|`` from those of ``|h_m|``): a bound of
 the derivatives of the formula as evaluated, with the rounded ``A`` and ``B``. Taken per
 window (``a > 0``), the decay lets the search prove the sign of an overdamped velocity that
 creeps to zero.
@@ -51,8 +68,9 @@ of half the period of the fastest rate ``max(w, Omega_i, zeta + mu)``.
 Layout
 ------
 Compiled once (:mod:`impactosc._jit`) and shared by the exact backend's Python stepper and
-its compiled event loop. A mode's constants are a float array (``F_*`` indices, then five
-numbers per harmonic: ``F_i, Omega_i, phase_i`` and the complex gain ``F_i H_i``); a piece's
+its compiled event loop. A mode's constants are a float array (``F_*`` indices, then
+``F_PER`` numbers per harmonic: ``F_i, Omega_i, phase_i``, the complex gain ``F_i H_i``, the
+near-resonance flag and ``wd - Omega_i``); a piece's
 state starts with the common header of :mod:`._exact_piece` (``H_*``), so the one piece
 algorithm :func:`._exact_piece.advance_piece` runs both families.
 """
@@ -89,23 +107,33 @@ __all__ = ["mode_rates", "near_resonance", "mode_constants", "piece_state", "adv
 _EPS = 2.0**-52
 _TWO_PI = 2.0 * math.pi
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
-#: Refusal threshold of :func:`near_resonance`: rounding of ``Y`` grows like ``eps / ratio``.
+#: A harmonic with ``|w^2 - Omega_i^2 + 2 i zeta Omega_i| < NEAR_RESONANCE w^2`` takes the
+#: near-resonant form (the response from rest as a divided difference, see the module
+#: docstring); the steady-response form loses ``log10(w^2 / |D|)`` digits to cancellation,
+#: at most 0.6 above this threshold.
+NEAR_RESONANCE = 0.25
+#: Refusal threshold of :func:`near_resonance` (a steady amplitude over 1e6 times the static one).
 RESONANCE_RATIO = 1e-6
 
 # z - sin z and sinh z - z = z^3/3! -+ z^5/5! + ...: nine terms reach z^19/19!, below an ulp for |z| < 1.
 _SERIES = np.array([1.0 / math.factorial(2 * k + 3) for k in reversed(range(9))])
 
-# Mode constants; the harmonics follow from F_TERMS, five numbers each.
+# Mode constants; the harmonics follow from F_TERMS, F_PER numbers each: F_i, Omega_i,
+# phase_i, the complex gain F_i H_i (Re, Im; 0 for a harmonic near resonance), the flag of
+# the near-resonant form and wd - Omega_i.
 (F_REF, F_K, F_BETA, F_ZETA, F_W2, F_W, F_CY, F_YC, F_KIND, F_WD, F_MU, F_LO, F_HI, F_FASTEST,
  F_N) = range(15)
 F_TERMS = 15
+F_PER = 7
 # Piece state after the common header: the homogeneous amplitudes (A_k, B_k), k = 0..5, the
-# start values of Y^(k), k = 0..3, then per harmonic Q_i = (Re, Im, Omega_i) and
-# Q_i (i Omega_i)^k, k = 1..3 (Re, Im); the mode constants are copied behind (G_MC).
+# start values of Y^(k), k = 0..3, then per harmonic (G_PER numbers) Q_i = (Re, Im, Omega_i),
+# Q_i (i Omega_i)^k, k = 1..3 (Re, Im), the flag of the near-resonant form and
+# P_i = F_i e^{i theta0_i} (Re, Im); the mode constants are copied behind (G_MC).
 G_AB = H_SIZE  # 12 numbers
 G_AT0 = G_AB + 12  # 4 numbers
 G_N = G_AT0 + 4
-G_Q = G_N + 1  # 9 numbers per harmonic
+G_Q = G_N + 1
+G_PER = 12
 
 
 def mode_rates(osc, region: int) -> tuple[float, float]:
@@ -114,7 +142,11 @@ def mode_rates(osc, region: int) -> tuple[float, float]:
 
 
 def near_resonance(osc) -> str | None:
-    """A description of the first harmonic too close to an undamped resonance, or None."""
+    """A description of the first harmonic too close to an undamped resonance, or None.
+
+    The near-resonant form follows these too (it agreed with heyoka to 4e-11 at an exact
+    undamped resonance); the refusal is kept until the exact backend's tests say otherwise.
+    """
     regions = (0,) if osc.rigid else (0, 1)
     for region in regions:
         w2, zeta = mode_rates(osc, region)
@@ -146,7 +178,7 @@ def mode_constants(p, r, s):
     for i in range(n_all):
         if p[P_TERMS + 3 * i] > 0.0:
             n += 1
-    fm = np.empty(F_TERMS + 5 * n)
+    fm = np.empty(F_TERMS + F_PER * n)
     K, beta, z = p[P_K], p[P_BETA], p[P_ZETA]
     w2 = 1.0 + K if r != 0 and p[P_RIGID] == 0.0 else 1.0
     w = math.sqrt(w2)
@@ -168,10 +200,18 @@ def mode_constants(p, r, s):
         F, Om, ph = p[P_TERMS + 3 * i], p[P_TERMS + 3 * i + 1], p[P_TERMS + 3 * i + 2]
         if not F > 0.0:
             continue
-        gain = F / complex(w2 - Om * Om, 2.0 * z * Om)  # the complex steady gain F_i H_i
-        fm[j], fm[j + 1], fm[j + 2], fm[j + 3], fm[j + 4] = F, Om, ph, gain.real, gain.imag
+        den = complex(w2 - Om * Om, 2.0 * z * Om)
+        fm[j], fm[j + 1], fm[j + 2] = F, Om, ph
+        if Om > 0.0 and abs(den) < NEAR_RESONANCE * w2:
+            # Near resonance (so underdamped, wd close to w): the divided-difference form,
+            # with wd - Omega = (w^2 - zeta^2 - Omega^2) / (wd + Omega) without cancellation.
+            fm[j + 3] = fm[j + 4] = 0.0
+            fm[j + 5], fm[j + 6] = 1.0, ((w - Om) * (w + Om) - z * z) / (fm[F_WD] + Om)
+        else:
+            gain = F / den  # the complex steady gain F_i H_i
+            fm[j + 3], fm[j + 4], fm[j + 5], fm[j + 6] = gain.real, gain.imag, 0.0, 0.0
         fastest = max(fastest, Om)
-        j += 5
+        j += F_PER
     fm[F_FASTEST], fm[F_N] = fastest, float(n)
     return fm
 
@@ -180,7 +220,7 @@ def mode_constants(p, r, s):
 def piece_state(fm, t0, x0, v0):
     """The state of the piece that starts at ``(t0, x0, v0)`` in the mode of ``fm``."""
     n = int(fm[F_N])
-    g_mc = G_Q + 9 * n
+    g_mc = G_Q + G_PER * n
     ps = np.empty(g_mc + fm.shape[0])
     y0 = x0 - fm[F_REF]
     z, w2 = fm[F_ZETA], fm[F_W2]
@@ -190,19 +230,24 @@ def piece_state(fm, t0, x0, v0):
     ps[H_WINDOW] = _TWO_PI / fm[F_FASTEST]
     ps[H_REF], ps[H_K], ps[H_BETA], ps[H_ZETA] = fm[F_REF], fm[F_K], fm[F_BETA], z
     ps[G_N] = float(n)
-    # Q_i: the steady response of each harmonic at the piece start, and Q_i (i Omega_i)^k.
+    # Q_i: the steady response of each harmonic at the piece start, and Q_i (i Omega_i)^k
+    # (zero for a near-resonant harmonic, whose response from rest P_i g_i is separate).
     sum_re = sum_v = 0.0
     for i in range(n):
-        f = F_TERMS + 5 * i
+        f = F_TERMS + F_PER * i
         Om = fm[f + 1]
         th = Om * t0 + fm[f + 2]  # the phase as the engine evaluates the forcing
-        Q = complex(fm[f + 3], fm[f + 4]) * complex(math.cos(th), math.sin(th))
-        q = G_Q + 9 * i
+        e = complex(math.cos(th), math.sin(th))
+        Q = complex(fm[f + 3], fm[f + 4]) * e
+        q = G_Q + G_PER * i
         ps[q], ps[q + 1], ps[q + 2] = Q.real, Q.imag, Om
         Qk = Q
         for k in range(3):
             Qk = Qk * complex(0.0, Om)
             ps[q + 3 + 2 * k], ps[q + 4 + 2 * k] = Qk.real, Qk.imag
+        ps[q + 9] = fm[f + 5]
+        P = fm[f] * e if fm[f + 5] != 0.0 else 0.0 * e
+        ps[q + 10], ps[q + 11] = P.real, P.imag
         sum_re += Q.real
         sum_v -= Om * Q.imag  # Re(i Omega Q)
     # (A_k, B_k) for k = 0..5: Y^(k)_h has the form of Y_h with these amplitudes.
@@ -218,7 +263,10 @@ def piece_state(fm, t0, x0, v0):
     for k in (2, 3):
         acc = ps[G_AB + 2 * k]
         for i in range(n):
-            acc += ps[G_Q + 9 * i + 3 + 2 * (k - 1)]
+            q = G_Q + G_PER * i
+            acc += ps[q + 3 + 2 * (k - 1)]
+            if ps[q + 9] != 0.0:  # Re(P g_k(0)), g_k the k-th derivative: g_2(0) = 1, g_3(0) = i Omega - 2 zeta
+                acc += ps[q + 10] if k == 2 else -2.0 * z * ps[q + 10] - ps[q + 2] * ps[q + 11]
         ps[G_AT0 + k] = acc
     ps[g_mc:] = fm
     return ps
@@ -259,7 +307,54 @@ def _es_minus_tau(fm, tau, es):
 
 @njit
 def _mc(ps):
-    return ps[G_Q + 9 * int(ps[G_N]):]
+    return ps[G_Q + G_PER * int(ps[G_N]):]
+
+
+@njit
+def _phi1(x, y):
+    """``(e^z - 1) / z`` at ``z = x + i y`` without cancellation (1 at ``z = 0``)."""
+    if x == 0.0 and y == 0.0:
+        return complex(1.0, 0.0)
+    h = math.sin(0.5 * y)
+    em1 = complex(math.expm1(x) * math.cos(y) - 2.0 * h * h, math.exp(x) * math.sin(y))
+    return em1 / complex(x, y)
+
+
+@njit
+def _g01(ps, q, fm, tau, es):
+    """``(g, g_1)`` of the near-resonant harmonic at ``q``: the response from rest to ``e^{i Omega tau}``.
+
+    ``g = e^{i Omega tau} tau (phi1(a+ tau) - phi1(a- tau)) / (2 i wd)`` with
+    ``a+- = -zeta + i (+-wd - Omega)``, ``phi1(z) = (e^z - 1) / z``: the divided difference
+    of the convolution of ``e^{i Omega tau}`` with the impulse response ``ES`` (module
+    docstring). Near resonance ``a+ tau`` is small and ``phi1`` tends to 1, so nothing
+    cancels; its derivative is ``g_1 = ES + i Omega g``.
+    """
+    Om = ps[q + 2]
+    z, wd = fm[F_ZETA], fm[F_WD]
+    dlt = fm[F_TERMS + F_PER * ((q - G_Q) // G_PER) + 6]  # wd - Omega
+    d = _phi1(-z * tau, dlt * tau) - _phi1(-z * tau, -(wd + Om) * tau)
+    rot = complex(math.cos(Om * tau), math.sin(Om * tau))
+    g = rot * d * complex(0.0, -0.5 * tau / wd)
+    return g, es + complex(0.0, Om) * g
+
+
+@njit
+def _resonant_delta(ps, q, fm, tau, k, ecm1, es):
+    """``Re(P (g_k(tau) - g_k(0)))`` of the near-resonant harmonic at ``q``, ``1 <= k <= 3``.
+
+    ``g_1 = h + i Omega g``, ``g_2 = h_1 + i Omega g_1``, ``g_3 = h_2 + i Omega g_2`` with the
+    impulse response ``h = ES``, ``h_1 = EC - zeta ES``, ``h_2 = -2 zeta EC + (2 zeta^2 - w^2) ES``
+    (``h(0) = 0``, ``h_1(0) = 1``), each about its start value through ``EC - 1``.
+    """
+    z, w2 = fm[F_ZETA], fm[F_W2]
+    iom = complex(0.0, ps[q + 2])
+    g, d = _g01(ps, q, fm, tau, es)  # d = g_k - g_k(0), here k = 1
+    if k >= 2:
+        d = (ecm1 - z * es) + iom * d
+    if k >= 3:
+        d = (-2.0 * z * ecm1 + (2.0 * z * z - w2) * es) + iom * d
+    return ps[q + 10] * d.real - ps[q + 11] * d.imag
 
 
 @njit
@@ -268,7 +363,10 @@ def _deriv(ps, fm, tau, k, ecm1, es):
     a, b = ps[G_AB + 2 * k], ps[G_AB + 2 * k + 1]
     out = a * ecm1 + (b + fm[F_ZETA] * a) * es
     for i in range(int(ps[G_N])):
-        q = G_Q + 9 * i
+        q = G_Q + G_PER * i
+        if ps[q + 9] != 0.0:
+            out += _resonant_delta(ps, q, fm, tau, k, ecm1, es)
+            continue
         Om = ps[q + 2]
         cr, ci = ps[q + 3 + 2 * (k - 1)], ps[q + 4 + 2 * (k - 1)]
         h = math.sin(0.5 * Om * tau)
@@ -302,7 +400,12 @@ def state_at(ps, tau):
     dy = A * ecm1 + (B + z * A) * es
     dv = B * ecm1 + (ps[G_AB + 3] + z * B) * es
     for i in range(int(ps[G_N])):
-        q = G_Q + 9 * i
+        q = G_Q + G_PER * i
+        if ps[q + 9] != 0.0:  # near resonance: Re(P g), Re(P g_1), the response from rest
+            g, g1 = _g01(ps, q, fm, tau, es)
+            dy = dy + (ps[q + 10] * g.real - ps[q + 11] * g.imag)
+            dv = dv + (ps[q + 10] * g1.real - ps[q + 11] * g1.imag)
+            continue
         Om = ps[q + 2]
         sn = math.sin(Om * tau)
         h = math.sin(0.5 * Om * tau)
@@ -322,8 +425,14 @@ def int_y(ps, tau, dp):
     g = (ecm1 + z * es) / w2
     out = ps[H_Y0] * tau + A * (_es_minus_tau(fm, tau, es) - 2.0 * z * g) - B * g
     for i in range(int(ps[G_N])):
-        q = G_Q + 9 * i
+        q = G_Q + G_PER * i
         Om = ps[q + 2]
+        if ps[q + 9] != 0.0:
+            # int g = (tau phi1(i Omega tau) - g_1 - 2 zeta g) / w^2 (the integrated equation of g)
+            gr, gr1 = _g01(ps, q, fm, tau, es)
+            ig = (tau * _phi1(0.0, Om * tau) - gr1 - 2.0 * z * gr) / w2
+            out = out + (ps[q + 10] * ig.real - ps[q + 11] * ig.imag)
+            continue
         if Om == 0.0:
             continue  # a constant term: Y_i - Y_i(0) = 0
         h = math.sin(0.5 * Om * tau)
@@ -371,17 +480,49 @@ def bounds(ps, start, tmax, k):
     """Upper bounds of ``|Y^(k+2)|`` and ``|Y^(k+3)|`` over ``[start, tmax]`` (module docstring)."""
     fm = _mc(ps)
     ecb, esb = _decay_bounds(fm, start, tmax)
-    z = fm[F_ZETA]
+    z, w2 = fm[F_ZETA], fm[F_W2]
+    # |h_m| of the impulse response h = ES (amplitudes (0, 1) through the same recurrence),
+    # for the near-resonant harmonics: g_j = sum_{m<j} (i Omega)^(j-1-m) h_m + (i Omega)^j g.
+    bh = np.empty(6)
+    a, b = 0.0, 1.0
+    for m in range(6):
+        bh[m] = abs(a) * ecb + abs(b + z * a) * esb
+        a, b = b, -w2 * a - 2.0 * z * b
     o = np.zeros(2)
     for m in range(2):
         j = k + 2 + m
         a, b = ps[G_AB + 2 * j], ps[G_AB + 2 * j + 1]
         acc = abs(a) * ecb + abs(b + z * a) * esb
         for i in range(int(ps[G_N])):
-            q = G_Q + 9 * i
-            acc += math.hypot(ps[q], ps[q + 1]) * ps[q + 2] ** j
+            q = G_Q + G_PER * i
+            Om = ps[q + 2]
+            if ps[q + 9] != 0.0:
+                acc += math.hypot(ps[q + 10], ps[q + 11]) * _resonant_bound(fm, q, Om, tmax, bh, j)
+                continue
+            acc += math.hypot(ps[q], ps[q + 1]) * Om ** j
         o[m] = acc * (1.0 + 1e-9) + 1e-300
     return o[0], o[1]
+
+
+@njit
+def _resonant_bound(fm, q, Om, tmax, bh, j):
+    """An upper bound of ``|g_j|`` on ``[start, tmax]`` (``bh``: bounds of ``|h_m|`` there).
+
+    ``|g| <= int_0^tau |h| <= tau min(tau, 1 / wd)`` (and ``<= 1 / (zeta wd)`` damped), or
+    from the steady form ``|g| <= (2 + |zeta + i Omega| / wd) / |D|``, ``|D| = |a+| |a-|``.
+    """
+    z, wd = fm[F_ZETA], fm[F_WD]
+    dlt = fm[F_TERMS + F_PER * ((q - G_Q) // G_PER) + 6]
+    bg = tmax * min(tmax, 1.0 / wd)
+    if z > 0.0:
+        bg = min(bg, 1.0 / (z * wd))
+    den = math.hypot(z, dlt) * math.hypot(z, wd + Om)
+    if den > 0.0:
+        bg = min(bg, (2.0 + math.hypot(z, Om) / wd) / den)
+    out = Om**j * bg
+    for m in range(j):
+        out += Om ** (j - 1 - m) * bh[m]
+    return out
 
 
 # -- the guard functions and the piece -------------------------------------------------------
