@@ -135,3 +135,9 @@ def test_lyapunov_runs_the_periods_asked_for():
     res = lyapunov_exponent(SPRING, 25, renormalise_every=10, transient_periods=0, backend="exact")
     T = 2 * math.pi / 1.1
     np.testing.assert_allclose(res.t, [10 * T, 20 * T, 25 * T], rtol=1e-14)
+
+
+def test_dynamics_tools_refuse_runs_that_would_take_minutes():
+    # simulate's cost rules (issue 20 item 7) hold for the tangent runs of the dynamics tools too
+    with pytest.raises(ValueError, match="zeta"):
+        monodromy(Oscillator(0.5, 1.1, 0.01, 1e4, zeta=1e5), 0.1, 0.0, backend="exact")

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from .._util import validation as _v
-from ..backends._simulate import DEFAULT_MAX_EVENTS, check_magnitudes, simulate
+from ..backends._simulate import DEFAULT_MAX_EVENTS, check_cost, check_magnitudes, simulate
 from ..engine._driver import CHATTER, IMPACT, REVERSAL, STICK, Mode, check_run_arguments, check_sample_times, drive
 from ..model import _rule
 from ..model._oscillator import Oscillator
@@ -257,6 +257,7 @@ def tangent_run(osc: Oscillator, t_end: float, x0: float, v0: float, *, backend:
     (Solution, TangentRecorder)
     """
     x0, v0 = check_start(osc, t_end, x0, v0)
+    check_cost(osc, t_end, backend, options or {})  # simulate's refusal of runs that would take minutes
     stops = check_sample_times(sample_at, t_end)
     stepper, evaluator = piece_stepper(backend, osc, options or {})
     rec = TangentRecorder(record, backend, evaluator, keep_saltations=keep_saltations, on_sample=on_sample)
