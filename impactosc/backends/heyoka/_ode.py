@@ -80,6 +80,8 @@ LAYER = N_GUARDS
 #: Spring force at the edge of the power-law layer: the unit roundoff (see the heyoka module docstring).
 _LAYER_FORCE = 2.0**-53
 _LAYER_FLOOR = 4.0 * DEFAULT_TOL
+#: Largest layer thickness of a fast crossing (the layer's crossing time stays below 1e-6 / v).
+_LAYER_CAP = 1e-6
 
 #: The mode families: slipping with ``region == 0`` (FREE) and with ``region != 0`` (FLANGE).
 FREE, FLANGE = 0, 1
@@ -121,9 +123,19 @@ def integral_slots(shape: Shape, family: int) -> tuple[int, int, int, int]:
     return q, q2, w, vv
 
 
-def layer_thickness(osc: Oscillator) -> float:
-    """``delta`` of the power-law boundary layer of ``osc`` (see the heyoka module docstring)."""
-    return max((_LAYER_FORCE / osc.K) ** (1.0 / osc.exponent), _LAYER_FLOOR)
+def layer_thickness(osc: Oscillator, speed: float = 0.0) -> float:
+    """``delta`` of the power-law boundary layer of ``osc`` crossed at ``speed`` (see the heyoka module docstring).
+
+    ``max((u / K)^(1/p), 4 eps, min(((p + 1) u v^2 / K)^(1/(p+1)), 1e-6))``: the spring force
+    left out is below the unit roundoff ``u``, or the velocity it would change while the mass
+    crosses the layer at ``v`` is below ``u v``.
+    """
+    p, K = osc.exponent, osc.K
+    delta = max((_LAYER_FORCE / K) ** (1.0 / p), _LAYER_FLOOR)
+    if speed > 0.0:
+        crossing = ((p + 1.0) * _LAYER_FORCE * speed * speed / K) ** (1.0 / (p + 1.0))
+        delta = max(delta, min(crossing, _LAYER_CAP))
+    return delta
 
 
 def parameter_values(osc: Oscillator, mode: Mode, gates, offsets) -> list[float]:
