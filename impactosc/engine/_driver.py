@@ -21,9 +21,9 @@ changed sign, so re-arming there is exact, not a heuristic.
 
 Guards (direction-filtered)
 ---------------------------
-``ENTER_UPPER``  X - 1 rises through 0          free region, slipping
-``ENTER_LOWER``  X + 1 falls through 0          free region, slipping
-``LEAVE``        region*X - 1 falls through 0   spring flange region, slipping
+``ENTER_UPPER``  X - 1 rises through 0          free region, slipping up
+``ENTER_LOWER``  X + 1 falls through 0          free region, slipping down
+``LEAVE``        region*X - 1 falls through 0   spring flange region, slipping out of it
 ``SLIP_END``     motion*V falls through 0       slipping, armed
 ``ACCEL_ZERO``   motion*V' falls through 0      slipping, not armed (internal, no event)
 ``RELEASE_UP``   f_net - beta_s rises through 0 stuck
@@ -32,7 +32,11 @@ Guards (direction-filtered)
 :func:`guard_value` and :func:`guard_gradient` define them numerically, once.
 Each piece between two guards is monotonic in X (every turning point is a ``SLIP_END``),
 so a flange crossing inside a piece is a simple root: grazing contacts become two simple
-roots on either side of a located turning point instead of one double root.
+roots on either side of a located turning point instead of one double root. For the same
+reason only the flange ahead of the motion is armed: the one behind cannot be reached in the
+piece, and when the piece starts on it from rest (a release from a wall or a flange surface)
+its guard has a multiple root at the start, on which heyoka's root finder gave up with a
+warning on stderr (issue 20, item 9).
 
 The model family (issue #10)
 ----------------------------

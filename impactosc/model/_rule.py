@@ -170,10 +170,16 @@ def gate(rigid, region, motion, armed, guard):
         if guard == RELEASE_DOWN:
             return not moving and region > 0
         return False
-    if guard == ENTER_UPPER or guard == ENTER_LOWER:
-        return moving and region == 0
+    # A slipping piece is monotonic in X (every turning point ends it): only the flange ahead
+    # can be reached. The one behind is not armed: leaving a wall or a flange surface from
+    # rest, its guard has a multiple root at the start (V = V' = 0 at a release), on which an
+    # event finder's root search fails (heyoka's "too many iterations", issue 20 item 9).
+    if guard == ENTER_UPPER:
+        return motion > 0 and region == 0
+    if guard == ENTER_LOWER:
+        return motion < 0 and region == 0
     if guard == LEAVE:
-        return moving and region != 0
+        return moving and region != 0 and motion == -region
     if guard == SLIP_END:
         return moving and armed != 0
     if guard == ACCEL_ZERO:
