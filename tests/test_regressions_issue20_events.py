@@ -102,3 +102,59 @@ def test_only_the_flange_ahead_is_armed():
     assert armed(Mode(1, 1)) == {"slip_end"}  # deeper into the upper flange: it cannot leave
     assert armed(Mode(1, -1)) == {"leave", "slip_end"}
     assert armed(Mode(-1, 1, False)) == {"leave", "accel_zero"}
+
+
+# -- item 10: the API's consistency --------------------------------------------------------------
+RIGID_BACKENDS = ("exact", "heyoka", "scipy")
+ALL_BACKENDS = ("exact", "heyoka", "scipy", "rk4")
+
+
+@pytest.mark.parametrize("backend", RIGID_BACKENDS)
+def test_a_rigid_flange_needs_no_K(backend):
+    wall = O(1.6, 0.4, 0.1, flange="rigid")  # was: TypeError, K missing
+    assert wall.K == 0.0 and "K=0.0" in repr(wall)
+    given = O(1.6, 0.4, 0.1, 1e4, flange="rigid")  # a K given is accepted and unused
+    a = io.simulate(wall, 20.0, 0.0, 0.0, backend=backend)
+    b = io.simulate(given, 20.0, 0.0, 0.0, backend=backend)
+    assert a.status == b.status == 0 and len(a.events) > 3
+    np.testing.assert_array_equal(a.events.t, b.events.t)
+    assert a.flange_impulse(1) == b.flange_impulse(1)
+
+
+def test_K_is_required_by_a_spring_flange_and_refused_negative():
+    with pytest.raises(TypeError, match="K must be a real number.*flange='spring'.*None"):
+        O(1.6, 0.4, 0.1)
+    with pytest.raises(ValueError, match="K must be >= 0, got -1.0"):
+        O(1.6, 0.4, 0.1, -1.0, flange="rigid")
+    with pytest.raises(ValueError, match="K must be > 0"):
+        O(1.6, 0.4, 0.1, 0.0)
+
+
+@pytest.mark.parametrize("backend", RIGID_BACKENDS)
+def test_a_run_starting_at_rest_on_a_rigid_wall_records_no_event_at_t0(backend):
+    # Pressed on the wall (F cos(0) - 1 = 0.6 > 0): it rests there until the pull reaches beta.
+    sol = io.simulate(O(1.6, 0.4, 0.1, flange="rigid"), 20.0, 1.0, 0.0, backend=backend)
+    ev = sol.events
+    assert ev.t[0] > 0.0 and ev.kind[0] == "contact_end"  # was: contact_start at t = 0
+    row = sol.impacts[0]  # the rest on the wall is a contact in progress at the start
+    assert row.start == 0.0 and row.end == ev.t[0] and not row.complete
+    assert sol.flange_impulse(1) > 0.0
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_a_run_starting_stuck_or_inside_a_spring_flange_records_no_event_at_t0(backend):
+    for x0 in (0.3, 1.0, 1.2, -1.0):  # stuck in the free region, on and inside a flange
+        sol = io.simulate(O(0.05, 0.4, 0.1, 10.0), 5.0, x0, 0.0, backend=backend)
+        assert sol.status == 0 and np.all(sol.events.t > 0.0), (x0, sol.events)
+
+
+@pytest.mark.parametrize("backend", RIGID_BACKENDS)
+def test_what_follows_the_initial_state_is_recorded_even_at_t0(backend):
+    # Pulled away from the wall at rest: it slides off at once (no release: the initial mode).
+    off = io.simulate(O(0.05, 0.4, 0.1, flange="rigid"), 5.0, 1.0, 0.0, backend=backend)
+    assert off.events.kind[0] == "reversal" and off.events.t[0] > 0.0 and off.events.x[0] < 1.0
+    assert len(off.impacts) == 0
+    # On the wall moving into it: the impact at t = 0 changes the velocity, so it is an event.
+    hit = io.simulate(O(0.0, 0.0, 0.0, flange="rigid", restitution=0.5), 1.0, 1.0, 2.0, backend=backend)
+    assert hit.events.kind[0] == "impact" and hit.events.t[0] == 0.0 and hit.events.v[0] == 2.0
+    assert hit.impacts[0].exit_velocity == -1.0

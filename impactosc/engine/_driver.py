@@ -170,13 +170,22 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
-    """Mode at the initial time (not an event).
+    """Mode at the initial time. The initial state is not an event (issue 20, item 10).
+
+    One rule for every backend: the mode the run starts in is decided here and recorded by
+    no event, whether the mass starts stuck (no ``stick``), inside or on a spring flange
+    moving into it (no ``contact_start``), at rest against a rigid wall (no
+    ``contact_start``: the run starts resting on it, and its ``impacts`` row is marked
+    incomplete, like a contact already in progress), or released at once (no ``release``).
+    What happens *after* the initial state is recorded, also at ``t = 0``: a start on a rigid
+    wall moving into it is an ``impact`` at ``t = 0`` (:func:`pending_guard`), since it
+    changes the velocity.
 
     A mass starting exactly on a spring flange's boundary belongs to the flange region if it
     moves into the flange. With ``v == 0`` the stick test of :func:`motion_at_rest` decides
-    the motion, as at any other rest point. With a rigid flange the start is always in the
-    free region: a start on the wall is resolved at once by :func:`pending_guard` (an impact
-    when moving into it, the wall's rest test when at rest).
+    the motion, as at any other rest point. With a rigid flange a mass at rest on the wall
+    rests on it (mode ``(side, 0)``) unless the stick test pulls it away, when it slides
+    off in the free region; any other start is in the free region.
     """
     r, s, armed = _rule.initial_mode(osc._p, float(t), float(x), float(v))
     return _MODES[(r, s, armed)]

@@ -85,8 +85,11 @@ class Oscillator:
     beta : float
         Coulomb friction level ``mu N / (k L)`` (>= 0), eq. 3 and eq. 5; the kinetic level
         while slipping.
-    K : float
-        Flange stiffness ratio ``k0 / k`` (> 0). The paper uses ``1e4``. Unused by a rigid flange.
+    K : float or None, optional
+        Flange stiffness ratio ``k0 / k`` (> 0) of a spring flange; the paper uses ``1e4``.
+        Required with ``flange="spring"``. A rigid flange has no stiffness: there ``K`` may be
+        omitted (stored as ``0.0``) and a value given is accepted (``>= 0``) and unused, so a
+        spring member turns rigid with :func:`dataclasses.replace` alone.
     phase : float, optional
         Forcing phase in radians; the forcing is ``F cos(Omega Lambda + phase)``.
     zeta : float, keyword-only
@@ -117,13 +120,13 @@ class Oscillator:
     --------
     >>> Oscillator(0.5, 1.1, 0.01, 1e4)                       # the paper's eq. 3
     >>> Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02, exponent=1.5)   # damped, Hertz flange
-    >>> Oscillator(0.5, 0.0, 0.1, 1.0, flange="rigid", restitution=0.8)
+    >>> Oscillator(0.5, 0.0, 0.1, flange="rigid", restitution=0.8)   # no K: a wall has no stiffness
     """
 
     F: float
     Omega: float
     beta: float
-    K: float
+    K: float | None = None
     phase: float = 0.0
     _: KW_ONLY
     zeta: float = 0.0
@@ -140,7 +143,6 @@ class Oscillator:
         put(self, "F", _v.nonnegative("F", self.F))
         put(self, "Omega", _v.nonnegative("Omega", self.Omega))
         put(self, "beta", _v.nonnegative("beta", self.beta))
-        put(self, "K", _v.positive("K", self.K))
         put(self, "phase", _v.real("phase", self.phase))
         put(self, "zeta", _v.nonnegative("zeta", self.zeta))
         if self.beta_static is not None:
@@ -150,6 +152,13 @@ class Oscillator:
                                  f"kinetic level), got {bs!r}")
             put(self, "beta_static", bs)
         _v.choice("flange", self.flange, FLANGE_LAWS)
+        if self.flange == "rigid":
+            put(self, "K", 0.0 if self.K is None else _v.nonnegative("K", self.K))
+        elif self.K is None:
+            raise TypeError("K must be a real number (the flange stiffness k0/k > 0) with flange='spring', "
+                            "got None; only a rigid flange (flange='rigid') goes without it")
+        else:
+            put(self, "K", _v.positive("K", self.K))
         put(self, "exponent", _v.real("exponent", self.exponent))
         if not self.exponent >= 1.0:
             raise ValueError(f"exponent must be >= 1 (flange force K d^p with p >= 1), got {self.exponent!r}")
@@ -166,7 +175,7 @@ class Oscillator:
         put(self, "_p", _layout.params(self))
 
     @classmethod
-    def from_harmonics(cls, harmonics, beta: float, K: float, **family) -> Oscillator:
+    def from_harmonics(cls, harmonics, beta: float, K: float | None = None, **family) -> Oscillator:
         """An oscillator forced by ``sum_i F_i cos(Omega_i Lambda + phase_i)``.
 
         The first triple becomes ``(F, Omega, phase)``, the rest ``harmonics``.

@@ -198,6 +198,11 @@ def initial_mode(p, t, x, v):
         motion, armed = motion_at_rest(p, t, x)
     if p[P_RIGID] != 0.0:
         region = 0
+        side = 1 if x > 0.0 else -1
+        if v == 0.0 and abs(x) >= 1.0 and motion != -side:
+            # At rest on the wall and not pulled away beyond beta_s: resting on it is the
+            # initial mode, not an event (like a start inside a spring flange, or stuck).
+            return side, 0, 1
     elif x > 1.0 or (x == 1.0 and motion > 0):
         region = 1
     elif x < -1.0 or (x == -1.0 and motion < 0):

@@ -145,7 +145,7 @@ def parameter_values(osc: Oscillator, mode: Mode, gates, offsets) -> list[float]
     """
     r, s, _ = mode
     vals = [osc.F, osc.Omega, osc.beta, osc.K, osc.phase, r, s, r * r, s * s, *gates, *offsets,
-            osc.beta_s, 2.0 * osc.zeta, osc.exponent, layer_thickness(osc), 0.0, 0.0, 0.0]
+            osc.beta_s, 2.0 * osc.zeta, osc.exponent, 0.0 if osc.linear else layer_thickness(osc), 0.0, 0.0, 0.0]
     for term in osc.harmonics:
         vals.extend(term)
     return [float(v) for v in vals]
