@@ -128,11 +128,11 @@ def saltation_matrix(osc: Oscillator, t: float, mode_before: Mode, guard: int, m
     if osc.rigid and guard in (ENTER_UPPER, ENTER_LOWER) and not abs(denom) > graze:
         # A grazing impact or a touch of a rigid wall: checked before the continuity test, which
         # a touch without friction passes (V' is continuous there) though the map is not smooth.
-        return _singular(t, name, kind, f"the rigid {name} guard (the wall at X = {x_before:+.0f}) is reached at "
+        return _singular(t, name, kind, f"the rigid {name} guard (the wall at X = {x_before:+.6g}) is reached at "
                          f"t={t:.12g} with speed |V| = {abs(fx0):.3g}, within the grazing bound {graze:.3g} "
                          "(a grazing impact): the map is not differentiable there")
     if (osc.rigid and guard == SLIP_END and mode_before[1] * x_before > 0.0
-            and not 1.0 - abs(x_before) > GRAZING * GRAZING * EPS):
+            and not osc.gap(mode_before[1]) - mode_before[1] * x_before > GRAZING * GRAZING * EPS):
         # A turning point on the wall it was moving towards, to rounding: the orbit grazes it
         # without an impact event, and a slightly larger one hits it at a speed ~ sqrt(distance).
         # (The apex of a rebound, moving away from the wall, is no grazing.)

@@ -21,9 +21,13 @@ changed sign, so re-arming there is exact, not a heuristic.
 
 Guards (direction-filtered)
 ---------------------------
-``ENTER_UPPER``  X - 1 rises through 0          free region, slipping up
-``ENTER_LOWER``  X + 1 falls through 0          free region, slipping down
-``LEAVE``        region*X - 1 falls through 0   spring flange region, slipping out of it
+``ENTER_UPPER``  X - gu rises through 0         free region, slipping up
+``ENTER_LOWER``  X + gl falls through 0         free region, slipping down
+``LEAVE``        region*X - g falls through 0   spring flange region, slipping out of it
+
+``gu = gap_upper`` and ``gl = gap_lower`` are the distances of the flanges from the rest
+position (1 and 1 by default: ``X = +-1``), ``g`` the one of the current region; an absent
+flange (``inf``) has no guard that can fire.
 ``SLIP_END``     motion*V falls through 0       slipping, armed
 ``ACCEL_ZERO``   motion*V' falls through 0      slipping, not armed (internal, no event)
 ``RELEASE_UP``   f_net - beta_s rises through 0 stuck
@@ -195,7 +199,7 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     """The transition rule: what a guard firing at ``(t, x, v)`` in ``mode`` means.
 
     Returns ``(new_mode, x, v, kind, side)``: the state is snapped onto the guard surface
-    (``X = +-1`` at flange crossings, ``V = 0`` at rest points) so the next piece starts
+    (``X = gap_upper`` or ``-gap_lower`` at flange crossings, ``V = 0`` at rest points) so the next piece starts
     exactly on it; ``kind`` is the event kind to record (``None`` for internal guards)
     and ``side`` is +1/-1 for flange events, 0 for friction events. ``v`` is the state after
     the transition: at an :data:`IMPACT` the recorded event keeps the incoming velocity.
@@ -326,11 +330,11 @@ def guard_value(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: 
     """
     r, s, _ = mode
     if guard == ENTER_UPPER:
-        return x - 1.0
+        return x - osc.gap_upper
     if guard == ENTER_LOWER:
-        return x + 1.0
+        return x + osc.gap_lower
     if guard == LEAVE:
-        return r * x - 1.0
+        return r * x - (osc.gap(r) if r else 1.0)  # (r = 0: not a guard of that mode)
     if guard == SLIP_END:
         return s * v
     if guard == ACCEL_ZERO:
@@ -461,7 +465,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
                                 f"The end time was reached inside a chatter on the {_SIDE[jump.side]} flange "
                                 f"(its impacts accumulate at t={jump.t_inf!r}, after the end).")
                 return
-            t1, x1, v1 = jump.t_inf, float(jump.side), 0.0
+            t1, x1, v1 = jump.t_inf, jump.wall, 0.0
             recorder.chatter(jump, t1)
             hook = getattr(recorder, "on_transition", None)
             if hook is not None:  # the jump itself: no guard, from the last flight to rest at the wall
@@ -538,7 +542,11 @@ def check_run_arguments(osc, t_end, x0, v0, max_events):
     t_end = _v.positive("t_end", t_end)
     x0 = _v.real("x0", x0)
     v0 = _v.real("v0", v0)
-    if osc.rigid and abs(x0) > 1.0:
-        raise ValueError(f"x0 must satisfy -1 <= x0 <= 1 with a rigid flange (the walls are at |X| = 1), got {x0!r}")
+    if osc.rigid and not -osc.gap_lower <= x0 <= osc.gap_upper:
+        if osc.symmetric:
+            raise ValueError("x0 must satisfy -1 <= x0 <= 1 with a rigid flange (the walls are at |X| = 1), "
+                             f"got {x0!r}")
+        raise ValueError(f"x0 must satisfy -gap_lower <= x0 <= gap_upper with a rigid flange (the walls are at "
+                         f"X = {-osc.gap_lower!r} and X = {osc.gap_upper!r}), got {x0!r}")
     max_events = _v.integer("max_events", max_events, minimum=1)
     return osc, t_end, x0, v0, max_events

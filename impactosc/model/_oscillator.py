@@ -32,6 +32,7 @@ the mass rests against that flange (``X = region``, ``V = 0``), which is only po
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass, field
 from typing import cast
@@ -65,6 +66,20 @@ def _harmonic_terms(value) -> tuple[tuple[float, float, float], ...]:
                     _v.nonnegative(f"harmonics[{i}] frequency Omega_i", items[1]),
                     _v.real(f"harmonics[{i}] phase_i", items[2])))
     return tuple(out)
+
+
+def _gap(name: str, value, side: str, where: str) -> float:
+    """Validate a flange distance: > 0, or ``None``/``inf`` for an absent flange (stored as inf)."""
+    if value is None:
+        return math.inf
+    if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isinf(value):
+        x = float(value)  # +inf: absent; -inf is refused below
+    else:
+        x = _v.real(name, value)
+    if not x > 0.0:
+        raise ValueError(f"{name} must be > 0 (the distance from the rest position X = 0 to the {side} flange, "
+                         f"at X = {where}), or None or inf for no {side} flange; got {x!r}")
+    return x
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +122,14 @@ class Oscillator:
     harmonics : sequence of tuple, keyword-only
         Further harmonics ``(F_i, Omega_i, phase_i)`` added to the forcing, e.g. higher
         harmonics of the run-out.
+    gap_lower, gap_upper : float or None, keyword-only
+        Distances from the rest position ``X = 0`` to the lower flange (at ``X = -gap_lower``)
+        and to the upper one (at ``X = +gap_upper``), in units of the clearance ``L``
+        (default 1 and 1: the paper's symmetric guide). Each must be > 0; ``None`` or
+        ``math.inf`` means that flange is absent (a one-sided stop), stored as ``math.inf``.
+        The flange of side ``r`` (+1 upper, -1 lower) is at ``X = r * gap`` and the
+        penetration into it is ``d = r X - gap`` (:meth:`gap`, :attr:`flanges`). With both
+        absent there is no flange law: ``K``, ``exponent`` and ``restitution`` must be left out.
 
     Raises
     ------
@@ -121,6 +144,8 @@ class Oscillator:
     >>> Oscillator(0.5, 1.1, 0.01, 1e4)                       # the paper's eq. 3
     >>> Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02, exponent=1.5)   # damped, Hertz flange
     >>> Oscillator(0.5, 0.0, 0.1, flange="rigid", restitution=0.8)   # no K: a wall has no stiffness
+    >>> Oscillator(0.5, 1.1, 0.01, 1e4, gap_lower=1.5, gap_upper=0.5)  # running off-centre
+    >>> Oscillator(0.5, 1.1, 0.01, 1e4, gap_lower=None)               # only the upper flange
     """
 
     F: float
@@ -135,6 +160,8 @@ class Oscillator:
     exponent: float = 1.0
     restitution: float = 1.0
     harmonics: Sequence[Sequence[float]] = ()
+    gap_lower: float | None = 1.0
+    gap_upper: float | None = 1.0
     #: The member as the transition rule's parameter vector (:func:`impactosc.model._layout.params`).
     _p: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -152,7 +179,17 @@ class Oscillator:
                                  f"kinetic level), got {bs!r}")
             put(self, "beta_static", bs)
         _v.choice("flange", self.flange, FLANGE_LAWS)
-        if self.flange == "rigid":
+        put(self, "gap_lower", _gap("gap_lower", self.gap_lower, "lower", "-gap_lower"))
+        put(self, "gap_upper", _gap("gap_upper", self.gap_upper, "upper", "+gap_upper"))
+        if math.isinf(self.gap_lower) and math.isinf(self.gap_upper):
+            given = [f"{n}={getattr(self, n)!r}" for n, default in (("K", None), ("flange", "spring"),
+                                                                    ("exponent", 1.0), ("restitution", 1.0))
+                     if getattr(self, n) != default and not (n == "K" and getattr(self, n) == 0.0)]
+            if given:
+                raise ValueError(f"{', '.join(given)} describe a flange, but both flanges are absent "
+                                 "(gap_lower and gap_upper are None or inf): leave them out, or give a flange a gap")
+            put(self, "K", 0.0)
+        if self.flange == "rigid" or math.isinf(self.gap_lower) and math.isinf(self.gap_upper):
             put(self, "K", 0.0 if self.K is None else _v.nonnegative("K", self.K))
         elif self.K is None:
             raise TypeError("K must be a real number (the flange stiffness k0/k > 0) with flange='spring', "
@@ -213,6 +250,24 @@ class Oscillator:
         """True when every mode is a linear ODE (no power-law spring): the exact backend's subset."""
         return self.rigid or self.exponent == 1.0
 
+    def gap(self, side: int) -> float:
+        """Distance from the rest position to the flange of ``side`` (+1 upper, -1 lower); inf if absent."""
+        if side == 1:
+            return self.gap_upper
+        if side == -1:
+            return self.gap_lower
+        raise ValueError(f"side must be +1 (upper flange) or -1 (lower flange), got {side!r}")
+
+    @property
+    def flanges(self) -> tuple[float, float]:
+        """Positions ``(-gap_lower, +gap_upper)`` of the lower and the upper flange (``-inf``/``inf``: absent)."""
+        return -self.gap_lower, self.gap_upper
+
+    @property
+    def symmetric(self) -> bool:
+        """True for the paper's guide: both flanges at distance 1 (``gap_lower == gap_upper == 1``)."""
+        return self.gap_lower == 1.0 and self.gap_upper == 1.0
+
     @property
     def constant_forcing(self) -> bool:
         """True when the forcing does not depend on time (every term has zero amplitude or frequency)."""
@@ -231,6 +286,8 @@ class Oscillator:
             out.append(f"a power-law flange (exponent={self.exponent!r})")
         if self.harmonics:
             out.append(f"{len(self.harmonics)} extra forcing harmonics")
+        if not self.symmetric:
+            out.append(f"flanges at gap_lower={self.gap_lower!r}, gap_upper={self.gap_upper!r} (not both 1)")
         return out
 
     # -- forces, in units of k L -------------------------------------------------------
@@ -265,8 +322,11 @@ class Oscillator:
         return sum(4.0 * _EPS * F * (2.0 + abs(Om * t) + abs(ph)) for F, Om, ph in self.terms)
 
     def flange_penetration(self, x):
-        """Penetration ``d = (|X| - 1)+`` into either flange."""
-        return np.maximum(np.abs(np.asarray(x, dtype=float)) - 1.0, 0.0)
+        """Penetration ``d = (r X - gap_r)+`` into the flange on the side ``r = sgn X`` (``(|X| - 1)+`` by default)."""
+        x = np.asarray(x, dtype=float)
+        if self.symmetric:
+            return np.maximum(np.abs(x) - 1.0, 0.0)
+        return np.maximum(np.where(x > 0.0, x - self.gap_upper, -x - self.gap_lower), 0.0)
 
     def flange_force(self, x):
         """Magnitude of the spring flange force ``K d^p`` at ``x``, in units of ``k L``.
@@ -333,7 +393,7 @@ class Oscillator:
         x = np.asarray(x, dtype=float)
         f = self.forcing(t) - x
         if region and not self.rigid:
-            d = region * x - 1.0
+            d = region * x - self.gap(region)
             f = f - region * self.K * (d if self.exponent == 1.0 else np.abs(d) ** self.exponent * np.sign(d))
         return f - 2.0 * self.zeta * np.asarray(v, dtype=float) - self.beta * motion
 
@@ -350,7 +410,7 @@ class Oscillator:
             return np.zeros((2, 2))
         dadx = -1.0
         if region and not self.rigid:
-            d = max(region * x - 1.0, 0.0)
+            d = max(region * x - self.gap(region), 0.0)
             dadx -= self.K * (1.0 if self.exponent == 1.0 else self.exponent * d ** (self.exponent - 1.0))
         return np.array([[0.0, 1.0], [dadx, -2.0 * self.zeta]])
 
@@ -399,7 +459,8 @@ class Oscillator:
         from dataclasses import replace
 
         return replace(self, phase=self.phase + math.pi,
-                       harmonics=tuple((F, Om, ph + math.pi) for F, Om, ph in self.harmonics))
+                       harmonics=tuple((F, Om, ph + math.pi) for F, Om, ph in self.harmonics),
+                       gap_lower=self.gap_upper, gap_upper=self.gap_lower)
 
 
 _EPS = 2.0**-52

@@ -99,6 +99,7 @@ DOP853 at ``rtol = 1e-13`` (tests/test_regressions_issue20_events.py).
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -106,6 +107,8 @@ import numpy as np
 from ..._util import validation as _v
 from ...engine._driver import (
     ACCEL_ZERO,
+    ENTER_LOWER,
+    ENTER_UPPER,
     N_GUARDS,
     NO_GUARD,
     Mode,
@@ -119,7 +122,6 @@ from ...model._layout import P_AMPLITUDE as _P_AMPLITUDE
 from ...model._oscillator import Oscillator
 from ...results._solution import Solution, _Recorder
 from ._ode import (
-    _P_HARMONICS,
     _P_LAYER,
     _P_LAYER_GATE,
     _P_OFFSETS,
@@ -225,6 +227,10 @@ class _Stepper:
         (``g * off`` with ``g = 0``), and an armed one gets it in :meth:`_set_mode`.
         """
         gates = guard_gates(mode, self.osc.rigid) if gated else (0.0,) * N_GUARDS
+        if gated and not self.osc.symmetric:  # an absent flange (gap inf) has no guard
+            gates = tuple(0.0 if (g == ENTER_UPPER and self.osc.gap_upper == math.inf)
+                          or (g == ENTER_LOWER and self.osc.gap_lower == math.inf) else on
+                          for g, on in enumerate(gates))
         missing = [g for g in range(N_GUARDS) if gates[g] and g not in fam.events]
         if missing:  # the engine arms a guard this family was not compiled with
             raise RuntimeError(f"mode {tuple(mode)} arms guards {missing} that its heyoka integrator lacks")
@@ -361,7 +367,7 @@ class _LayeredStepper(_Stepper):
         if r == 0:
             return  # the free family has no spring
         q = r * s
-        d = r * x - 1.0
+        d = r * x - self.osc.gap(r)
         if layer is None:
             if q > 0:
                 # Moving deeper: the edge is that of the entry speed; on it the spring is on.
@@ -378,7 +384,7 @@ class _LayeredStepper(_Stepper):
                 raise FloatingPointError(f"heyoka's layer event left the penetration at d={d!r} <= 0")
         self.delta = delta
         fam.pars[_P_LAYER] = delta
-        fam.pars[_P_SIGMA:_P_HARMONICS] = (sigma, q, gate)
+        fam.pars[_P_SIGMA:_P_LAYER_GATE + 1] = (sigma, q, gate)
 
     def _after_layer(self, pars, x: float, v: float, moves: int):
         """``(sigma, delta, gate)`` after the layer event at ``(x, v)``, the ``moves``-th of the piece.
