@@ -221,3 +221,5 @@ def test_the_backends_without_asymmetric_flanges_say_so():
     osc = O(0.5, 1.1, 0.01, 1e4, gap_upper=0.6)
     with pytest.raises(ValueError, match="exact backend does not support flanges at gap_lower=1.0, gap_upper=0.6"):
         io.simulate(osc, 1.0, 0.0, 0.0, backend="exact")
+    with pytest.raises(ValueError, match="rk4 baseline runs the paper's symmetric flanges .* gap_upper=0.6"):
+        io.simulate(osc, 1.0, 0.0, 0.0, backend="rk4")
