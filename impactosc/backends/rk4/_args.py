@@ -61,9 +61,6 @@ def _refuse_unsupported(osc: Oscillator, sample_at=()) -> None:
         raise ValueError(f"the rk4 baseline does not support a rigid flange (restitution={osc.restitution!r}): "
                          "an impact is an instantaneous reset V -> -e V at |X| = 1, which needs event location; "
                          "use backend='heyoka' or 'scipy'")
-    if not osc.symmetric:
-        raise ValueError(f"the rk4 baseline runs the paper's symmetric flanges at |X| = 1 only, got "
-                         f"gap_lower={osc.gap_lower!r}, gap_upper={osc.gap_upper!r}; use backend='heyoka' or 'scipy'")
     if osc.beta_s != osc.beta:
         raise ValueError(f"the rk4 baseline does not support static friction beta_static={osc.beta_static!r} > "
                          f"beta={osc.beta!r}: its naive sign(V) has no stick logic, so a static level cannot "
