@@ -239,3 +239,22 @@ def test_rk4_follows_heyoka_on_asymmetric_and_one_sided_members(osc, t_end, x0, 
         assert ev.x == walls[ev.side]
     for side in (1, -1):
         assert b.flange_impulse(side) == pytest.approx(a.flange_impulse(side), rel=2e-3, abs=1e-12)
+
+
+@pytest.mark.parametrize("osc", [O(0.5, 1.1, 0.01, 1e4, gap_lower=None, gap_upper=0.7),
+                                 O(0.5, 1.1, 0.01, 1e4, gap_lower=1.2, gap_upper=0.7, zeta=0.05)])
+def test_the_saltation_monodromy_of_an_orbit_on_one_flange_matches_finite_differences(osc):
+    from impactosc.dynamics import periodic_orbit
+
+    orb = periodic_orbit(osc, 1, transient_periods=100)
+    assert orb.status == 0 and "contact_start" in set(orb.events.kind)
+    assert np.all(orb.events.x[orb.events.side == 1] == 0.7)
+
+    def strobe(x, v):
+        sol = io.simulate(osc, orb.period, x, v, backend="scipy", rtol=1e-13, atol=1e-15)
+        return np.array([sol.x_final, sol.v_final])
+
+    h = 1e-6
+    fd = np.column_stack([(strobe(orb.x + h, orb.v) - strobe(orb.x - h, orb.v)) / (2 * h),
+                          (strobe(orb.x, orb.v + h) - strobe(orb.x, orb.v - h)) / (2 * h)])
+    np.testing.assert_allclose(orb.monodromy, fd, rtol=0, atol=1e-6)

@@ -20,7 +20,11 @@ The family (every member runs on the one engine of :mod:`impactosc.engine`):
 * flange laws: a spring ``K d^p`` on the penetration ``d = |X| - 1`` (``p = 1`` linear, the
   default; ``p = 1.5`` Hertz), or a rigid flange with Newton restitution ``0 <= e <= 1``
   (instantaneous impact ``V -> -e V`` at ``|X| = 1``);
-* forcing: any finite sum of harmonics (the reel run-out and its higher harmonics).
+* forcing: any finite sum of harmonics (the reel run-out and its higher harmonics);
+* flange positions: the lower flange at ``X = -gap_lower``, the upper at ``X = +gap_upper``
+  (1 and 1: the paper's symmetric guide), either one absent (a one-sided stop). The
+  penetration into the flange of side ``r`` is ``d = r X - gap``; the formulas below are
+  written for the default ``|X| = 1``.
 
 The hybrid state is a *mode* ``(region, motion)``: ``region`` is -1 (lower flange), 0 (free)
 or +1 (upper flange); ``motion`` is -1 (slipping down), 0 (stuck) or +1 (slipping up). With a
