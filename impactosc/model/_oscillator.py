@@ -132,8 +132,9 @@ class Oscillator:
         (default 1 and 1: the paper's symmetric guide). Each must be > 0; ``None`` or
         ``math.inf`` means that flange is absent (a one-sided stop), stored as ``math.inf``.
         The flange of side ``r`` (+1 upper, -1 lower) is at ``X = r * gap`` and the
-        penetration into it is ``d = r X - gap`` (:meth:`gap`, :attr:`flanges`). With both
-        absent there is no flange law: ``K``, ``exponent`` and ``restitution`` must be left out.
+        penetration into it is ``d = r X - gap`` (:meth:`Oscillator.gap`,
+        :attr:`Oscillator.flanges`). With both absent there is no flange law: ``K``,
+        ``exponent`` and ``restitution`` must be left out.
 
     Raises
     ------
