@@ -36,15 +36,15 @@ double root, so a crossing located to within the rounding ``eps_h`` of ``h`` has
 rate ``h'`` known only to about ``sqrt(2 eps_h |h''|)`` (issue 20: a grazing impact on a
 rigid flange was located at ``V = 1.2e-16`` by one backend, ``1.6e-8`` by another and as a
 touch ``V = 0`` by a third; the first reported a multiplier of -6e15 with status 0). A
-crossing whose rate lies within :data:`GRAZING` times that bound is a tangency:
+crossing whose rate lies within ``GRAZING`` times that bound is a tangency:
 
-* the rigid flange (``h = +-X - 1``): ``eps_h`` an ulp of ``|X|``, ``h'' = +-V'`` before the
+* the rigid flange (``h = +-X - gap``, ``+-X - 1`` by default): ``eps_h`` an ulp of ``|X|``, ``h'' = +-V'`` before the
   impact, so an impact slower than about ``1.7e-7 sqrt(|V'|)`` (``4e-7`` of the velocity
   ``sqrt(|V'| L)`` at the wall for ``L = 1``) is a grazing one; a *touch* of the rigid wall
   (``V = 0`` exactly, no impact recorded) is one too, although the vector field may be
   continuous there: a slightly larger orbit hits the wall at a speed ``~ sqrt(distance)``;
 * the release guards (``h = f_net -+ beta_s`` with ``X`` frozen): ``eps_h`` the tie tolerance
-  of ``f_net`` (:func:`impactosc.model._rule.tie_tolerance`), ``h''`` the forcing's second
+  of ``f_net`` (``impactosc.model._rule.tie_tolerance``), ``h''`` the forcing's second
   derivative: a release at an extremum of the forcing;
 * the slip end (``h = s V``): its rate is the acceleration ``s V'``, tangential when within
   the rounding of ``f_net``.

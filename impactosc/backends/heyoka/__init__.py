@@ -23,11 +23,11 @@ In mode ``(r, s)`` (``r2 = r^2``, ``s2 = s^2``, the parameters as in :class:`~im
 
     f     = sum_i F_i cos(Omega_i t + phase_i)
     f_net = f - X - r K d^p,   d = r X - g    (linear: f - X - K r2 (X - r g); rigid: f - X)
+    X'    = V,   V' = s2 (f_net - 2 zeta V - beta s)   (the damping term only in damped shapes)
 
 with ``g`` the distance of the flange of region ``r`` (``gap_upper``/``gap_lower``, 1 by
 default) and the guards ``X - gap_upper``, ``X + gap_lower``, ``r X - g``: every position is a
 runtime parameter, and an absent flange's guard is gated off.
-    X'    = V,   V' = s2 (f_net - 2 zeta V - beta s)   (the damping term only in damped shapes)
 
 The states are ``X, V``, then for spring flanges the flange impulse ``Q = int K d^p`` and
 ``Q2 = int (K d^p)^2`` (for rms forces), the forcing work ``W = int V f`` and, in damped
