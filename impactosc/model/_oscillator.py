@@ -156,7 +156,8 @@ class Oscillator:
     F: float
     Omega: float
     beta: float
-    K: float | None = None
+    # ``None`` is accepted (a rigid flange, or no flange) and stored as 0.0: a float after __post_init__.
+    K: float = None  # type: ignore[assignment]
     phase: float = 0.0
     _: KW_ONLY
     zeta: float = 0.0
@@ -165,8 +166,9 @@ class Oscillator:
     exponent: float = 1.0
     restitution: float = 1.0
     harmonics: Sequence[Sequence[float]] = ()
-    gap_lower: float | None = 1.0
-    gap_upper: float | None = 1.0
+    # ``None`` is accepted for an absent flange and stored as ``math.inf``.
+    gap_lower: float = 1.0
+    gap_upper: float = 1.0
     #: The member as the transition rule's parameter vector (:func:`impactosc.model._layout.params`).
     _p: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -231,7 +233,7 @@ class Oscillator:
         if not terms:
             raise ValueError("harmonics must hold at least one (F_i, Omega_i, phase_i) triple, got an empty sequence")
         (F, Om, ph), rest = terms[0], terms[1:]
-        return cls(F, Om, beta, K, ph, harmonics=rest, **family)
+        return cls(F, Om, beta, K, ph, harmonics=rest, **family)  # type: ignore[arg-type]
 
     # -- the member's structure ----------------------------------------------------------
     @property

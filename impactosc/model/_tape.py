@@ -520,8 +520,8 @@ class TapeDrive:
         return Oscillator(self.F, self.Omega, self.beta, self.K, phase, zeta=self.damping_ratio,
                           beta_static=self.beta_static, flange=self.flange, exponent=self.flange_exponent,
                           restitution=self.restitution, harmonics=harmonics,
-                          gap_lower=1.0 + shift if self.flange_sides != "upper" else None,
-                          gap_upper=1.0 - shift if self.flange_sides != "lower" else None)
+                          gap_lower=1.0 + shift if self.flange_sides != "upper" else math.inf,
+                          gap_upper=1.0 - shift if self.flange_sides != "lower" else math.inf)
 
     # -- scales ------------------------------------------------------------------------
     @property
