@@ -186,8 +186,10 @@ def test_near_grazing_contacts():
     assert n_per == 4.0
     assert np.all(e.impacts.complete)
     # The penetration is set by v_in^2 = v0^2 - 1 = 2e-6, itself carrying eps/2e-6 ~ 1e-10 of
-    # rounding in any double-precision run: the forces agree to that conditioning.
-    _assert_agree(h, e)
+    # rounding in any double-precision run, and a contact's impulse grows like v_in^3: the
+    # forces agree to three times that conditioning (heyoka's contact times move by 2e-14
+    # with the set of events it is given, which moved its forces by 3.5e-10: issue 20 item 9).
+    _assert_agree(h, e, force_rtol=5e-10)
 
 
 def test_free_resonance_without_contacts():

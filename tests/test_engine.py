@@ -82,7 +82,10 @@ def test_gates_arm_exactly_the_guards_of_each_mode():
     def armed(mode):
         return {n for n, g in zip(names, guard_gates(mode), strict=True) if g}
 
-    assert armed(Mode(0, 1, True)) == {"enter_upper", "enter_lower", "slip_end"}
+    # Only the flange ahead of the motion (issue 20, item 9).
+    assert armed(Mode(0, 1, True)) == {"enter_upper", "slip_end"}
+    assert armed(Mode(0, -1, True)) == {"enter_lower", "slip_end"}
+    assert armed(Mode(1, 1, True)) == {"slip_end"}
     assert armed(Mode(1, -1, True)) == {"leave", "slip_end"}
     assert armed(Mode(-1, 1, False)) == {"leave", "accel_zero"}
     assert armed(Mode(0, 0, True)) == {"release_up", "release_down"}

@@ -44,12 +44,11 @@ def test_rigid_wall_push_over_a_window_after_a_plastic_impact(backend):
     assert plain.flange_impulse(1, 0.0, 1.7) + plain.flange_impulse(1, 1.7, 4.0) == pytest.approx(total, rel=1e-13)
 
 
-@pytest.mark.xfail(strict=True, reason="needs the engine to record the settled start mode as a segment "
-                   "(engine/_driver.py and backends/exact/_loop.py, see the defects report for issue 20)")
 @pytest.mark.parametrize("backend", RIGID_BACKENDS)
 def test_rigid_wall_push_over_a_window_from_a_start_on_the_wall(backend):
     # The issue's reproducer: the run starts resting on the wall; its first segment kept the
-    # pre-settle mode (slipping up), so the window got 0 and sample() went through the wall.
+    # pre-settle mode (slipping up), so the window got 0 and sample() went through the wall
+    # (fixed with the rule that the initial state is not an event: the start is settled first).
     sol = simulate(Oscillator(1.6, 0.4, 0.1, 1.0, flange="rigid"), 4.0, 1.0, 0.0, backend=backend)
     assert sol.flange_impulse(1, 0.0, 1.0) == pytest.approx(1.6 * math.sin(0.4) / 0.4 - 1.0, rel=1e-12)
     x, v = sol.sample(np.linspace(0.0, 2.0, 9))

@@ -42,6 +42,7 @@ event-driven hybrid system, and this module corrects them instead of trusting sm
 
 from __future__ import annotations
 
+import math
 import sys
 
 import numpy as np
@@ -165,10 +166,12 @@ def _guard_functions(osc: Oscillator, mode: Mode):
             j[5, 1] = 2.0 * v
         return j
 
+    upper, lower = osc.gap_upper, osc.gap_lower
+    gap = osc.gap(r) if r else 0.0
     guards = {
-        ENTER_UPPER: lambda t, y: y[0] - 1.0,
-        ENTER_LOWER: lambda t, y: y[0] + 1.0,
-        LEAVE: lambda t, y: r * y[0] - 1.0,
+        ENTER_UPPER: lambda t, y: y[0] - upper,
+        ENTER_LOWER: lambda t, y: y[0] + lower,
+        LEAVE: lambda t, y: r * y[0] - gap,
         SLIP_END: lambda t, y: s * y[1],
         # The force guards carry the engine's offset (engine.force_guard_offset): the stick test
         # and the event finder then agree on what "reaching beta" means, and a guard on an
@@ -180,8 +183,10 @@ def _guard_functions(osc: Oscillator, mode: Mode):
     }
     del beta, zeta
     gates = guard_gates(mode, osc.rigid)
-    # Only the armed guards go to scipy: a gated-off guard must not stop the piece.
-    armed = [(i, guards[i], GUARD_DIRECTIONS[i]) for i in range(len(gates)) if gates[i]]
+    # Only the armed guards go to scipy: a gated-off guard must not stop the piece, and an
+    # absent flange (gap inf) has none.
+    absent = {ENTER_UPPER: upper == math.inf, ENTER_LOWER: lower == math.inf}
+    armed = [(i, guards[i], GUARD_DIRECTIONS[i]) for i in range(len(gates)) if gates[i] and not absent.get(i)]
     if s != 0 and gates[SLIP_END]:
         # s V has a local minimum where s V' rises through 0; below zero it hid a slip end.
         armed.append((_SV_MIN, guards[ACCEL_ZERO], 1))

@@ -38,7 +38,7 @@ rigid flange was located at ``V = 1.2e-16`` by one backend, ``1.6e-8`` by anothe
 touch ``V = 0`` by a third; the first reported a multiplier of -6e15 with status 0). A
 crossing whose rate lies within ``GRAZING`` times that bound is a tangency:
 
-* the rigid flange (``h = +-X - 1``): ``eps_h`` an ulp of ``|X|``, ``h'' = +-V'`` before the
+* the rigid flange (``h = +-X - gap``, ``+-X - 1`` by default): ``eps_h`` an ulp of ``|X|``, ``h'' = +-V'`` before the
   impact, so an impact slower than about ``1.7e-7 sqrt(|V'|)`` (``4e-7`` of the velocity
   ``sqrt(|V'| L)`` at the wall for ``L = 1``) is a grazing one; a *touch* of the rigid wall
   (``V = 0`` exactly, no impact recorded) is one too, although the vector field may be
@@ -128,11 +128,11 @@ def saltation_matrix(osc: Oscillator, t: float, mode_before: Mode, guard: int, m
     if osc.rigid and guard in (ENTER_UPPER, ENTER_LOWER) and not abs(denom) > graze:
         # A grazing impact or a touch of a rigid wall: checked before the continuity test, which
         # a touch without friction passes (V' is continuous there) though the map is not smooth.
-        return _singular(t, name, kind, f"the rigid {name} guard (the wall at X = {x_before:+.0f}) is reached at "
+        return _singular(t, name, kind, f"the rigid {name} guard (the wall at X = {x_before:+.6g}) is reached at "
                          f"t={t:.12g} with speed |V| = {abs(fx0):.3g}, within the grazing bound {graze:.3g} "
                          "(a grazing impact): the map is not differentiable there")
     if (osc.rigid and guard == SLIP_END and mode_before[1] * x_before > 0.0
-            and not 1.0 - abs(x_before) > GRAZING * GRAZING * EPS):
+            and not osc.gap(mode_before[1]) - mode_before[1] * x_before > GRAZING * GRAZING * EPS):
         # A turning point on the wall it was moving towards, to rounding: the orbit grazes it
         # without an impact event, and a slightly larger one hits it at a speed ~ sqrt(distance).
         # (The apex of a rebound, moving away from the wall, is no grazing.)

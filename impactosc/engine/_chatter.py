@@ -52,15 +52,16 @@ from typing import NamedTuple
 import numpy as np
 
 from .._util.jit import njit
-from ..model._rule import P_BETA, P_BETA_S, P_RESTITUTION, P_ZETA, forcing_derivatives, net_force
+from ..model._rule import P_BETA, P_BETA_S, P_RESTITUTION, P_ZETA, forcing_derivatives, net_force, wall
 
 #: Relative accuracy (of ``max(1, |t|)``) of the accumulation time at which a jump is taken.
 TIME_TOLERANCE = 1e-12
 
 # The fields of a jump as the compiled event loop keeps it (a row of floats), in the order
 # of ChatterJump.
-(J_T_INF, J_SIDE, J_IMPACTS, J_IMPULSE, J_PATH, J_LOSS, J_ERROR, J_T0, J_SPEED, J_E, J_A_OUT, J_A_IN) = range(12)
-J_SIZE = 12
+(J_T_INF, J_SIDE, J_IMPACTS, J_IMPULSE, J_PATH, J_LOSS, J_ERROR, J_T0, J_SPEED, J_E, J_A_OUT, J_A_IN,
+ J_WALL) = range(13)
+J_SIZE = 13
 
 
 @njit
@@ -71,7 +72,8 @@ def predict_jump(p, t, side, speed, count, out):
     module docstring for the model and the criterion.
     """
     e, beta, beta_s = p[P_RESTITUTION], p[P_BETA], p[P_BETA_S]
-    push = side * net_force(p, t, float(side))
+    at = wall(p, side)
+    push = side * net_force(p, t, at)
     a_out, a_in = push + beta, push - beta
     if not (a_in > 0.0 and push > beta_s and speed > 0.0 and e > 0.0):
         return False  # no return to the wall (or no rebound: e = 0 rests at once)
@@ -95,6 +97,7 @@ def predict_jump(p, t, side, speed, count, out):
     out[J_PATH] = e * e * u2 / (a_out * (1.0 - rho * rho))
     out[J_LOSS] = (1.0 - e * e) * u2 * rho * rho / (2.0 * (1.0 - rho * rho))
     out[J_ERROR], out[J_T0], out[J_SPEED], out[J_E], out[J_A_OUT], out[J_A_IN] = error, t, speed, e, a_out, a_in
+    out[J_WALL] = at
     return True
 
 
@@ -102,8 +105,9 @@ def predict_jump(p, t, side, speed, count, out):
 def jump_state(jump, t):
     """:meth:`ChatterJump.state_at` of the jump ``jump`` (a row of floats): ``(x, v, motion, impulse, path, loss)``."""
     side, e, a_out, a_in = int(jump[J_SIDE]), jump[J_E], jump[J_A_OUT], jump[J_A_IN]
+    at = jump[J_WALL]
     if t >= jump[J_T_INF]:
-        return float(side), 0.0, 0, jump[J_IMPULSE], jump[J_PATH], jump[J_LOSS]
+        return at, 0.0, 0, jump[J_IMPULSE], jump[J_PATH], jump[J_LOSS]
     rho = e * math.sqrt(a_in / a_out)
     c = e * (1.0 / a_out + 1.0 / math.sqrt(a_out * a_in))
     u, t0 = jump[J_SPEED], jump[J_T0]
@@ -136,7 +140,7 @@ def jump_state(jump, t):
     loss = 0.5 * (1.0 - e * e) * u * u * r2 * geo2
     path = e * e * u * u / a_out * geo2 + travelled
     motion = -side if away > 0.0 else side
-    return side - side * dist, -side * away, motion, impulse, path, loss
+    return at - side * dist, -side * away, motion, impulse, path, loss
 
 
 class ChatterJump(NamedTuple):
@@ -154,6 +158,7 @@ class ChatterJump(NamedTuple):
     restitution: float  #: ``e``
     a_out: float  #: deceleration moving away from the wall, ``p + beta``
     a_in: float  #: acceleration back towards it, ``p - beta``
+    wall: float  #: position of the wall, ``side * gap`` (``side`` for the paper's flanges)
 
     @classmethod
     def from_row(cls, row) -> ChatterJump:

@@ -21,9 +21,13 @@ changed sign, so re-arming there is exact, not a heuristic.
 
 Guards (direction-filtered)
 ---------------------------
-``ENTER_UPPER``  X - 1 rises through 0          free region, slipping
-``ENTER_LOWER``  X + 1 falls through 0          free region, slipping
-``LEAVE``        region*X - 1 falls through 0   spring flange region, slipping
+``ENTER_UPPER``  X - gu rises through 0         free region, slipping up
+``ENTER_LOWER``  X + gl falls through 0         free region, slipping down
+``LEAVE``        region*X - g falls through 0   spring flange region, slipping out of it
+
+``gu = gap_upper`` and ``gl = gap_lower`` are the distances of the flanges from the rest
+position (1 and 1 by default: ``X = +-1``), ``g`` the one of the current region; an absent
+flange (``inf``) has no guard that can fire.
 ``SLIP_END``     motion*V falls through 0       slipping, armed
 ``ACCEL_ZERO``   motion*V' falls through 0      slipping, not armed (internal, no event)
 ``RELEASE_UP``   f_net - beta_s rises through 0 stuck
@@ -32,7 +36,11 @@ Guards (direction-filtered)
 :func:`guard_value` and :func:`guard_gradient` define them numerically, once.
 Each piece between two guards is monotonic in X (every turning point is a ``SLIP_END``),
 so a flange crossing inside a piece is a simple root: grazing contacts become two simple
-roots on either side of a located turning point instead of one double root.
+roots on either side of a located turning point instead of one double root. For the same
+reason only the flange ahead of the motion is armed: the one behind cannot be reached in the
+piece, and when the piece starts on it from rest (a release from a wall or a flange surface)
+its guard has a multiple root at the start, on which heyoka's root finder gave up with a
+warning on stderr (issue 20, item 9).
 
 The model family (issue #10)
 ----------------------------
@@ -166,13 +174,22 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
-    """Mode at the initial time (not an event).
+    """Mode at the initial time. The initial state is not an event (issue 20, item 10).
+
+    One rule for every backend: the mode the run starts in is decided here and recorded by
+    no event, whether the mass starts stuck (no ``stick``), inside or on a spring flange
+    moving into it (no ``contact_start``), at rest against a rigid wall (no
+    ``contact_start``: the run starts resting on it, and its ``impacts`` row is marked
+    incomplete, like a contact already in progress), or released at once (no ``release``).
+    What happens *after* the initial state is recorded, also at ``t = 0``: a start on a rigid
+    wall moving into it is an ``impact`` at ``t = 0`` (:func:`pending_guard`), since it
+    changes the velocity.
 
     A mass starting exactly on a spring flange's boundary belongs to the flange region if it
     moves into the flange. With ``v == 0`` the stick test of :func:`motion_at_rest` decides
-    the motion, as at any other rest point. With a rigid flange the start is always in the
-    free region: a start on the wall is resolved at once by :func:`pending_guard` (an impact
-    when moving into it, the wall's rest test when at rest).
+    the motion, as at any other rest point. With a rigid flange a mass at rest on the wall
+    rests on it (mode ``(side, 0)``) unless the stick test pulls it away, when it slides
+    off in the free region; any other start is in the free region.
     """
     r, s, armed = _rule.initial_mode(osc._p, float(t), float(x), float(v))
     return _MODES[(r, s, armed)]
@@ -182,7 +199,7 @@ def transition(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: f
     """The transition rule: what a guard firing at ``(t, x, v)`` in ``mode`` means.
 
     Returns ``(new_mode, x, v, kind, side)``: the state is snapped onto the guard surface
-    (``X = +-1`` at flange crossings, ``V = 0`` at rest points) so the next piece starts
+    (``X = gap_upper`` or ``-gap_lower`` at flange crossings, ``V = 0`` at rest points) so the next piece starts
     exactly on it; ``kind`` is the event kind to record (``None`` for internal guards)
     and ``side`` is +1/-1 for flange events, 0 for friction events. ``v`` is the state after
     the transition: at an :data:`IMPACT` the recorded event keeps the incoming velocity.
@@ -313,11 +330,11 @@ def guard_value(osc: Oscillator, mode: Mode, guard: int, t: float, x: float, v: 
     """
     r, s, _ = mode
     if guard == ENTER_UPPER:
-        return x - 1.0
+        return x - osc.gap_upper
     if guard == ENTER_LOWER:
-        return x + 1.0
+        return x + osc.gap_lower
     if guard == LEAVE:
-        return r * x - 1.0
+        return r * x - (osc.gap(r) if r else 1.0)  # (r = 0: not a guard of that mode)
     if guard == SLIP_END:
         return s * v
     if guard == ACCEL_ZERO:
@@ -448,7 +465,7 @@ def drive(stepper: PieceStepper, osc: Oscillator, t_end: float, x0: float, v0: f
                                 f"The end time was reached inside a chatter on the {_SIDE[jump.side]} flange "
                                 f"(its impacts accumulate at t={jump.t_inf!r}, after the end).")
                 return
-            t1, x1, v1 = jump.t_inf, float(jump.side), 0.0
+            t1, x1, v1 = jump.t_inf, jump.wall, 0.0
             recorder.chatter(jump, t1)
             hook = getattr(recorder, "on_transition", None)
             if hook is not None:  # the jump itself: no guard, from the last flight to rest at the wall
@@ -525,7 +542,11 @@ def check_run_arguments(osc, t_end, x0, v0, max_events):
     t_end = _v.positive("t_end", t_end)
     x0 = _v.real("x0", x0)
     v0 = _v.real("v0", v0)
-    if osc.rigid and abs(x0) > 1.0:
-        raise ValueError(f"x0 must satisfy -1 <= x0 <= 1 with a rigid flange (the walls are at |X| = 1), got {x0!r}")
+    if osc.rigid and not -osc.gap_lower <= x0 <= osc.gap_upper:
+        if osc.symmetric:
+            raise ValueError("x0 must satisfy -1 <= x0 <= 1 with a rigid flange (the walls are at |X| = 1), "
+                             f"got {x0!r}")
+        raise ValueError(f"x0 must satisfy -gap_lower <= x0 <= gap_upper with a rigid flange (the walls are at "
+                         f"X = {-osc.gap_lower!r} and X = {osc.gap_upper!r}), got {x0!r}")
     max_events = _v.integer("max_events", max_events, minimum=1)
     return osc, t_end, x0, v0, max_events

@@ -33,16 +33,24 @@ INTEGRITY_ULPS = 64.0
 EPS = 2.0**-52
 
 # -- the parameter vector -----------------------------------------------------------------
-P_BETA, P_BETA_S, P_K, P_ZETA, P_EXPONENT, P_RESTITUTION, P_RIGID, P_AMPLITUDE = range(8)
+#: ``p[P_LOWER]``, ``p[P_UPPER]``: the distances ``gap_lower``, ``gap_upper`` from the rest
+#: position ``X = 0`` to the lower flange (at ``X = -gap_lower``) and the upper one (at
+#: ``X = +gap_upper``), ``inf`` for an absent flange; the flange of side ``r`` (+1 upper, -1
+#: lower) is at ``X = r * gap``, and the penetration into it is ``d = r X - gap``.
+P_BETA, P_BETA_S, P_K, P_ZETA, P_EXPONENT, P_RESTITUTION, P_RIGID, P_AMPLITUDE, P_LOWER, P_UPPER = range(10)
 #: Index of the first forcing term; each term is ``(F_i, Omega_i, phase_i)``.
-P_TERMS = 8
+P_TERMS = 10
 
 
 def params(osc) -> np.ndarray:
-    """The member ``osc`` (an :class:`~impactosc.model.Oscillator`) as the rule's parameter vector."""
+    """The member ``osc`` (an :class:`~impactosc.model.Oscillator`) as the rule's parameter vector.
+
+    ``[beta, beta_s, K, zeta, p, e, rigid, sum F_i, gap_lower, gap_upper, F_0, Omega_0,
+    phase_0, F_1, ...]`` (the indices ``P_*`` of this module).
+    """
     terms = [v for term in osc.terms for v in term]
     head = [osc.beta, osc.beta_s, osc.K, osc.zeta, osc.exponent, osc.restitution, float(osc.rigid),
-            sum(F for F, _, _ in osc.terms)]
+            sum(F for F, _, _ in osc.terms), osc.gap_lower, osc.gap_upper]
     out = np.array(head + terms, dtype=float)
     out.setflags(write=False)
     return out

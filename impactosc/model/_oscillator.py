@@ -20,7 +20,11 @@ The family (every member runs on the one engine of :mod:`impactosc.engine`):
 * flange laws: a spring ``K d^p`` on the penetration ``d = |X| - 1`` (``p = 1`` linear, the
   default; ``p = 1.5`` Hertz), or a rigid flange with Newton restitution ``0 <= e <= 1``
   (instantaneous impact ``V -> -e V`` at ``|X| = 1``);
-* forcing: any finite sum of harmonics (the reel run-out and its higher harmonics).
+* forcing: any finite sum of harmonics (the reel run-out and its higher harmonics);
+* flange positions: the lower flange at ``X = -gap_lower``, the upper at ``X = +gap_upper``
+  (1 and 1: the paper's symmetric guide), either one absent (a one-sided stop). The
+  penetration into the flange of side ``r`` is ``d = r X - gap``; the formulas below are
+  written for the default ``|X| = 1``.
 
 The hybrid state is a *mode* ``(region, motion)``: ``region`` is -1 (lower flange), 0 (free)
 or +1 (upper flange); ``motion`` is -1 (slipping down), 0 (stuck) or +1 (slipping up). With a
@@ -32,6 +36,7 @@ the mass rests against that flange (``X = region``, ``V = 0``), which is only po
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass, field
 from typing import cast
@@ -67,6 +72,20 @@ def _harmonic_terms(value) -> tuple[tuple[float, float, float], ...]:
     return tuple(out)
 
 
+def _gap(name: str, value, side: str, where: str) -> float:
+    """Validate a flange distance: > 0, or ``None``/``inf`` for an absent flange (stored as inf)."""
+    if value is None:
+        return math.inf
+    if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isinf(value):
+        x = float(value)  # +inf: absent; -inf is refused below
+    else:
+        x = _v.real(name, value)
+    if not x > 0.0:
+        raise ValueError(f"{name} must be > 0 (the distance from the rest position X = 0 to the {side} flange, "
+                         f"at X = {where}), or None or inf for no {side} flange; got {x!r}")
+    return x
+
+
 @dataclass(frozen=True, slots=True)
 class Oscillator:
     """Forced oscillator with Coulomb friction between two flanges: the paper's eq. 3 and its family.
@@ -85,8 +104,11 @@ class Oscillator:
     beta : float
         Coulomb friction level ``mu N / (k L)`` (>= 0), eq. 3 and eq. 5; the kinetic level
         while slipping.
-    K : float
-        Flange stiffness ratio ``k0 / k`` (> 0). The paper uses ``1e4``. Unused by a rigid flange.
+    K : float or None, optional
+        Flange stiffness ratio ``k0 / k`` (> 0) of a spring flange; the paper uses ``1e4``.
+        Required with ``flange="spring"``. A rigid flange has no stiffness: there ``K`` may be
+        omitted (stored as ``0.0``) and a value given is accepted (``>= 0``) and unused, so a
+        spring member turns rigid with :func:`dataclasses.replace` alone.
     phase : float, optional
         Forcing phase in radians; the forcing is ``F cos(Omega Lambda + phase)``.
     zeta : float, keyword-only
@@ -104,6 +126,15 @@ class Oscillator:
     harmonics : sequence of tuple, keyword-only
         Further harmonics ``(F_i, Omega_i, phase_i)`` added to the forcing, e.g. higher
         harmonics of the run-out.
+    gap_lower, gap_upper : float or None, keyword-only
+        Distances from the rest position ``X = 0`` to the lower flange (at ``X = -gap_lower``)
+        and to the upper one (at ``X = +gap_upper``), in units of the clearance ``L``
+        (default 1 and 1: the paper's symmetric guide). Each must be > 0; ``None`` or
+        ``math.inf`` means that flange is absent (a one-sided stop), stored as ``math.inf``.
+        The flange of side ``r`` (+1 upper, -1 lower) is at ``X = r * gap`` and the
+        penetration into it is ``d = r X - gap`` (:meth:`Oscillator.gap`,
+        :attr:`Oscillator.flanges`). With both absent there is no flange law: ``K``,
+        ``exponent`` and ``restitution`` must be left out.
 
     Raises
     ------
@@ -117,13 +148,16 @@ class Oscillator:
     --------
     >>> Oscillator(0.5, 1.1, 0.01, 1e4)                       # the paper's eq. 3
     >>> Oscillator(0.5, 1.1, 0.01, 1e4, zeta=0.02, exponent=1.5)   # damped, Hertz flange
-    >>> Oscillator(0.5, 0.0, 0.1, 1.0, flange="rigid", restitution=0.8)
+    >>> Oscillator(0.5, 0.0, 0.1, flange="rigid", restitution=0.8)   # no K: a wall has no stiffness
+    >>> Oscillator(0.5, 1.1, 0.01, 1e4, gap_lower=1.5, gap_upper=0.5)  # running off-centre
+    >>> Oscillator(0.5, 1.1, 0.01, 1e4, gap_lower=None)               # only the upper flange
     """
 
     F: float
     Omega: float
     beta: float
-    K: float
+    # ``None`` is accepted (a rigid flange, or no flange) and stored as 0.0: a float after __post_init__.
+    K: float = None  # type: ignore[assignment]
     phase: float = 0.0
     _: KW_ONLY
     zeta: float = 0.0
@@ -132,6 +166,9 @@ class Oscillator:
     exponent: float = 1.0
     restitution: float = 1.0
     harmonics: Sequence[Sequence[float]] = ()
+    # ``None`` is accepted for an absent flange and stored as ``math.inf``.
+    gap_lower: float = 1.0
+    gap_upper: float = 1.0
     #: The member as the transition rule's parameter vector (:func:`impactosc.model._layout.params`).
     _p: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -140,7 +177,6 @@ class Oscillator:
         put(self, "F", _v.nonnegative("F", self.F))
         put(self, "Omega", _v.nonnegative("Omega", self.Omega))
         put(self, "beta", _v.nonnegative("beta", self.beta))
-        put(self, "K", _v.positive("K", self.K))
         put(self, "phase", _v.real("phase", self.phase))
         put(self, "zeta", _v.nonnegative("zeta", self.zeta))
         if self.beta_static is not None:
@@ -150,6 +186,23 @@ class Oscillator:
                                  f"kinetic level), got {bs!r}")
             put(self, "beta_static", bs)
         _v.choice("flange", self.flange, FLANGE_LAWS)
+        put(self, "gap_lower", _gap("gap_lower", self.gap_lower, "lower", "-gap_lower"))
+        put(self, "gap_upper", _gap("gap_upper", self.gap_upper, "upper", "+gap_upper"))
+        if math.isinf(self.gap_lower) and math.isinf(self.gap_upper):
+            given = [f"{n}={getattr(self, n)!r}" for n, default in (("K", None), ("flange", "spring"),
+                                                                    ("exponent", 1.0), ("restitution", 1.0))
+                     if getattr(self, n) != default and not (n == "K" and getattr(self, n) == 0.0)]
+            if given:
+                raise ValueError(f"{', '.join(given)} describe a flange, but both flanges are absent "
+                                 "(gap_lower and gap_upper are None or inf): leave them out, or give a flange a gap")
+            put(self, "K", 0.0)
+        if self.flange == "rigid" or math.isinf(self.gap_lower) and math.isinf(self.gap_upper):
+            put(self, "K", 0.0 if self.K is None else _v.nonnegative("K", self.K))
+        elif self.K is None:
+            raise TypeError("K must be a real number (the flange stiffness k0/k > 0) with flange='spring', "
+                            "got None; only a rigid flange (flange='rigid') goes without it")
+        else:
+            put(self, "K", _v.positive("K", self.K))
         put(self, "exponent", _v.real("exponent", self.exponent))
         if not self.exponent >= 1.0:
             raise ValueError(f"exponent must be >= 1 (flange force K d^p with p >= 1), got {self.exponent!r}")
@@ -166,7 +219,7 @@ class Oscillator:
         put(self, "_p", _layout.params(self))
 
     @classmethod
-    def from_harmonics(cls, harmonics, beta: float, K: float, **family) -> Oscillator:
+    def from_harmonics(cls, harmonics, beta: float, K: float | None = None, **family) -> Oscillator:
         """An oscillator forced by ``sum_i F_i cos(Omega_i Lambda + phase_i)``.
 
         The first triple becomes ``(F, Omega, phase)``, the rest ``harmonics``.
@@ -180,7 +233,7 @@ class Oscillator:
         if not terms:
             raise ValueError("harmonics must hold at least one (F_i, Omega_i, phase_i) triple, got an empty sequence")
         (F, Om, ph), rest = terms[0], terms[1:]
-        return cls(F, Om, beta, K, ph, harmonics=rest, **family)
+        return cls(F, Om, beta, K, ph, harmonics=rest, **family)  # type: ignore[arg-type]
 
     # -- the member's structure ----------------------------------------------------------
     @property
@@ -204,6 +257,24 @@ class Oscillator:
         """True when every mode is a linear ODE (no power-law spring): the exact backend's subset."""
         return self.rigid or self.exponent == 1.0
 
+    def gap(self, side: int) -> float:
+        """Distance from the rest position to the flange of ``side`` (+1 upper, -1 lower); inf if absent."""
+        if side == 1:
+            return self.gap_upper
+        if side == -1:
+            return self.gap_lower
+        raise ValueError(f"side must be +1 (upper flange) or -1 (lower flange), got {side!r}")
+
+    @property
+    def flanges(self) -> tuple[float, float]:
+        """Positions ``(-gap_lower, +gap_upper)`` of the lower and the upper flange (``-inf``/``inf``: absent)."""
+        return -self.gap_lower, self.gap_upper
+
+    @property
+    def symmetric(self) -> bool:
+        """True for the paper's guide: both flanges at distance 1 (``gap_lower == gap_upper == 1``)."""
+        return self.gap_lower == 1.0 and self.gap_upper == 1.0
+
     @property
     def constant_forcing(self) -> bool:
         """True when the forcing does not depend on time (every term has zero amplitude or frequency)."""
@@ -222,6 +293,8 @@ class Oscillator:
             out.append(f"a power-law flange (exponent={self.exponent!r})")
         if self.harmonics:
             out.append(f"{len(self.harmonics)} extra forcing harmonics")
+        if not self.symmetric:
+            out.append(f"flanges at gap_lower={self.gap_lower!r}, gap_upper={self.gap_upper!r} (not both 1)")
         return out
 
     # -- forces, in units of k L -------------------------------------------------------
@@ -256,8 +329,11 @@ class Oscillator:
         return sum(4.0 * _EPS * F * (2.0 + abs(Om * t) + abs(ph)) for F, Om, ph in self.terms)
 
     def flange_penetration(self, x):
-        """Penetration ``d = (|X| - 1)+`` into either flange."""
-        return np.maximum(np.abs(np.asarray(x, dtype=float)) - 1.0, 0.0)
+        """Penetration ``d = (r X - gap_r)+`` into the flange on the side ``r = sgn X`` (``(|X| - 1)+`` by default)."""
+        x = np.asarray(x, dtype=float)
+        if self.symmetric:
+            return np.maximum(np.abs(x) - 1.0, 0.0)
+        return np.maximum(np.where(x > 0.0, x - self.gap_upper, -x - self.gap_lower), 0.0)
 
     def flange_force(self, x):
         """Magnitude of the spring flange force ``K d^p`` at ``x``, in units of ``k L``.
@@ -324,7 +400,7 @@ class Oscillator:
         x = np.asarray(x, dtype=float)
         f = self.forcing(t) - x
         if region and not self.rigid:
-            d = region * x - 1.0
+            d = region * x - self.gap(region)
             f = f - region * self.K * (d if self.exponent == 1.0 else np.abs(d) ** self.exponent * np.sign(d))
         return f - 2.0 * self.zeta * np.asarray(v, dtype=float) - self.beta * motion
 
@@ -341,7 +417,7 @@ class Oscillator:
             return np.zeros((2, 2))
         dadx = -1.0
         if region and not self.rigid:
-            d = max(region * x - 1.0, 0.0)
+            d = max(region * x - self.gap(region), 0.0)
             dadx -= self.K * (1.0 if self.exponent == 1.0 else self.exponent * d ** (self.exponent - 1.0))
         return np.array([[0.0, 1.0], [dadx, -2.0 * self.zeta]])
 
@@ -390,7 +466,8 @@ class Oscillator:
         from dataclasses import replace
 
         return replace(self, phase=self.phase + math.pi,
-                       harmonics=tuple((F, Om, ph + math.pi) for F, Om, ph in self.harmonics))
+                       harmonics=tuple((F, Om, ph + math.pi) for F, Om, ph in self.harmonics),
+                       gap_lower=self.gap_upper, gap_upper=self.gap_lower)
 
 
 _EPS = 2.0**-52

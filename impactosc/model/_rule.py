@@ -44,9 +44,11 @@ from ._layout import (  # noqa: F401  (re-exported: the rule is where callers lo
     P_BETA_S,
     P_EXPONENT,
     P_K,
+    P_LOWER,
     P_RESTITUTION,
     P_RIGID,
     P_TERMS,
+    P_UPPER,
     P_ZETA,
     RELEASE,
     RELEASE_DOWN,
@@ -82,9 +84,31 @@ def forcing_derivatives(p, t):
 
 
 @njit
+def gap(p, side):
+    """Distance from the rest position to the flange of ``side`` (+1 upper, -1 lower); inf if absent."""
+    return p[P_UPPER] if side > 0 else p[P_LOWER]
+
+
+@njit
+def wall(p, side):
+    """Position ``side * gap`` of the flange of ``side``: where a crossing of it is snapped to."""
+    return side * gap(p, side)
+
+
+@njit
+def beyond(p, x):
+    """The side (+1, -1) of the flange that ``x`` lies on or beyond, or 0 strictly between them."""
+    if x >= p[P_UPPER]:
+        return 1
+    if -x >= p[P_LOWER]:
+        return -1
+    return 0
+
+
+@njit
 def spring(p, x):
-    """Restoring force ``X + sgn(X) K d^p`` (no flange term for a rigid stop)."""
-    pen = abs(x) - 1.0
+    """Restoring force ``X + sgn(X) K d^p``, ``d = |X| - gap`` on the side of ``X`` (no term for a rigid stop)."""
+    pen = (x - p[P_UPPER]) if x > 0.0 else (-x - p[P_LOWER])
     if pen > 0.0 and p[P_RIGID] == 0.0:
         e = p[P_EXPONENT]
         f = p[P_K] * (pen if e == 1.0 else pen**e)
@@ -97,7 +121,7 @@ def region_force(p, x, region):
     """Flange force ``K d^p`` of the spring of ``region``, not clipped at ``d = 0`` (see the model)."""
     if region == 0 or p[P_RIGID] != 0.0:
         return 0.0
-    d = region * x - 1.0
+    d = region * x - gap(p, region)
     e = p[P_EXPONENT]
     if e == 1.0:
         return p[P_K] * d
@@ -170,10 +194,16 @@ def gate(rigid, region, motion, armed, guard):
         if guard == RELEASE_DOWN:
             return not moving and region > 0
         return False
-    if guard == ENTER_UPPER or guard == ENTER_LOWER:
-        return moving and region == 0
+    # A slipping piece is monotonic in X (every turning point ends it): only the flange ahead
+    # can be reached. The one behind is not armed: leaving a wall or a flange surface from
+    # rest, its guard has a multiple root at the start (V = V' = 0 at a release), on which an
+    # event finder's root search fails (heyoka's "too many iterations", issue 20 item 9).
+    if guard == ENTER_UPPER:
+        return motion > 0 and region == 0
+    if guard == ENTER_LOWER:
+        return motion < 0 and region == 0
     if guard == LEAVE:
-        return moving and region != 0
+        return moving and region != 0 and motion == -region
     if guard == SLIP_END:
         return moving and armed != 0
     if guard == ACCEL_ZERO:
@@ -192,9 +222,14 @@ def initial_mode(p, t, x, v):
         motion, armed = motion_at_rest(p, t, x)
     if p[P_RIGID] != 0.0:
         region = 0
-    elif x > 1.0 or (x == 1.0 and motion > 0):
+        side = beyond(p, x)
+        if v == 0.0 and side != 0 and motion != -side:
+            # At rest on the wall and not pulled away beyond beta_s: resting on it is the
+            # initial mode, not an event (like a start inside a spring flange, or stuck).
+            return side, 0, 1
+    elif x > p[P_UPPER] or (x == p[P_UPPER] and motion > 0):
         region = 1
-    elif x < -1.0 or (x == -1.0 and motion < 0):
+    elif -x > p[P_LOWER] or (-x == p[P_LOWER] and motion < 0):
         region = -1
     else:
         region = 0
@@ -216,17 +251,17 @@ def _slip_end(p, r, s, t, x):
 @njit
 def _impact(p, t, side, v):
     """Newton's impact law ``V -> -e V`` on the rigid flange ``side`` (see the engine)."""
-    wall = float(side)
+    at = wall(p, side)
     if side * v <= 0.0:
         # A touch at a turning point: the stick test at the wall decides, no impact.
-        s_new, armed = motion_at_rest(p, t, wall)
+        s_new, armed = motion_at_rest(p, t, at)
         if s_new == -side:
-            return 0, s_new, armed, wall, 0.0, REVERSAL, 0
-        return side, 0, 1, wall, 0.0, CONTACT_START, side
+            return 0, s_new, armed, at, 0.0, REVERSAL, 0
+        return side, 0, 1, at, 0.0, CONTACT_START, side
     v_out = -p[P_RESTITUTION] * v
     if side * v_out < -KINEMATIC_GUARD_OFFSET:
-        return 0, -side, 1, wall, v_out, IMPACT, side
-    return 0, 0, 1, wall, 0.0, IMPACT, side
+        return 0, -side, 1, at, v_out, IMPACT, side
+    return 0, 0, 1, at, 0.0, IMPACT, side
 
 
 @njit
@@ -254,9 +289,9 @@ def transition(p, r, s, armed, guard, t, x, v):
         if p[P_RIGID] != 0.0:
             return _impact(p, t, side, v)
         # A velocity against the motion is a turning point passed by rounding.
-        return side, s, armed, float(side), (v if s * v > 0.0 else 0.0), CONTACT_START, side
+        return side, s, armed, wall(p, side), (v if s * v > 0.0 else 0.0), CONTACT_START, side
     if guard == LEAVE:
-        return 0, s, armed, float(r), (v if s * v > 0.0 else 0.0), CONTACT_END, r
+        return 0, s, armed, wall(p, r), (v if s * v > 0.0 else 0.0), CONTACT_END, r
     if guard == ACCEL_ZERO:
         if s * v <= 0.0:
             # The guard fires a rounding-level offset late: if the velocity is already back
@@ -267,7 +302,7 @@ def transition(p, r, s, armed, guard, t, x, v):
         s_new = 1 if guard == RELEASE_UP else -1
         if p[P_RIGID] != 0.0 and r != 0:
             # Pulled off the rigid wall: the resting contact ends, the mass slides away.
-            return 0, s_new, 0, float(r), 0.0, CONTACT_END, r
+            return 0, s_new, 0, wall(p, r), 0.0, CONTACT_END, r
         return r, s_new, 0, x, 0.0, RELEASE, 0
     return _rest_at_wall(p, t, x)  # AT_WALL
 
@@ -276,7 +311,7 @@ def transition(p, r, s, armed, guard, t, x, v):
 def pending_guard(p, r, s, fired, t, x, v):
     """A guard that already holds at a piece start (see :func:`impactosc.engine.pending_guard`)."""
     if s == 0:
-        if p[P_RIGID] != 0.0 and r == 0 and abs(x) >= 1.0:
+        if p[P_RIGID] != 0.0 and r == 0 and beyond(p, x) != 0:
             return AT_WALL
         return NO_GUARD
     if s * v < 0.0:
@@ -285,11 +320,11 @@ def pending_guard(p, r, s, fired, t, x, v):
         if motion_at_rest(p, t, x)[0] != s:
             return SLIP_END
     if r == 0:
-        if s > 0 and x >= 1.0:
+        if s > 0 and x >= p[P_UPPER]:
             return ENTER_UPPER
-        if s < 0 and x <= -1.0:
+        if s < 0 and -x >= p[P_LOWER]:
             return ENTER_LOWER
-    elif s == -r and r * x <= 1.0:
+    elif s == -r and r * x <= gap(p, r):
         return LEAVE
     return NO_GUARD
 
@@ -307,14 +342,19 @@ def missed_guard(p, r, s, guard, t0, x0, v0, t1, x1, v1):
         return NO_GUARD
     if s * v0 < 0.0:
         return SLIP_END
-    # The region test against |X| = 1 with an allowance of ulps of X (the cheap test first).
+    # The region test against the flanges with an allowance of ulps of X (the cheap test first).
     if r == 0:
-        far = abs(x0) if (guard == ENTER_UPPER or guard == ENTER_LOWER) else max(abs(x0), abs(x1))
-        if far > 1.0 and far - 1.0 > INTEGRITY_ULPS * EPS * max(abs(x0), abs(x1)):
-            return ENTER_UPPER if x1 > 0 else ENTER_LOWER
+        top = x0 if (guard == ENTER_UPPER or guard == ENTER_LOWER) else max(x0, x1)
+        low = -x0 if (guard == ENTER_UPPER or guard == ENTER_LOWER) else max(-x0, -x1)
+        tol = INTEGRITY_ULPS * EPS * max(abs(x0), abs(x1))
+        if top > p[P_UPPER] and top - p[P_UPPER] > tol:
+            return ENTER_UPPER
+        if low > p[P_LOWER] and low - p[P_LOWER] > tol:
+            return ENTER_LOWER
     else:
+        g = gap(p, r)
         near = r * x0 if guard == LEAVE else min(r * x0, r * x1)
-        if near < 1.0 and 1.0 - near > INTEGRITY_ULPS * EPS * max(1.0, abs(x0), abs(x1)):
+        if near < g and g - near > INTEGRITY_ULPS * EPS * max(g, abs(x0), abs(x1)):
             return LEAVE
     if guard != SLIP_END and s * v1 < 0.0:
         # V is rounded like the largest velocity the piece can reach from its start.

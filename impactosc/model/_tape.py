@@ -29,6 +29,9 @@ from ._oscillator import Oscillator
 
 __all__ = ["TapeDrive", "BENDING_OPTIONS", "FIELD_UNITS"]
 
+#: The flanges a guide can have (:attr:`TapeDrive.flange_sides`).
+FLANGE_SIDES = ("both", "upper", "lower")
+
 #: The two readings of "moment of inertia of the cross section" in eq. 4.
 BENDING_OPTIONS = ("in-plane", "out-of-plane")
 
@@ -58,6 +61,8 @@ FIELD_UNITS = {
     "flange_exponent": ("1", "exponent p of the flange spring law k0 d^p"),
     "flange_stiffness": ("N/m^p", "flange stiffness k0 of the spring law"),
     "restitution": ("1", "coefficient of restitution of a rigid flange"),
+    "guide_offset": ("m", "offset of the tape's rest position from the guide centre, towards the upper flange"),
+    "flange_sides": ("", "flanges of the guide (both, upper or lower)"),
     "runout_harmonics": ("", "run-out harmonics (n, fraction, phase)"),
     "t_sin_half_theta": ("N", "T sin(theta/2), half the roller normal force (eq. 5)"),
 }
@@ -143,6 +148,17 @@ class TapeDrive:
         Higher harmonics of the run-out, ``(n, fraction, phase)``: harmonic number ``n`` (a positive integer, a
         multiple of the reel frequency), amplitude as a fraction of the Fig. 6 run-out
         (>= 0), phase in radians. Default: none (a pure cosine).
+    guide_offset : float
+        Offset in m of the tape's rest position (its edge with the tape unloaded) from the
+        centre of the guide, positive towards the upper flange (default 0: centred). The
+        edge then clears the upper flange by ``clearance - guide_offset`` and the lower one
+        by ``clearance + guide_offset``: ``gap_upper = 1 - guide_offset / clearance`` and
+        ``gap_lower = 1 + guide_offset / clearance`` of :class:`Oscillator`. It must keep
+        the tape clear of every flange the guide has (``|guide_offset| < clearance``).
+    flange_sides : {"both", "upper", "lower"}
+        The flanges of the guide (default ``"both"``); ``"upper"`` or ``"lower"`` is a guide
+        with a single reference flange on that side, the other side open
+        (``gap_lower`` or ``gap_upper`` of :class:`Oscillator` is ``inf``).
 
     Notes
     -----
@@ -201,6 +217,8 @@ class TapeDrive:
     flange_stiffness: float | None = None
     restitution: float = 1.0
     runout_harmonics: tuple = ()
+    guide_offset: float = 0.0
+    flange_sides: str = "both"
 
     def __post_init__(self) -> None:
         def put(name: str, value) -> None:
@@ -272,6 +290,22 @@ class TapeDrive:
             harmonics.append((int(n), _v.nonnegative(f"runout_harmonics[{i}] fraction", frac),
                               _v.real(f"runout_harmonics[{i}] phase", ph)))
         put("runout_harmonics", tuple(harmonics))
+        self._check_guide(put)
+
+    def _check_guide(self, put) -> None:
+        """Validate ``guide_offset`` and ``flange_sides`` (the flanges' positions, issue 19 item 6)."""
+        if not isinstance(self.flange_sides, str):
+            raise TypeError(f"flange_sides must be a string, 'both', 'upper' or 'lower'; got {self.flange_sides!r}")
+        _v.choice("flange_sides", self.flange_sides, FLANGE_SIDES)
+        offset = _v.real("guide_offset", self.guide_offset)
+        L = self.clearance
+        if self.flange_sides in ("both", "upper") and not offset < L:
+            raise ValueError(f"guide_offset must be < clearance={L!r} m (the tape edge at rest would touch or cross "
+                             f"the upper flange), got {offset!r}")
+        if self.flange_sides in ("both", "lower") and not -offset < L:
+            raise ValueError(f"guide_offset must be > -clearance={-L!r} m (the tape edge at rest would touch or cross "
+                             f"the lower flange), got {offset!r}")
+        put("guide_offset", offset)
 
     # Fields that enter the derived numbers, and the derived numbers that must be
     # representable: finite, and nonzero where the physics cannot make them zero.
@@ -482,9 +516,12 @@ class TapeDrive:
             harmonic gets ``n * phase`` plus its own phase.
         """
         harmonics = [(frac * self.F, n * self.Omega, n * phase + ph) for n, frac, ph in self.runout_harmonics]
+        shift = self.guide_offset / self.clearance
         return Oscillator(self.F, self.Omega, self.beta, self.K, phase, zeta=self.damping_ratio,
                           beta_static=self.beta_static, flange=self.flange, exponent=self.flange_exponent,
-                          restitution=self.restitution, harmonics=harmonics)
+                          restitution=self.restitution, harmonics=harmonics,
+                          gap_lower=1.0 + shift if self.flange_sides != "upper" else math.inf,
+                          gap_upper=1.0 - shift if self.flange_sides != "lower" else math.inf)
 
     # -- scales ------------------------------------------------------------------------
     @property

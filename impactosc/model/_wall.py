@@ -12,7 +12,7 @@ import numpy as np
 
 from .._util.jit import njit
 from .._util.roots import refine_jit as refine
-from ._rule import P_TERMS, forcing, forcing_derivatives
+from ._rule import P_TERMS, forcing, forcing_derivatives, gap
 
 __all__ = ["wall_force_integrals"]
 
@@ -24,7 +24,7 @@ def _h_push(st, tau):
     """``sign (side f_net(t0 + tau, side))`` and its rate; ``st = [t0, side, sign, p...]``."""
     t, side, sign = st[0] + tau, st[1], st[2]
     d1, _, _ = forcing_derivatives(st[3:], t)
-    return sign * (side * forcing(st[3:], t) - 1.0), sign * side * d1
+    return sign * (side * forcing(st[3:], t) - gap(st[3:], side)), sign * side * d1
 
 
 @njit
@@ -37,7 +37,7 @@ def _h_fall(st, tau):
 
 @njit
 def _push(st, t):
-    return st[1] * forcing(st[3:], t) - 1.0  # side * f_net at X = side (rigid: no spring)
+    return st[1] * forcing(st[3:], t) - gap(st[3:], st[1])  # side * f_net at the wall X = side gap (rigid: no spring)
 
 
 @njit

@@ -22,7 +22,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..._util.jit import njit
-from ...engine._chatter import J_IMPACTS, J_SIDE, J_SIZE, J_T0, J_T_INF, ChatterJump, jump_state, predict_jump
+from ...engine._chatter import J_IMPACTS, J_SIDE, J_SIZE, J_T0, J_T_INF, J_WALL, ChatterJump, jump_state, predict_jump
 from ...engine._driver import GUARD_NAMES, MAX_EVENTS_AT_ONE_INSTANT, Mode
 from ...engine._stuck import release_one_harmonic, release_sum
 from ...model import _rule
@@ -105,7 +105,7 @@ def _chatter_totals(p, jump, t, acc):
     acc[A_SLIP] += path
     acc[A_LOSS] += loss
     # The forcing works on the tail's net displacement (zero at the accumulation time).
-    acc[A_WORK] += forcing(p, jump[J_T0]) * (x - side)
+    acc[A_WORK] += forcing(p, jump[J_T0]) * (x - jump[J_WALL])
     return x, v, motion
 
 
@@ -150,7 +150,8 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
     t, x, v = 0.0, x0, (0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0)
     r, s, a = _rule.initial_mode(p, t, x, v)
     if r != 0:  # a run that starts inside a flange: a contact in progress, not an event
-        op[O_START], op[O_SIDE], op[O_VIN], op[O_PEN], op[O_IMP], op[O_COMPLETE] = t, r, v, r * x - 1.0, 0.0, 0.0
+        pen0 = r * x - _rule.gap(p, r)
+        op[O_START], op[O_SIDE], op[O_VIN], op[O_PEN], op[O_IMP], op[O_COMPLETE] = t, r, v, pen0, 0.0, 0.0
         is_open = True
     start = (r, s, a)
     if keep_segments:
@@ -214,7 +215,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                     acc[A_IMP_UP + k] += q
                     acc[A_SQ_UP + k] += q2
                     acc[A_CT_UP + k] += t1 - t
-                    pen = max(r * x, r * x1) - 1.0  # pieces are monotonic in X: the deepest point is an end
+                    pen = max(r * x, r * x1) - _rule.gap(p, r)  # pieces are monotonic in X: the deepest point is an end
                     if pen > acc[A_PEN_UP + k]:
                         acc[A_PEN_UP + k] = pen
                     if is_open:
@@ -319,10 +320,11 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
             cnt[CHATTER] += 1
             cnt[C_EVENTS] += 1
             if keep_events:
-                row6[0], row6[1], row6[2], row6[3], row6[4], row6[5] = t_inf, CHATTER, side, 0.0, side, jump[J_IMPACTS]
+                row6[0], row6[1], row6[2], row6[3] = t_inf, CHATTER, jump[J_WALL], 0.0
+                row6[4], row6[5] = side, jump[J_IMPACTS]
                 events = _append(events, n_ev, row6)
                 n_ev += 1
-            t1, x1, v1 = t_inf, float(side), 0.0
+            t1, x1, v1 = t_inf, jump[J_WALL], 0.0
             r, s, a, guard = 0, 0, 1, AT_WALL  # at rest on the wall: its rest test follows
             step = JUMP
             continue

@@ -24,7 +24,7 @@ class _ModeConstants:
 
     def __init__(self, osc: Oscillator, r: int, s: int):
         self.arr = _piece.mode_constants(osc._p, r, s)
-        self.r, self.s, self.ref = r, s, float(r)
+        self.r, self.s, self.ref = r, s, float(self.arr[_piece.M_REF])  # the wall of region r (0 when free)
         self.w, self.w2, self.cY = (float(self.arr[i]) for i in (_piece.M_W, _piece.M_W2, _piece.M_CY))
 
 
@@ -151,7 +151,7 @@ class _Stepper:
         if mode.motion == 0:
             xs = np.full(tau.shape, x)
             vs = np.zeros(tau.shape)
-            qs = self.osc.K * (r * x - 1.0) * tau if r else np.zeros(tau.shape)
+            qs = self.osc.K * (r * x - self.osc.gap(r)) * tau if r else np.zeros(tau.shape)
             return xs, vs, qs
         mc = self._mode_constants(r, mode.motion)
         if self.family:

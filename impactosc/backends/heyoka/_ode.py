@@ -20,6 +20,7 @@ chooses its steps from the states' Taylor coefficients, so the steps are the sam
 
 from __future__ import annotations
 
+import math
 import threading
 from typing import NamedTuple
 
@@ -73,13 +74,19 @@ _P_LAYER = _P_EXPONENT + 1  # delta, the thickness of the power-law boundary lay
 _P_SIGMA = _P_LAYER + 1  # 1: spring on (d >= delta); 0: in the layer or free
 _P_LAYER_DIR = _P_SIGMA + 1  # r * s: +1 moving deeper into the flange, -1 moving out
 _P_LAYER_GATE = _P_LAYER_DIR + 1
-_P_HARMONICS = _P_LAYER_GATE + 1  # (F_i, Omega_i, phase_i) of every harmonic after the first
+_P_UPPER = _P_LAYER_GATE + 1  # gap_upper: the upper flange is at X = +gap_upper (0.0 when absent: never armed)
+_P_LOWER = _P_UPPER + 1  # gap_lower: the lower flange is at X = -gap_lower (0.0 when absent)
+_P_GAP = _P_LOWER + 1  # the gap of the region r (0.0 when free): d = r X - gap
+_P_WALL = _P_GAP + 1  # r * gap: where the flange of region r is
+_P_HARMONICS = _P_WALL + 1  # (F_i, Omega_i, phase_i) of every harmonic after the first
 
 #: The internal event of power-law shapes: ``d`` crossing ``delta`` (never handed to the engine).
 LAYER = N_GUARDS
 #: Spring force at the edge of the power-law layer: the unit roundoff (see the heyoka module docstring).
 _LAYER_FORCE = 2.0**-53
 _LAYER_FLOOR = 4.0 * DEFAULT_TOL
+#: Largest layer thickness of a fast crossing (the layer's crossing time stays below 1e-6 / v).
+_LAYER_CAP = 1e-6
 
 #: The mode families: slipping with ``region == 0`` (FREE) and with ``region != 0`` (FLANGE).
 FREE, FLANGE = 0, 1
@@ -121,19 +128,33 @@ def integral_slots(shape: Shape, family: int) -> tuple[int, int, int, int]:
     return q, q2, w, vv
 
 
-def layer_thickness(osc: Oscillator) -> float:
-    """``delta`` of the power-law boundary layer of ``osc`` (see the heyoka module docstring)."""
-    return max((_LAYER_FORCE / osc.K) ** (1.0 / osc.exponent), _LAYER_FLOOR)
+def layer_thickness(osc: Oscillator, speed: float = 0.0) -> float:
+    """``delta`` of the power-law boundary layer of ``osc`` crossed at ``speed`` (see the heyoka module docstring).
+
+    ``max((u / K)^(1/p), 4 eps, min(((p + 1) u v^2 / K)^(1/(p+1)), 1e-6))``: the spring force
+    left out is below the unit roundoff ``u``, or the velocity it would change while the mass
+    crosses the layer at ``v`` is below ``u v``.
+    """
+    p, K = osc.exponent, osc.K
+    delta = max((_LAYER_FORCE / K) ** (1.0 / p), _LAYER_FLOOR)
+    if speed > 0.0:
+        crossing = ((p + 1.0) * _LAYER_FORCE * speed * speed / K) ** (1.0 / (p + 1.0))
+        delta = max(delta, min(crossing, _LAYER_CAP))
+    return delta
 
 
 def parameter_values(osc: Oscillator, mode: Mode, gates, offsets) -> list[float]:
     """The whole runtime parameter vector for ``osc`` in ``mode`` (cut to each integrator's length).
 
     The power-law layer's switch ``(sigma, r s, gate)`` is 0 here: the stepper sets it per piece.
+    An absent flange's distance is 0.0 here: the stepper gates its guard off.
     """
     r, s, _ = mode
+    upper, lower = (g if g != math.inf else 0.0 for g in (osc.gap_upper, osc.gap_lower))
+    gap = (upper if r > 0 else lower) if r else 0.0
     vals = [osc.F, osc.Omega, osc.beta, osc.K, osc.phase, r, s, r * r, s * s, *gates, *offsets,
-            osc.beta_s, 2.0 * osc.zeta, osc.exponent, layer_thickness(osc), 0.0, 0.0, 0.0]
+            osc.beta_s, 2.0 * osc.zeta, osc.exponent, 0.0 if osc.linear else layer_thickness(osc), 0.0, 0.0, 0.0,
+            upper, lower, gap, r * gap]
     for term in osc.harmonics:
         vals.extend(term)
     return [float(v) for v in vals]
@@ -156,13 +177,13 @@ def _forces(hy, shape: Shape, X, V, p, flange: bool = True):
         f_net = forcing - X
         force = None
     elif law == "linear":
-        # In region r the compressed flange pushes with -K (X - r).
-        f_net = forcing - X - K * r2 * (X - r)
-        force = K * r2 * (r * X - 1.0)  # flange force magnitude K(|X| - 1) in region r
+        # In region r the compressed flange (at X = wall = r gap) pushes with -K (X - wall).
+        f_net = forcing - X - K * r2 * (X - p[_P_WALL])
+        force = K * r2 * (r * X - p[_P_GAP])  # flange force magnitude K (r X - gap) in region r
     else:
         # sigma = 0 (in the boundary layer) evaluates the power at 1, never near 0.
         sigma = p[_P_SIGMA]
-        force = K * sigma * (sigma * (r * X - 1.0) + (1.0 - sigma)) ** p[_P_EXPONENT]
+        force = K * sigma * (sigma * (r * X - p[_P_GAP]) + (1.0 - sigma)) ** p[_P_EXPONENT]
         f_net = forcing - X - r * force
     accel = (f_net - p[_P_DAMPING] * V if damped else f_net) - p[_P_BETA] * p[_P_MOTION]
     return forcing, f_net, force, accel
@@ -193,9 +214,9 @@ def family_system(shape: Shape, family: int):
 
     beta_s = p[_P_BETA_S]
     guard_exprs = {
-        ENTER_UPPER: X - 1.0,
-        ENTER_LOWER: X + 1.0,
-        LEAVE: r * X - 1.0,
+        ENTER_UPPER: X - p[_P_UPPER],
+        ENTER_LOWER: X + p[_P_LOWER],
+        LEAVE: r * X - p[_P_GAP],
         SLIP_END: s * V,
         ACCEL_ZERO: s * accel,  # re-arms slip end after a release
         RELEASE_UP: f_net - beta_s,
@@ -215,7 +236,7 @@ def family_system(shape: Shape, family: int):
         # d crossing delta in the direction of the motion (r s > 0: deeper). Armed only when
         # that edge lies ahead of the mass, so it never starts on its root (_LayeredStepper).
         gate, q = p[_P_LAYER_GATE], p[_P_LAYER_DIR]
-        events.append((gate * (q * (r * X - 1.0 - p[_P_LAYER])) + (1.0 - gate), 1))
+        events.append((gate * (q * (r * X - p[_P_GAP] - p[_P_LAYER])) + (1.0 - gate), 1))
     return rhs, events
 
 

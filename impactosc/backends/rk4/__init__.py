@@ -162,12 +162,17 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     _v.choice("record", record, ("full", "events", "stats"))
     _refuse_unsupported(osc, sample_at)
     jlo = _flange_jump(flange, osc.K, osc.exponent)
+    if jlo and not osc.symmetric:
+        raise ValueError("flange='paper' (eq. 2/3 as printed, -K H(X^2 - 1)(X - 1)) has its flanges at |X| = 1, got "
+                         f"gap_lower={osc.gap_lower!r}, gap_upper={osc.gap_upper!r}; use flange='consistent'")
     dt, n_steps = _check_dt(dt, t_end, osc.K)
     every = _v.integer("every", every, minimum=1)
     _warn_if_slow()
 
     mode0 = initial_mode(osc, 0.0, x0, v0)
-    S, I = _INIT_STATE(x0, v0, mode0.region)
+    S, I = _INIT_STATE(x0, v0, mode0.region, osc.gap_upper, osc.gap_lower)
+    # The paper's flanges at |X| = 1 compile without the positions (None), as before.
+    gaps = None if osc.symmetric else (osc.gap_upper, osc.gap_lower)
     keep_events = record != "stats"
     tr = _trajectory_buffers(record == "full", n_steps, every, x0, v0, I)
     cap = _EVENT_BUFFER if keep_events else 0
@@ -181,7 +186,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     # The kernel returns when its event buffers are nearly full; drain them and resume.
     while True:
         _KERNEL(osc.F, osc.Omega, osc.phase, harm, osc.beta, damp, osc.K, p, jlo, dt, t_end, n_steps, S, I,
-                ev, imp, keep_events, tr[0], tr[1], tr[2], tr[3], tr[4], every, kernel_max_events)
+                ev, imp, keep_events, tr[0], tr[1], tr[2], tr[3], tr[4], every, kernel_max_events, gaps)
         _drain_buffers(rec, impacts, ev, imp, I)
         if I[_I_STATUS] != _BUFFER_FULL:
             break

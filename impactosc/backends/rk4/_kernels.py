@@ -63,13 +63,15 @@ _NO_EVENT_LIMIT = 2**62
 
 # -- the compiled loop --------------------------------------------------------------------
 @_njit
-def _accel(x, v, fc, beta, damp, K, p, jlo):
+def _accel(x, v, fc, beta, damp, K, p, jlo, gaps):
     """Right-hand side ``V'`` of eq. 3 and its family with naive ``sign(V)``.
 
     ``fc`` is the forcing, ``damp = 2 zeta``, ``p`` the flange exponent and ``jlo`` 0 or 2K
     (paper flange, ``p = 1`` only). ``damp = p = None`` compiles eq. 3 alone (see
-    :func:`_family_args`).
+    :func:`_family_args`). ``gaps`` is ``None`` for the paper's flanges at ``|X| = 1``, else
+    ``(gap_upper, gap_lower)`` (``inf`` for an absent flange).
     """
+    gu, gl = _gaps(gaps)
     a = fc - x
     if v > 0.0:
         a -= beta
@@ -77,22 +79,30 @@ def _accel(x, v, fc, beta, damp, K, p, jlo):
         a += beta
     if damp is not None:
         a -= damp * v
-    if x > 1.0:
+    if x > gu:
         if p is None or p == 1.0:
-            a -= K * (x - 1.0)
+            a -= K * (x - gu)
         else:
-            a -= K * (x - 1.0) ** p
-    elif x < -1.0:
+            a -= K * (x - gu) ** p
+    elif x < -gl:
         if p is None or p == 1.0:
             # consistent: -K (X + 1); as printed in the paper: -K (X - 1) = -K (X + 1) + 2K
-            a -= K * (x + 1.0) - jlo
+            a -= K * (x + gl) - jlo
         else:
-            a += K * (-x - 1.0) ** p
+            a += K * (-x - gl) ** p
     return a
 
 
 @_njit_inline
-def _rk4_step(x, v, h, f0, fm, f1, beta, damp, K, p, jlo):
+def _gaps(gaps):
+    """``(gap_upper, gap_lower)``: ``(1.0, 1.0)`` when ``gaps`` is None (compiled away)."""
+    if gaps is None:
+        return 1.0, 1.0
+    return gaps[0], gaps[1]
+
+
+@_njit_inline
+def _rk4_step(x, v, h, f0, fm, f1, beta, damp, K, p, jlo, gaps):
     """One classic RK4 step of length ``h`` on ``(X, V)``, the forcing given at its start,
     midpoint and end (``f0, fm, f1``; the other arguments as for :func:`_accel`).
 
@@ -101,16 +111,16 @@ def _rk4_step(x, v, h, f0, fm, f1, beta, damp, K, p, jlo):
     eq. 3 loop some 4% of its step rate (measured).
     """
     hh = 0.5 * h
-    k1v = _accel(x, v, f0, beta, damp, K, p, jlo)
+    k1v = _accel(x, v, f0, beta, damp, K, p, jlo, gaps)
     x2 = x + hh * v
     v2 = v + hh * k1v
-    k2v = _accel(x2, v2, fm, beta, damp, K, p, jlo)
+    k2v = _accel(x2, v2, fm, beta, damp, K, p, jlo, gaps)
     x3 = x + hh * v2
     v3 = v + hh * k2v
-    k3v = _accel(x3, v3, fm, beta, damp, K, p, jlo)
+    k3v = _accel(x3, v3, fm, beta, damp, K, p, jlo, gaps)
     x4 = x + h * v3
     v4 = v + h * k3v
-    k4v = _accel(x4, v4, f1, beta, damp, K, p, jlo)
+    k4v = _accel(x4, v4, f1, beta, damp, K, p, jlo, gaps)
     x1 = x + h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
     v1 = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
     return x1, v1, v2, v3, v4
@@ -256,15 +266,15 @@ def _side_quad(pa, pb, da, db, h, K, p, j):
 
 
 @_njit_inline
-def _flange_quads(x, x1, v, v1, h, K, p, jlo):
+def _flange_quads(x, x1, v, v1, h, K, p, jlo, gu, gl):
     """:func:`_side_quad` at both flanges for the step ``(x, v) -> (x1, v1)`` of length ``h``.
 
     Returns ``(int f, int f^2, contact time)`` at the upper flange, then at the lower one
     (force jump ``jlo``), each clipped at the interpolated boundary crossings. Inlined: as a
     compiled call it cost the eq. 3 loop some 6% of its step rate (measured).
     """
-    dqu, dsqu, dctu = _side_quad(x - 1.0, x1 - 1.0, v, v1, h, K, p, 0.0)
-    dql, dsql, dctl = _side_quad(-x - 1.0, -x1 - 1.0, -v, -v1, h, K, p, jlo)
+    dqu, dsqu, dctu = _side_quad(x - gu, x1 - gu, v, v1, h, K, p, 0.0)
+    dql, dsql, dctl = _side_quad(-x - gl, -x1 - gl, -v, -v1, h, K, p, jlo)
     return dqu, dsqu, dctu, dql, dsql, dctl
 
 
@@ -292,16 +302,17 @@ def _impact_row(imp, i, t_start, t_end, side, v_in, v_out, pen, impulse, complet
 
 @_njit
 def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
-            ev, imp, keep_events, tr_t, tr_x, tr_v, tr_qu, tr_ql, every, max_events):
+            ev, imp, keep_events, tr_t, tr_x, tr_v, tr_qu, tr_ql, every, max_events, gaps=None):
     """Advance the fixed-step RK4 loop from step ``I[_I_K]`` until the end, the event limit,
     a non-finite state, or (with ``keep_events``) nearly full event/impact buffers.
 
     ``harm`` holds the further forcing harmonics (rows ``F_i, Omega_i, phase_i``),
     ``damp = 2 zeta`` and ``p`` is the flange exponent; all three are ``None`` for eq. 3
-    (see :func:`_family_args`). All state lives in ``S`` (floats) and ``I`` (integers), so
-    a call can resume where the previous one returned; the status is left in
+    (see :func:`_family_args`); ``gaps`` as for :func:`_accel`. All state lives in ``S``
+    (floats) and ``I`` (integers), so a call can resume where the previous one returned; the status is left in
     ``I[_I_STATUS]``.
     """
+    gu, gl = _gaps(gaps)
     x = S[_S_X]
     v = S[_S_V]
     qu, ql, squ, sql = S[_S_QU], S[_S_QL], S[_S_SQU], S[_S_SQL]
@@ -358,29 +369,29 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
         if harm is not None:
             f0, fm, f1 = _harmonics_step(harm, t0, t1, anchor, last, rot, f0, fm, f1)
 
-        x1, v1, v2, v3, v4 = _rk4_step(x, v, h, f0, fm, f1, beta, damp, K, p, jlo)
+        x1, v1, v2, v3, v4 = _rk4_step(x, v, h, f0, fm, f1, beta, damp, K, p, jlo, gaps)
         if not (math.isfinite(x1) and math.isfinite(v1)):
             status = _NONFINITE
             break
 
         # -- reconstruct the events of this step from sign changes --------------------
         ne = 0
-        ga = x - 1.0
-        gb = x1 - 1.0
+        ga = x - gu
+        gb = x1 - gu
         if (in_up != 0) != (gb > 0.0):
             th = ga / (ga - gb) if ga != gb else 0.0
             e_t[ne] = t0 + th * h
-            e_x[ne] = 1.0
+            e_x[ne] = gu
             e_v[ne] = v + th * (v1 - v)
             e_kind[ne] = _CONTACT_START if gb > 0.0 else _CONTACT_END
             e_side[ne] = 1
             ne += 1
-        ga = -x - 1.0
-        gb = -x1 - 1.0
+        ga = -x - gl
+        gb = -x1 - gl
         if (in_lo != 0) != (gb > 0.0):
             th = ga / (ga - gb) if ga != gb else 0.0
             e_t[ne] = t0 + th * h
-            e_x[ne] = -1.0
+            e_x[ne] = -gl
             e_v[ne] = v + th * (v1 - v)
             e_kind[ne] = _CONTACT_START if gb > 0.0 else _CONTACT_END
             e_side[ne] = -1
@@ -411,7 +422,7 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
         if damp is not None:
             dvsq = h / 6.0 * (v * v + 2.0 * v2 * v2 + 2.0 * v3 * v3 + v4 * v4)
         # Flange integrals of this step, per side (clipped at the interpolated boundaries).
-        dqu, dsqu, dctu, dql, dsql, dctl = _flange_quads(x, x1, v, v1, h, K, p, jlo)
+        dqu, dsqu, dctu, dql, dsql, dctl = _flange_quads(x, x1, v, v1, h, K, p, jlo, gu, gl)
 
         stop = False
         t_stop = t1
@@ -479,7 +490,7 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
             t1 = t_stop
             if damp is not None:
                 dvsq = 0.5 * h * (v * v + v1 * v1)
-            dqu, dsqu, dctu, dql, dsql, dctl = _flange_quads(x, x1, v, v1, h, K, p, jlo)
+            dqu, dsqu, dctu, dql, dsql, dctl = _flange_quads(x, x1, v, v1, h, K, p, jlo, gu, gl)
             status = _EVENT_LIMIT
 
         qu += dqu
@@ -491,10 +502,10 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
         work += 0.5 * h * (v * f0 + v1 * f1)
         vsq += dvsq
         slip += abs(x1 - x)
-        pen = x1 - 1.0
+        pen = x1 - gu
         if pen > mpu:
             mpu = pen
-        pen_l = -x1 - 1.0
+        pen_l = -x1 - gl
         if pen_l > mpl:
             mpl = pen_l
         # A contact still open at the end of the step collects this step's part.
@@ -537,21 +548,21 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
 
 
 @_njit
-def _init_state(x0, v0, region):
-    """State vectors for a run starting at ``(x0, v0)`` in flange region ``region``."""
+def _init_state(x0, v0, region, gu=1.0, gl=1.0):
+    """State vectors for a run starting at ``(x0, v0)`` in flange region ``region`` (flanges at ``gu``, ``-gl``)."""
     S = np.zeros(_NS)
     I = np.zeros(_NI, dtype=np.int64)
     S[_S_X] = x0
     S[_S_V] = v0
-    S[_S_MPU] = max(x0 - 1.0, 0.0)
-    S[_S_MPL] = max(-x0 - 1.0, 0.0)
+    S[_S_MPU] = max(x0 - gu, 0.0)
+    S[_S_MPL] = max(-x0 - gl, 0.0)
     I[_I_SV] = 1 if v0 > 0.0 else (-1 if v0 < 0.0 else 0)
     if region != 0:
         # A run that starts inside a flange: a contact in progress (incomplete), as in the engine.
         I[_I_UP] = 1 if region == 1 else 0
         I[_I_LO] = 1 if region == -1 else 0
         I[_I_OSIDE] = region
-        S[_S_OPEN_PEN] = max(region * x0 - 1.0, 0.0)
+        S[_S_OPEN_PEN] = max(region * x0 - (gu if region == 1 else gl), 0.0)
         S[_S_OVIN] = v0
     return S, I
 

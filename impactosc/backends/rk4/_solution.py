@@ -156,8 +156,9 @@ class _Trajectory:
         if o.zeta:
             a = a - 2.0 * o.zeta * v
         if o.exponent == 1.0:
-            a = a - np.where(x > 1.0, o.K * (x - 1.0), 0.0)
-            return a - np.where(x < -1.0, o.K * (x + 1.0) - self.jlo, 0.0)
+            gu, gl = o.gap_upper, o.gap_lower
+            a = a - np.where(x > gu, o.K * (x - gu), 0.0)
+            return a - np.where(x < -gl, o.K * (x + gl) - self.jlo, 0.0)
         return a - np.sign(x) * o.flange_force(x)
 
     def _locate(self, times):
@@ -180,8 +181,11 @@ class _Trajectory:
         j, h, s = self._locate(times)
         cum = self.qu if side == 1 else self.ql
         jump = 0.0 if side == 1 else self.jlo
-        pa = side * self.x[j] - 1.0
-        pb = side * self.x[j + 1] - 1.0
+        gap = self.osc.gap(side)
+        if gap == math.inf:  # no flange on that side: no impulse
+            return np.zeros(np.shape(times))
+        pa = side * self.x[j] - gap
+        pb = side * self.x[j + 1] - gap
         p = self.osc.exponent
         part = _impulse_np(pa, pa + s * (pb - pa), s * h, self.osc.K, jump, p)
         whole = _impulse_np(pa, pb, h, self.osc.K, jump, p)

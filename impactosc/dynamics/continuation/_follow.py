@@ -86,11 +86,11 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
             return nodes, found, 1, f"stopped after max_points = {max_points} points"
         u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
         result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
-        turn = None
+        turn = 1.0
         if isinstance(result, Corrected):
             new = _advance(problem, node, result, t, direction, extra)
             turn = float(np.dot(new.t, t))
-        if not isinstance(result, Corrected) or (turn is not None and turn < MAX_TURN and at_limit is None):
+        if not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None):
             why = result if not isinstance(result, Corrected) else (
                 f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, turn)))):.0f} degrees")
             h *= 0.5

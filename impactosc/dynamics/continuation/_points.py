@@ -20,7 +20,7 @@ Any other change of the event signature between two neighbouring points is a *bo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -57,8 +57,8 @@ class PointInfo:
     #: Per side (+1, -1): the smallest distance from that flange of a turning point that does not
     #: reach it, and the slowest entry (impact or contact start) into it; inf when there is none.
     #: Either near zero means a grazing is near (a contact about to appear or vanish).
-    approach: dict = None
-    slowest_entry: dict = None
+    approach: dict = field(default_factory=dict)
+    slowest_entry: dict = field(default_factory=dict)
 
     def nearest_grazing(self) -> float:
         """The smallest of the margins, approaches and entry speeds: how far the orbit is from a grazing."""
