@@ -153,7 +153,8 @@ print(boundary.summary().splitlines()[0])
 print(f"{len(boundary)} points in {time.perf_counter() - t0:.1f} s")
 
 # %% tags=["gallery-boundary"]
-diameters = np.linspace(lo, hi, 3 if QUICK else 8)
+covered = boundary.values("pack_diameter")
+diameters = np.linspace(covered.min(), covered.max(), 3 if QUICK else 8)  # within the traced part
 grid = [dy.quasi_static_critical_clearance(drive.replace(pack_diameter=d)) for d in diameters]
 fig, ax = plt.subplots(figsize=(7, 4))
 ax.plot(boundary.values("pack_diameter") * 1e3, boundary.values("clearance") * 1e6, "-",

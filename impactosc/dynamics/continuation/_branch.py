@@ -233,7 +233,8 @@ class Branch:
         ax : matplotlib.axes.Axes, optional
         y : {"x", "v", "max_x"}
             What to draw against the first parameter: the section state, or ``max X`` over
-            the orbit (``1 - upper_margin`` where the orbit is clear of the flange).
+            the orbit (the upper flange's gap minus ``upper_margin``: beyond the gap where the
+            orbit penetrates a spring flange, at the gap where it hits a rigid one).
         **style
             Passed to ``Axes.plot`` (e.g. ``color``).
         """
@@ -247,13 +248,13 @@ class Branch:
         stable = self.stable
         color = style.pop("color", "C0")
         for flag, ls in ((True, "-"), (False, "--")):
-            masked = np.where(stable == flag, yy, np.nan)
-            # join each run with its neighbour so the line has no gaps where stability changes
-            edge = np.zeros(len(p), bool)
-            edge[1:] |= (stable[1:] == flag) & (stable[:-1] != flag)
-            edge[:-1] |= (stable[:-1] == flag) & (stable[1:] != flag)
-            masked = np.where(edge, yy, masked)
-            ax.plot(p, masked, ls=ls, color=color, lw=1.4, **style)
+            # a point is drawn in the style of its own stability and of its neighbours', so each run
+            # reaches the next one and the line has no gaps where the stability changes
+            own = stable == flag
+            near = own.copy()
+            near[1:] |= own[:-1]
+            near[:-1] |= own[1:]
+            ax.plot(p, np.where(near, yy, np.nan), ls=ls, color=color, lw=1.4, **style)
         for i, s in enumerate(self.special):
             py = np.interp(s.parameter, p, yy) if s.index < 0 else self._special_ordinate(s, y)
             ax.plot([s.parameter], [py], "o", ms=5, mfc="white", mec="k", zorder=5)
@@ -272,8 +273,11 @@ class Branch:
             from .._common import oscillator_of
             from ._sensitivity import flange_gap
 
-            gap = flange_gap(oscillator_of(self.base), 1)
-            return np.array([gap - p.upper_margin if p.upper_margin >= 0 else gap for p in self.points])
+            osc = oscillator_of(self.base)
+            gap = flange_gap(osc, 1)
+            # a spring flange's margin is minus the penetration, a rigid one's minus the impact speed
+            return np.array([gap if (osc.rigid and p.upper_margin < 0) else gap - p.upper_margin
+                             for p in self.points])
         raise ValueError(f"y must be 'x', 'v' or 'max_x', got {y!r}")
 
     def _special_ordinate(self, s: SpecialPoint, y: str) -> float:
