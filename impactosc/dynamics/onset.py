@@ -569,13 +569,7 @@ def _transient_onset(base, parameter: str, bracket, *, tol, scan, follow, orbit,
     """The search of ``method="transient"`` (see :func:`contact_onset`)."""
     check_base(base)
     check_parameter(base, parameter)
-    try:
-        lo, hi = bracket
-    except (TypeError, ValueError):
-        raise TypeError(f"bracket must be a pair (lo, hi), got {bracket!r}") from None
-    lo, hi = _v.real("bracket[0]", lo), _v.real("bracket[1]", hi)
-    if not lo < hi:
-        raise ValueError(f"bracket must satisfy lo < hi, got ({lo!r}, {hi!r})")
+    lo, hi = _check_bracket(bracket)
     tol = (1e-6 * (hi - lo)) if tol is None else _v.positive("tol", tol)
     scan = _v.integer("scan", scan, minimum=0)
     transient_periods, record_periods = _periods(transient_periods, record_periods)
