@@ -62,8 +62,8 @@ class _ContactWatch(_Recorder):
         super().__init__("events", backend, evaluator)
         self.t_start = t_start
 
-    def event(self, t, kind, x, v, side, count=1):
-        super().event(t, kind, x, v, side, count)
+    def event(self, t, kind, x, v, side, count=1, direction=0):
+        super().event(t, kind, x, v, side, count, direction)
         if t >= self.t_start and kind in (CONTACT_START, IMPACT, CHATTER):
             raise _Touched
 

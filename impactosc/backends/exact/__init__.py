@@ -109,7 +109,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     Solution
         ``n_steps`` counts pieces: each is one closed-form evaluation.
     """
-    missing = [f for f in osc.unsupported() if f.startswith(("a power-law", "flanges at"))]
+    missing = [f for f in osc.unsupported() if f.startswith("a power-law")]
     if osc.zeta or osc.harmonics:
         resonant = near_resonance(osc)
         if resonant:
