@@ -74,9 +74,6 @@ def test_max_flange_force_of_a_power_law_flange(backend):
     assert sol.flange_force(t_peak) == pytest.approx(K * d**p, rel=1e-9)
 
 
-PEAK_PUSH_PENDING = pytest.mark.xfail(
-    strict=True, reason="the peak wall push must be streamed by the recorder and the compiled exact loop alike "
-    "(results/_solution.py _Recorder.piece and backends/exact/_loop.py, see the defects report for issue 20)")
 RIGID_PEAK_BACKENDS = [("exact", {}), ("exact", {"compiled": False}), ("scipy", {}), ("heyoka", {})]
 
 
@@ -98,7 +95,6 @@ def test_rigid_flange_force_while_the_mass_rests_on_the_wall(backend, options):
 
 
 
-@PEAK_PUSH_PENDING
 @pytest.mark.parametrize(("backend", "options"), RIGID_PEAK_BACKENDS)
 def test_rigid_max_flange_force_is_the_peak_wall_push(backend, options):
     # max_flange_force() was K * max_penetration = 0 for a rigid flange pushing on the wall.

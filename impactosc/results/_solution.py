@@ -133,6 +133,7 @@ class _Recorder:
             self.impulse[r] += q
             self.impulse_sq[r] += q2
             self.contact_time[r] += t1 - t0
+            self.max_force[r] = max(self.max_force[r], peak)
             if self._open is not None:
                 self._open[4] += q
                 self._open[3] = max(self._open[3], peak)

@@ -208,6 +208,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                     acc[A_IMP_UP + k] += q
                     acc[A_SQ_UP + k] += q2
                     acc[A_CT_UP + k] += t1 - t
+                    acc[A_PEN_UP + k] = max(acc[A_PEN_UP + k], peak)  # no penetration: the slot keeps the peak push
                     if is_open:
                         op[O_IMP] += q
                         op[O_PEN] = max(op[O_PEN], peak)  # a resting contact keeps its peak force there
@@ -388,6 +389,8 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     rec.impulse_sq = {1: float(acc[A_SQ_UP]), -1: float(acc[A_SQ_LO])}
     rec.contact_time = {1: float(acc[A_CT_UP]), -1: float(acc[A_CT_LO])}
     rec.max_pen = {1: float(acc[A_PEN_UP]), -1: float(acc[A_PEN_LO])}
+    if osc.rigid:  # a rigid flange has no penetration: its slots kept the peak wall push
+        rec.max_force, rec.max_pen = rec.max_pen, {1: 0.0, -1: 0.0}
     rec.forcing_work, rec.slip_path, rec.v_squared = float(acc[A_WORK]), float(acc[A_SLIP]), float(acc[A_VSQ])
     rec.impact_loss = float(acc[A_LOSS])
     # The recorder's tables are lists of rows; Solution takes any sequence of rows, and
