@@ -199,3 +199,11 @@ def test_heyoka_refuses_more_harmonics_than_it_compiles_quickly():
     start = time.perf_counter()
     assert simulate(many, 10.0, 0.5, 0.0, backend="exact", record="stats").status == 0
     assert time.perf_counter() - start < 30.0
+
+
+def test_exact_refuses_a_subnormal_forcing_amplitude():
+    # Found by hypothesis: F = 5e-324 made the exact backend's guard search fail (status -1); heyoka
+    # runs it. The exact backend now says so before the run.
+    with pytest.raises(ValueError, match="subnormal forcing amplitude"):
+        simulate(Oscillator(5e-324, 1.0, 0.0, 1.0), 10.0, 0.0, 0.0, backend="exact")
+    assert simulate(Oscillator(5e-324, 1.0, 0.0, 1.0), 10.0, 0.0, 0.0, backend="heyoka").status == 0
