@@ -78,19 +78,7 @@ def period_doubling(W: float, zeta: float, e: float, c: float, lo: float, hi: fl
         o = orbits(F, W, zeta, e, c)[which]
         return float(np.real(np.prod(o["multipliers"] + 1.0)))
 
-    glo, ghi = g(lo), g(hi)
-    if glo * ghi > 0:
-        raise ValueError("no period doubling in the interval")
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        gm = g(mid)
-        if gm * glo > 0:
-            lo, glo = mid, gm
-        else:
-            hi = mid
-        if hi - lo <= 1e-15 * max(1.0, abs(hi)):
-            break
-    return 0.5 * (lo + hi)
+    return _bisect(g, lo, hi)
 
 
 def grazing(W: float, zeta: float, e: float, c: float, lo: float, hi: float, which: int = 1) -> float:
@@ -100,14 +88,21 @@ def grazing(W: float, zeta: float, e: float, c: float, lo: float, hi: float, whi
         found = orbits(F, W, zeta, e, c)
         return found[which]["v"] if found else -math.inf
 
-    vlo, vhi = v(lo), v(hi)
-    if vlo * vhi > 0 or not (math.isfinite(vlo) and math.isfinite(vhi)):
-        raise ValueError("no grazing in the interval")
+    if not (math.isfinite(v(lo)) and math.isfinite(v(hi))):
+        raise ValueError("no single-impact orbit at an end of the interval")
+    return _bisect(v, lo, hi)
+
+
+def _bisect(g, lo: float, hi: float) -> float:
+    """A sign change of ``g`` in ``(lo, hi)`` by bisection to the last bits."""
+    glo, ghi = g(lo), g(hi)
+    if glo * ghi > 0:
+        raise ValueError("no sign change in the interval")
     for _ in range(200):
         mid = 0.5 * (lo + hi)
-        vm = v(mid)
-        if vm * vlo > 0:
-            lo, vlo = mid, vm
+        gm = g(mid)
+        if gm * glo > 0:
+            lo, glo = mid, gm
         else:
             hi = mid
         if hi - lo <= 1e-15 * max(1.0, abs(hi)):

@@ -14,7 +14,7 @@ def _with_exact(values, inner):
 
 oscillators = st.builds(
     io.Oscillator,
-    F=_with_exact([0.0, 0.5, 1.0], st.floats(0.0, 2.5)),
+    F=_with_exact([0.0, 0.5, 1.0], st.floats(0.0, 2.5, allow_subnormal=False)),  # exact refuses subnormal F
     Omega=_with_exact([0.0, 1.0], st.floats(0.0, 3.0)),
     beta=_with_exact([0.0, 0.1], st.floats(0.0, 0.6)),
     K=_with_exact([1.0, 24.0, 1e4], st.floats(0.0, 6.0).map(lambda e: 10.0**e)),

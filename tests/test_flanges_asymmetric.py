@@ -217,10 +217,8 @@ def test_no_flange_at_all_takes_no_flange_law():
         io.simulate(O(0.5, 1.1, 0.01, flange="rigid", gap_upper=0.7), 1.0, 0.8, 0.0, backend="scipy")
 
 
-def test_the_backends_without_asymmetric_flanges_say_so():
+def test_the_paper_flange_law_of_rk4_keeps_its_printed_positions():
     osc = O(0.5, 1.1, 0.01, 1e4, gap_upper=0.6)
-    with pytest.raises(ValueError, match="exact backend does not support flanges at gap_lower=1.0, gap_upper=0.6"):
-        io.simulate(osc, 1.0, 0.0, 0.0, backend="exact")
     with pytest.raises(ValueError, match="flange='paper' .* has its flanges at |X| = 1, got .*gap_upper=0.6"):
         io.simulate(osc, 1.0, 0.0, 0.0, backend="rk4", flange="paper")
 
@@ -258,3 +256,42 @@ def test_the_saltation_monodromy_of_an_orbit_on_one_flange_matches_finite_differ
     fd = np.column_stack([(strobe(orb.x + h, orb.v) - strobe(orb.x - h, orb.v)) / (2 * h),
                           (strobe(orb.x, orb.v + h) - strobe(orb.x, orb.v - h)) / (2 * h)])
     np.testing.assert_allclose(orb.monodromy, fd, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("osc, t_end, x0, v0", [case for case in _ASYMMETRIC if case[0].linear and case[0].K]
+                         + [(O(1.6, 0.4, 0.1, flange="rigid", gap_upper=0.5, gap_lower=2.0), 20.0, 0.5, 0.0),
+                            (O(0.8, 1.1, 0.01, 1e3, zeta=0.01, harmonics=[(0.1, 2.3, 0.2)], gap_upper=None,
+                               gap_lower=0.7), 40.0, 0.0, 0.0)])
+def test_the_exact_backend_agrees_with_heyoka_on_asymmetric_and_one_sided_members(osc, t_end, x0, v0, compiled):
+    a = io.simulate(osc, t_end, x0, v0)
+    b = io.simulate(osc, t_end, x0, v0, backend="exact", compiled=compiled)
+    assert a.status == b.status == 0
+    assert list(a.events.kind) == list(b.events.kind) and list(a.events.side) == list(b.events.side)
+    # Chatter on a one-sided wall: its accumulation time is conditioned like the impact speeds.
+    np.testing.assert_allclose(b.events.t, a.events.t, rtol=0, atol=1e-8 if osc.rigid else 1e-11)
+    for side in (1, -1):
+        assert b.flange_impulse(side) == pytest.approx(a.flange_impulse(side), rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy", "exact", "rk4"])
+def test_penetrations_and_chatter_are_measured_from_the_members_own_flanges(backend):
+    osc = O(0.5, 1.1, 0.01, 1e4, gap_lower=1.5, gap_upper=0.6)
+    sol = io.simulate(osc, 30.0, 0.0, 0.0, backend=backend)
+    rows = sol.impacts[sol.impacts.complete]
+    assert len(rows) > 2 and set(rows.side) == {1, -1}
+    # the deepest point of each contact is its reversal inside the flange, at 0.6 or -1.5
+    ev = sol.events
+    rtol = 1e-3 if backend == "rk4" else 1e-12
+    for row in rows:
+        inside = ev[(ev.kind == "reversal") & (ev.t > row.start) & (ev.t < row.end)]
+        assert len(inside) == 1
+        assert row.peak_penetration == pytest.approx(row.side * inside.x[0] - osc.gap(row.side), rel=rtol)
+    for side in (1, -1):
+        deepest = max(rows.peak_penetration[rows.side == side])
+        assert sol.max_penetration(side) == pytest.approx(deepest, rel=rtol)
+    if backend != "rk4":  # a chatter on a one-sided wall ends at rest on that wall
+        wall = O(2.0, 0.0, 0.1, flange="rigid", restitution=0.8, gap_lower=None, gap_upper=0.7)
+        ch = io.simulate(wall, 12.0, 0.0, 0.0, backend=backend)
+        chatter = ch.events[ch.events.kind == "chatter"]
+        assert len(chatter) == 1 and chatter.x[0] == 0.7 and ch.x_final == 0.7

@@ -74,9 +74,6 @@ def test_max_flange_force_of_a_power_law_flange(backend):
     assert sol.flange_force(t_peak) == pytest.approx(K * d**p, rel=1e-9)
 
 
-PEAK_PUSH_PENDING = pytest.mark.xfail(
-    strict=True, reason="the peak wall push must be streamed by the recorder and the compiled exact loop alike "
-    "(results/_solution.py _Recorder.piece and backends/exact/_loop.py, see the defects report for issue 20)")
 RIGID_PEAK_BACKENDS = [("exact", {}), ("exact", {"compiled": False}), ("scipy", {}), ("heyoka", {})]
 
 
@@ -98,7 +95,6 @@ def test_rigid_flange_force_while_the_mass_rests_on_the_wall(backend, options):
 
 
 
-@PEAK_PUSH_PENDING
 @pytest.mark.parametrize(("backend", "options"), RIGID_PEAK_BACKENDS)
 def test_rigid_max_flange_force_is_the_peak_wall_push(backend, options):
     # max_flange_force() was K * max_penetration = 0 for a rigid flange pushing on the wall.
@@ -203,3 +199,11 @@ def test_heyoka_refuses_more_harmonics_than_it_compiles_quickly():
     start = time.perf_counter()
     assert simulate(many, 10.0, 0.5, 0.0, backend="exact", record="stats").status == 0
     assert time.perf_counter() - start < 30.0
+
+
+def test_exact_refuses_a_subnormal_forcing_amplitude():
+    # Found by hypothesis: F = 5e-324 made the exact backend's guard search fail (status -1); heyoka
+    # runs it. The exact backend now says so before the run.
+    with pytest.raises(ValueError, match="subnormal forcing amplitude"):
+        simulate(Oscillator(5e-324, 1.0, 0.0, 1.0), 10.0, 0.0, 0.0, backend="exact")
+    assert simulate(Oscillator(5e-324, 1.0, 0.0, 1.0), 10.0, 0.0, 0.0, backend="heyoka").status == 0

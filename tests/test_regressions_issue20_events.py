@@ -158,3 +158,35 @@ def test_what_follows_the_initial_state_is_recorded_even_at_t0(backend):
     hit = io.simulate(O(0.0, 0.0, 0.0, flange="rigid", restitution=0.5), 1.0, 1.0, 2.0, backend=backend)
     assert hit.events.kind[0] == "impact" and hit.events.t[0] == 0.0 and hit.events.v[0] == 2.0
     assert hit.impacts[0].exit_velocity == -1.0
+
+
+# -- item 10: the slip direction on the event records --------------------------------------------
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_every_event_carries_the_direction_of_motion_after_it(backend):
+    # Stuck, released up by the forcing, turning at the flanges: each release's direction is
+    # the sign of f_net there, each reversal's the way the mass goes next.
+    osc = O(0.6, 0.3, 0.2, 1e4)
+    sol = io.simulate(osc, 60.0, 0.0, 0.0, backend=backend)
+    ev = sol.events
+    assert "direction" in ev.dtype.names and len(ev) > 4
+    for e in ev:
+        if e.kind in ("release", "reversal") and backend != "rk4":
+            assert e.direction == np.sign(osc.net_force(e.t, e.x)) != 0, e
+        elif e.kind == "reversal":  # rk4's naive sign(V): the sign V takes after the sample
+            assert e.direction in (-1, 1)
+        elif e.kind == "stick":
+            assert e.direction == 0
+        elif e.kind in ("contact_start", "contact_end"):
+            assert e.direction == np.sign(e.v) != 0
+    assert set(ev.kind) >= ({"release", "stick"} if backend != "rk4" else {"reversal"})
+
+
+@pytest.mark.parametrize("backend", RIGID_BACKENDS)
+def test_rigid_events_carry_their_direction(backend):
+    osc = O(2.0, 0.1, 0.1, 1.0, -1.0, flange="rigid", restitution=0.8, beta_static=0.15)
+    ev = io.simulate(osc, 80.0, 0.0, 0.0, backend=backend).events
+    impacts = ev[ev.kind == "impact"]
+    assert len(impacts) and np.all(impacts.direction == -impacts.side)  # bounced back off the wall
+    assert np.all(ev.direction[ev.kind == "chatter"] == 0)
+    ends = ev[ev.kind == "contact_end"]  # pulled off a wall: slides away from it
+    assert len(ends) and np.all(ends.direction == -ends.side)

@@ -85,6 +85,18 @@ def oscillator_of(base) -> Oscillator:
     return base if isinstance(check_base(base), Oscillator) else base.oscillator()
 
 
+def flange_clearance(osc: Oscillator, xs) -> float:
+    """Smallest distance of the positions ``xs`` from the flanges: ``min_side (gap(side) - max side X)``.
+
+    Negative by the deepest penetration when some ``X`` lies beyond a flange; ``inf`` when
+    there is no flange (each flange at its own distance, :meth:`Oscillator.gap`).
+    """
+    xs = np.asarray(xs, dtype=float)
+    if xs.size == 0:
+        return math.inf
+    return min(osc.gap(1) - float(np.max(xs)), osc.gap(-1) + float(np.min(xs)))
+
+
 def check_values(name: str, values) -> np.ndarray:
     """A 1-D array of finite, distinct parameter values (NaN, inf and duplicates refused)."""
     if isinstance(values, str | bytes) or np.ndim(values) != 1:

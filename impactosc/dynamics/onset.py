@@ -44,7 +44,15 @@ from ..backends._simulate import DEFAULT_MAX_EVENTS, simulate
 from ..engine._driver import CHATTER, CONTACT_START, IMPACT, drive
 from ..model._oscillator import Oscillator
 from ..results._solution import Solution, _Recorder
-from ._common import advanced, check_base, check_parameter, forcing_period, oscillator_of, with_parameter
+from ._common import (
+    advanced,
+    check_base,
+    check_parameter,
+    flange_clearance,
+    forcing_period,
+    oscillator_of,
+    with_parameter,
+)
 from .tangent import check_backend, check_start, piece_stepper
 
 __all__ = ["ContactOnset", "contact_margin", "contact_onset"]
@@ -62,8 +70,8 @@ class _ContactWatch(_Recorder):
         super().__init__("events", backend, evaluator)
         self.t_start = t_start
 
-    def event(self, t, kind, x, v, side, count=1):
-        super().event(t, kind, x, v, side, count)
+    def event(self, t, kind, x, v, side, count=1, direction=0):
+        super().event(t, kind, x, v, side, count, direction)
         if t >= self.t_start and kind in (CONTACT_START, IMPACT, CHATTER):
             raise _Touched
 
@@ -96,10 +104,7 @@ def _margin(osc, x0, v0, cycle0, transient_periods, record_periods, backend, opt
         raise RuntimeError(f"the run for the contact margin stopped (status {sol.status}): {sol.message}")
     ev = sol.events
     ev = ev[ev.t >= t_start]
-    xs = [abs(float(sol.samples.x[0])), abs(sol.x_final)]
-    if len(ev):
-        xs.append(float(np.max(np.abs(ev.x))))
-    margin = max(xs) - 1.0
+    margin = -flange_clearance(osc, [float(sol.samples.x[0]), sol.x_final, *map(float, ev.x)])
     if osc.rigid:
         hits = ev[(ev.kind == IMPACT) | (ev.kind == CHATTER) | (ev.kind == CONTACT_START)]
         if len(hits):
@@ -117,7 +122,7 @@ def _orbit_margin(osc, x0, v0, n, transient_periods, backend, options, guess: bo
         raise RuntimeError(f"no period-{n} orbit at {osc!r}: {orb.message}")
     sol = orb.solution
     ev = sol.events
-    margin = max(abs(orb.x), abs(sol.x_final), float(np.max(np.abs(ev.x))) if len(ev) else 0.0) - 1.0
+    margin = -flange_clearance(osc, [orb.x, sol.x_final, *map(float, ev.x)])
     if osc.rigid:
         hits = ev[(ev.kind == IMPACT) | (ev.kind == CHATTER) | (ev.kind == CONTACT_START)]
         if len(hits):
@@ -369,7 +374,7 @@ def _touches(orb) -> bool:
     ev = orb.events
     if len(ev) and np.any(np.isin(ev.kind, (CONTACT_START, IMPACT, CHATTER))):
         return True
-    return max(abs(orb.x), float(np.max(np.abs(ev.x))) if len(ev) else 0.0) >= 1.0
+    return flange_clearance(orb.oscillator, [orb.x, *map(float, ev.x)]) <= 0.0
 
 
 def _clear(point) -> float:
@@ -536,9 +541,7 @@ def _shadow_margin(shadow, parameter, p, z, n, backend, options):
         if "guard is crossed tangentially" in orb.message and "enter_" in orb.message:
             return 0.0, z  # the orbit touches a flange tangentially to rounding: the grazing itself
         raise RuntimeError(f"no orbit at {parameter} = {p!r}: {orb.message}")
-    ev = orb.events
-    extreme = max(abs(orb.x), float(np.max(np.abs(ev.x))) if len(ev) else 0.0)
-    return 1.0 - extreme, (orb.x, orb.v)
+    return flange_clearance(orb.oscillator, [orb.x, *map(float, orb.events.x)]), (orb.x, orb.v)
 
 
 def _polish(shadow, parameter, s, n, tol, backend, options):
@@ -569,13 +572,7 @@ def _transient_onset(base, parameter: str, bracket, *, tol, scan, follow, orbit,
     """The search of ``method="transient"`` (see :func:`contact_onset`)."""
     check_base(base)
     check_parameter(base, parameter)
-    try:
-        lo, hi = bracket
-    except (TypeError, ValueError):
-        raise TypeError(f"bracket must be a pair (lo, hi), got {bracket!r}") from None
-    lo, hi = _v.real("bracket[0]", lo), _v.real("bracket[1]", hi)
-    if not lo < hi:
-        raise ValueError(f"bracket must satisfy lo < hi, got ({lo!r}, {hi!r})")
+    lo, hi = _check_bracket(bracket)
     tol = (1e-6 * (hi - lo)) if tol is None else _v.positive("tol", tol)
     scan = _v.integer("scan", scan, minimum=0)
     transient_periods, record_periods = _periods(transient_periods, record_periods)

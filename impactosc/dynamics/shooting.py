@@ -179,8 +179,9 @@ class PeriodicOrbit:
             ev = self.events[self.events.kind == kind]
             if len(ev):
                 ax.plot(ev.x, ev.v, marker, ls="none", ms=5, label=kind)
-        for edge in (-1.0, 1.0):
-            ax.axvline(edge, color="0.6", lw=0.8, ls="--")
+        for edge in self.oscillator.flanges:
+            if math.isfinite(edge):
+                ax.axvline(edge, color="0.6", lw=0.8, ls="--")
         ax.set_xlabel("X = x/L")
         ax.set_ylabel("V = dX/dLambda")
         ax.legend(fontsize=8)
@@ -386,7 +387,7 @@ def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, 
         for _ in range(16):
             trial = z + lam * step
             if sec.rigid:
-                trial[0] = min(max(trial[0], -1.0), 1.0)  # a state beyond a rigid wall does not exist
+                trial[0] = min(max(trial[0], -sec.gap(-1)), sec.gap(1))  # no state lies beyond a rigid wall
             t_image, t_jac, t_rec = _map(sec, trial, span, backend, options)
             if t_image is not None and np.linalg.norm(t_image - trial) < rnorm:
                 accepted = True
@@ -407,8 +408,8 @@ def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, 
 
 def _map(sec: Oscillator, z, span: float, backend: str, options: dict):
     """``(P^n(z), M, recorder)``, or ``(None, None, message)`` when the run fails."""
-    if sec.rigid and abs(z[0]) > 1.0:
-        return None, None, f"X = {z[0]!r} lies beyond a rigid flange (|X| <= 1)"
+    if sec.rigid and not -sec.gap(-1) <= z[0] <= sec.gap(1):
+        return None, None, f"X = {z[0]!r} lies beyond a rigid flange (at {-sec.gap(-1)!r} and {sec.gap(1)!r})"
     try:
         sol, rec = tangent_run(sec, span, float(z[0]), float(z[1]), backend=backend, options=options)
     except ValueError as exc:  # a Newton trial that simulate would refuse (e.g. a speed that overflows)

@@ -177,8 +177,9 @@ def held_by_static_friction(osc: Oscillator, t: float, x: float) -> Saltation | 
     f = osc._net_force_scalar(t, x)
     tie = _rule.tie_tolerance(osc._p, float(t), float(x), f)
     pull = abs(f)
-    if osc.rigid and abs(x) >= 1.0:
-        pull = -math.copysign(1.0, x) * f  # the force away from the wall the mass rests on
+    side = 1 if x > 0.0 else -1
+    if osc.rigid and side * x >= osc.gap(side):
+        pull = -side * f  # the force away from the wall the mass rests on
     if not pull > osc.beta + tie:
         return None
     nan = float("nan")

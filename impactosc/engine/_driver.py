@@ -507,7 +507,7 @@ def _settle(osc: Oscillator, recorder, chatter, mode: Mode, guard: int, t: float
         if hook is not None:
             hook(t, mode_before, guard, mode, x_before, v_before, x, v, kind)
         if kind is not None:
-            recorder.event(t, kind, x, v_before if kind == IMPACT else v, side)
+            recorder.event(t, kind, x, v_before if kind == IMPACT else v, side, 1, s)
             recorded = True
             if chatter is not None:
                 if kind == IMPACT:

@@ -32,7 +32,8 @@ __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE"]
 
 RECORD_OPTIONS = ("full", "events", "stats")
 
-EVENT_DTYPE = np.dtype([("t", "f8"), ("kind", "U13"), ("x", "f8"), ("v", "f8"), ("side", "i1"), ("count", "i8")])
+EVENT_DTYPE = np.dtype([("t", "f8"), ("kind", "U13"), ("x", "f8"), ("v", "f8"), ("side", "i1"), ("count", "i8"),
+                        ("direction", "i1")])
 IMPACT_DTYPE = np.dtype(
     [
         ("start", "f8"),
@@ -120,7 +121,7 @@ class _Recorder:
         self.t0, self.x0, self.v0, self.mode0 = t, x, v, mode
         if mode.region != 0:
             # A run that starts inside a flange: a contact in progress, not an event.
-            self._open = [t, mode.region, v, mode.region * x - 1.0, 0.0, False]
+            self._open = [t, mode.region, v, mode.region * x - osc.gap(mode.region), 0.0, False]
         self.segment(t, x, v, mode)
 
     def piece(self, mode: Mode, t0: float, x0: float, t1: float, x1: float,
@@ -132,6 +133,7 @@ class _Recorder:
             self.impulse[r] += q
             self.impulse_sq[r] += q2
             self.contact_time[r] += t1 - t0
+            self.max_force[r] = max(self.max_force[r], peak)
             if self._open is not None:
                 self._open[4] += q
                 self._open[3] = max(self._open[3], peak)
@@ -140,7 +142,7 @@ class _Recorder:
             self.impulse_sq[r] += q2
             self.contact_time[r] += t1 - t0
             # Pieces are monotonic in X, so the deepest point of a piece is at an end.
-            pen = max(r * x0, r * x1) - 1.0
+            pen = max(r * x0, r * x1) - self.osc.gap(r)
             if pen > self.max_pen[r]:
                 self.max_pen[r] = pen
             op = self._open
@@ -155,11 +157,11 @@ class _Recorder:
         self.steps += steps
         self.pieces += 1
 
-    def event(self, t: float, kind: str, x: float, v: float, side: int, count: int = 1) -> None:
+    def event(self, t: float, kind: str, x: float, v: float, side: int, count: int = 1, direction: int = 0) -> None:
         self.counts[kind] += 1
         self.n_events += 1
         if self.keep_events:
-            self.events.append((t, kind, x, v, side, count))
+            self.events.append((t, kind, x, v, side, count, direction))
         if kind == CONTACT_START:
             self.entries[side] += 1
             self._open = [t, side, v, 0.0, 0.0, True]
@@ -193,7 +195,7 @@ class _Recorder:
         self.impact_loss += loss
         self.forcing_work += self.osc._forcing_scalar(jump.t0) * (x - side)
         if t >= jump.t_inf:
-            self.event(jump.t_inf, CHATTER, float(side), 0.0, side, jump.impacts)
+            self.event(jump.t_inf, CHATTER, jump.wall, 0.0, side, jump.impacts, 0)
         return x, v, motion
 
     def _close(self, t: float, v: float) -> None:
@@ -237,6 +239,12 @@ class Solution(SolutionFramesMixin):
         Requested end time; ``t_final`` is the time actually reached.
     t_final, x_final, v_final : float
         Final time and state.
+    final_mode : tuple
+        The hybrid mode at ``t_final``, an ``impactosc.Mode(region, motion, armed)``:
+        ``region`` -1/0/+1 (in the lower flange, free, in the upper flange; with a rigid
+        flange +-1 means at rest against that wall), ``motion`` -1/0/+1 (slipping down,
+        stuck, slipping up) and ``armed`` (False just after a release, until the
+        acceleration changes sign).
     status : int
         0: ``t_end`` was reached; 1: a limit set by the caller was reached,
         ``max_events`` or the heyoka backend's ``max_wall_time`` (results up to
@@ -306,11 +314,18 @@ class Solution(SolutionFramesMixin):
 
     @property
     def events(self) -> np.recarray:
-        """One record per event: fields ``t, kind, x, v, side, count``.
+        """One record per event: fields ``t, kind, x, v, side, count, direction``.
 
-        ``side`` is +1/-1 at a flange, 0 otherwise. ``count`` is 1, except for a ``chatter``
-        event: the number of impacts of the sequence followed one by one before the jump to
-        their accumulation point (the infinitely many remaining ones are not events).
+        ``x, v`` are the state at the event, after it, except at an ``impact``, whose ``v``
+        is the velocity *before* the impact (the one after it is ``-e v``: see
+        ``impacts``). ``side`` is +1/-1 at a flange, 0 otherwise. ``count`` is 1, except
+        for a ``chatter`` event: the number of impacts of the sequence followed one by one
+        before the jump to their accumulation point (the infinitely many remaining ones are
+        not events). ``direction`` is the motion after the event: +1 slipping up, -1 slipping
+        down, 0 at rest (after a ``stick``, a ``chatter`` or a rest on a rigid wall); after a
+        ``release`` or a ``reversal`` it is the direction the mass slips in. The initial
+        state is not an event: a run that starts stuck, inside a flange or at rest against a
+        rigid wall records none at ``t = 0``; what follows it does (an impact at ``t = 0``).
         """
         self._need("events", "Solution.events")
         return _kept(self._events, "the event table")

@@ -82,7 +82,7 @@ import math
 import numpy as np
 
 from ..._util.jit import njit
-from ...model._rule import P_BETA, P_K, P_RIGID, P_TERMS, P_ZETA
+from ...model._rule import P_BETA, P_K, P_RIGID, P_TERMS, P_ZETA, wall
 from ._piece import (
     H_BETA,
     H_DIR,
@@ -182,8 +182,9 @@ def mode_constants(p, r, s):
     K, beta, z = p[P_K], p[P_BETA], p[P_ZETA]
     w2 = 1.0 + K if r != 0 and p[P_RIGID] == 0.0 else 1.0
     w = math.sqrt(w2)
-    cY = (-r - beta * s) if r != 0 else -beta * s  # as in _exact_piece.mode_constants
-    fm[F_REF], fm[F_K], fm[F_BETA], fm[F_ZETA], fm[F_W2], fm[F_W] = float(r), K, beta, z, w2, w
+    ref = wall(p, r) if r != 0 else 0.0  # the flange of region r, at r gap
+    cY = (-ref - beta * s) if r != 0 else -beta * s  # as in _exact_piece.mode_constants
+    fm[F_REF], fm[F_K], fm[F_BETA], fm[F_ZETA], fm[F_W2], fm[F_W] = ref, K, beta, z, w2, w
     fm[F_CY], fm[F_YC] = cY, cY / w2
     fm[F_WD] = fm[F_MU] = fm[F_LO] = fm[F_HI] = 0.0
     if z < w:

@@ -133,14 +133,14 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
             mcs[r + 1, s + 1] = family_constants(p, r, s) if family else mode_constants(p, r, s)
     acc = np.zeros(N_ACC)
     cnt = np.zeros(12, dtype=np.int64)
-    events = np.empty((64 if keep_events else 1, 6))
+    events = np.empty((64 if keep_events else 1, 7))
     contacts = np.empty((16 if keep_events else 1, 9))
     segments = np.empty((64 if keep_segments else 1, 8))
     samples = np.empty((max(stops.shape[0], 1), 5))
     tails = np.empty((4 if keep_segments else 1, J_SIZE))
     n_ev = n_co = n_seg = n_sa = n_ta = 0
     next_stop = stops[0] if stops.shape[0] > 0 else math.inf
-    row6, row8, row9 = np.empty(6), np.empty(8), np.empty(9)
+    row6, row8, row9 = np.empty(7), np.empty(8), np.empty(9)  # row6: an event row (7 fields)
     op = np.zeros(6)
     is_open = False
     jump = np.empty(J_SIZE)
@@ -208,6 +208,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                     acc[A_IMP_UP + k] += q
                     acc[A_SQ_UP + k] += q2
                     acc[A_CT_UP + k] += t1 - t
+                    acc[A_PEN_UP + k] = max(acc[A_PEN_UP + k], peak)  # no penetration: the slot keeps the peak push
                     if is_open:
                         op[O_IMP] += q
                         op[O_PEN] = max(op[O_PEN], peak)  # a resting contact keeps its peak force there
@@ -260,6 +261,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                 cnt[C_EVENTS] += 1
                 if keep_events:
                     row6[0], row6[1], row6[2], row6[3], row6[4], row6[5] = t1, kind, x1, v_event, side, 1.0
+                    row6[6] = s  # the direction of motion after the event
                     events = _append(events, n_ev, row6)
                     n_ev += 1
                 if kind == CONTACT_START:
@@ -321,7 +323,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
             cnt[C_EVENTS] += 1
             if keep_events:
                 row6[0], row6[1], row6[2], row6[3] = t_inf, CHATTER, jump[J_WALL], 0.0
-                row6[4], row6[5] = side, jump[J_IMPACTS]
+                row6[4], row6[5], row6[6] = side, jump[J_IMPACTS], 0.0
                 events = _append(events, n_ev, row6)
                 n_ev += 1
             t1, x1, v1 = t_inf, jump[J_WALL], 0.0
@@ -387,6 +389,8 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     rec.impulse_sq = {1: float(acc[A_SQ_UP]), -1: float(acc[A_SQ_LO])}
     rec.contact_time = {1: float(acc[A_CT_UP]), -1: float(acc[A_CT_LO])}
     rec.max_pen = {1: float(acc[A_PEN_UP]), -1: float(acc[A_PEN_LO])}
+    if osc.rigid:  # a rigid flange has no penetration: its slots kept the peak wall push
+        rec.max_force, rec.max_pen = rec.max_pen, {1: 0.0, -1: 0.0}
     rec.forcing_work, rec.slip_path, rec.v_squared = float(acc[A_WORK]), float(acc[A_SLIP]), float(acc[A_VSQ])
     rec.impact_loss = float(acc[A_LOSS])
     # The recorder's tables are lists of rows; Solution takes any sequence of rows, and

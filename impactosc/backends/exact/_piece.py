@@ -30,10 +30,13 @@ from ...model._rule import (
     NO_GUARD,
     P_BETA,
     P_K,
+    P_LOWER,
     P_RIGID,
     P_TERMS,
+    P_UPPER,
     SLIP_END,
     gate,
+    wall,
 )
 
 __all__ = ["mode_constants", "advance_slip", "advance_piece", "evaluate_slip", "evaluate_piece"]
@@ -74,9 +77,11 @@ def mode_constants(p, r, s):
     F, Om, phase = p[P_TERMS], p[P_TERMS + 1], p[P_TERMS + 2]
     w2 = 1.0 + K if r != 0 else 1.0
     w = math.sqrt(w2)
-    # c - w^2 r with c = K r - beta s simplifies exactly to -r - beta s: no K-sized cancellation.
-    cY = (-r - beta * s) if r != 0 else -beta * s
-    mc[M_REF], mc[M_W], mc[M_W2], mc[M_CY], mc[M_YP] = float(r), w, w2, cY, cY / w2
+    # Y = X - ref about the flange of region r, at ref = r gap (1 by default); c - w^2 ref with
+    # c = K ref - beta s simplifies exactly to -ref - beta s: no K-sized cancellation.
+    ref = wall(p, r) if r != 0 else 0.0
+    cY = (-ref - beta * s) if r != 0 else -beta * s
+    mc[M_REF], mc[M_W], mc[M_W2], mc[M_CY], mc[M_YP] = ref, w, w2, cY, cY / w2
     mc[M_F], mc[M_OM], mc[M_SIG], mc[M_DLT] = F, Om, w + Om, w - Om
     mc[M_K], mc[M_BETA], mc[M_PHASE] = K, beta, phase
     return mc
@@ -437,8 +442,9 @@ def _advance_piece(p, ps, r, s, armed, t_end, h_end, h_position, state_at, int_y
     for fg in (ENTER_UPPER, ENTER_LOWER, LEAVE):
         if not gate(rigid, r, s, armed, fg):
             continue
-        # h = scale (Y - level): X - 1 and X + 1 when free (Y = X), r X - 1 = r Y in a flange.
-        level = 0.0 if fg == LEAVE else (1.0 if fg == ENTER_UPPER else -1.0)
+        # h = scale (Y - level): X - gap_upper and X + gap_lower when free (Y = X), r X - gap =
+        # r Y in a flange. An absent flange is at inf: its guard never changes sign.
+        level = 0.0 if fg == LEAVE else (p[P_UPPER] if fg == ENTER_UPPER else -p[P_LOWER])
         scale = float(GUARD_DIRECTIONS[fg] * (r if fg == LEAVE else 1))
         h0 = scale * (y0 - level)
         h1 = scale * (y1 - level)

@@ -176,7 +176,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     keep_events = record != "stats"
     tr = _trajectory_buffers(record == "full", n_steps, every, x0, v0, I)
     cap = _EVENT_BUFFER if keep_events else 0
-    ev = np.empty((cap, 5))
+    ev = np.empty((cap, 6))
     imp = np.empty((cap, 9))
 
     rec = _Recorder(record, "rk4", None)

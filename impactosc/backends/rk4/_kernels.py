@@ -350,6 +350,7 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
     e_v = np.empty(3)
     e_kind = np.empty(3, dtype=np.int64)
     e_side = np.empty(3, dtype=np.int64)
+    e_dir = np.empty(3, dtype=np.int64)
 
     while k < n_steps:
         if keep_events and (nev + 3 > ev_cap or nimp + 2 > imp_cap):
@@ -385,6 +386,7 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
             e_v[ne] = v + th * (v1 - v)
             e_kind[ne] = _CONTACT_START if gb > 0.0 else _CONTACT_END
             e_side[ne] = 1
+            e_dir[ne] = 1 if e_v[ne] > 0.0 else (-1 if e_v[ne] < 0.0 else 0)
             ne += 1
         ga = -x - gl
         gb = -x1 - gl
@@ -395,6 +397,7 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
             e_v[ne] = v + th * (v1 - v)
             e_kind[ne] = _CONTACT_START if gb > 0.0 else _CONTACT_END
             e_side[ne] = -1
+            e_dir[ne] = 1 if e_v[ne] > 0.0 else (-1 if e_v[ne] < 0.0 else 0)
             ne += 1
         if v1 != 0.0:
             s_new = 1 if v1 > 0.0 else -1
@@ -410,6 +413,7 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
                 e_v[ne] = 0.0
                 e_kind[ne] = _REVERSAL
                 e_side[ne] = 0
+                e_dir[ne] = s_new
                 ne += 1
             sv = s_new
         elif v != 0.0:
@@ -472,6 +476,8 @@ def _kernel(F, Om, phase, harm, beta, damp, K, p, jlo, dt, t_end, n_steps, S, I,
                 ev[nev, 2] = e_x[j]
                 ev[nev, 3] = e_v[j]
                 ev[nev, 4] = side
+                # The direction of motion after the event: the new one at a reversal, else that of V.
+                ev[nev, 5] = e_dir[j]
                 nev += 1
             n_events += 1
             if n_events >= max_events:

@@ -35,8 +35,8 @@ def _trajectory_buffers(keep: bool, n_steps: int, every: int, x0: float, v0: flo
 def _drain_buffers(rec: _Recorder, impacts: list[tuple], ev, imp, I) -> None:
     """Hand the events of one kernel call to ``rec`` and its closed contacts to ``impacts``,
     then empty the buffers so that the next call can refill them."""
-    for t, kind, x, v, side in ev[:I[_k._I_NEV]]:
-        rec.event(float(t), EVENT_KINDS[int(kind)], float(x), float(v), int(side))
+    for t, kind, x, v, side, direction in ev[:I[_k._I_NEV]]:
+        rec.event(float(t), EVENT_KINDS[int(kind)], float(x), float(v), int(side), 1, int(direction))
     impacts.extend((r[0], r[1], int(r[2]), r[3], r[4], r[5], r[6], r[7], bool(r[8])) for r in imp[:I[_k._I_NIMP]])
     I[_k._I_NEV] = 0
     I[_k._I_NIMP] = 0

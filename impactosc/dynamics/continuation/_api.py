@@ -231,13 +231,15 @@ def _switch(pd: SpecialPoint, parameter, limits, settings: Settings, max_points:
     lo, hi = check_limits(parameter, limits, pd.parameter)
     double = MapProblem(problem.base, problem.names, 2 * problem.n, problem.section_phase, problem.backend,
                         problem.options, problem.scales)
+    if problem.orbit_events:
+        double.limit_events(2 * problem.orbit_events)
     M = node.corrected.ev.monodromy
     w, vecs = np.linalg.eig(M)
     e = np.real(vecs[:, int(np.argmin(np.abs(w + 1.0)))])
     t0 = np.concatenate([e / np.linalg.norm(e), [0.0]])
     for h in (settings.step, 0.5 * settings.step, 0.25 * settings.step, 0.1 * settings.step):
         result = correct(double, node.u + h * t0, t0, settings, max_distance=2.0 * h)
-        if isinstance(result, Corrected) and np.linalg.norm(result.ev.residual) >= 0.0:
+        if isinstance(result, Corrected):
             z, params = unscaled(double, result.u)
             once = problem.evaluate(z, params)
             if once.ok and np.linalg.norm(once.residual) > 10.0 * settings.tol:  # a genuine period-2 orbit
