@@ -232,3 +232,15 @@ def test_grazing_of_a_nearer_or_only_flange(gap_lower):
     for p in br.points[: graze[0].index + 1]:
         A = dy.den_hartog_amplitude(p.parameter, OMEGA, BETA)
         assert abs(p.lower_margin - ((gap_lower or math.inf) - A)) < 1e-9 or p.lower_margin == math.inf
+
+
+def test_multipliers_that_jump_across_one_past_a_grazing_are_no_fold():
+    # Den Hartog's case at Omega = 0.8, K = 1e4: just past the grazing the multipliers jump across +1
+    # (the nearest ends 1e-4 from it at the located point) while F goes on increasing. A fold test
+    # alone called it a fold; it is a nonsmooth point of the map, labelled a border.
+    orb = dy.periodic_orbit(io.Oscillator(0.3, 0.8, 0.05, 1e4), guess=(0.8, 0.0), backend="exact")
+    br = continuation(orb, "F", (0.3, 0.5), direction="forward")
+    assert br.status == 0 and not br.find("fold") and not br.find("branch_point")
+    jump = [s for s in br.find("border") if "jump across +1" in s.message]
+    assert jump and jump[0].parameter - br.find("grazing")[0].parameter < 1e-6
+    assert np.all(np.diff(br.values()) > 0.0)  # the branch never turns back

@@ -15,10 +15,11 @@ import numpy as np
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 
-#: The kinds of special point a branch labels (each with AUTO's abbreviation: LP, PD, NS, GR, ST, BP, EP).
-SPECIAL_KINDS = ("fold", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border", "end")
-LABELS = {"fold": "LP", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "GR", "stick_onset": "ST",
-          "border": "BP", "end": "EP"}
+#: The kinds of special point a branch labels (AUTO's abbreviations LP, BP, PD, NS; GR grazing, ST stick onset, SC
+#: another change of the event signature).
+SPECIAL_KINDS = ("fold", "branch_point", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border")
+LABELS = {"fold": "LP", "branch_point": "BP", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "GR",
+          "stick_onset": "ST", "border": "SC"}
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,7 +25,8 @@ __all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
 #: Cosine of the largest turn of the tangent accepted in one step (about 35 degrees).
 MAX_TURN = 0.82
 #: Order of special points found between the same two points (for their labels).
-LABEL_ORDER = {"grazing": 0, "stick_onset": 1, "border": 2, "fold": 3, "period_doubling": 4, "neimark_sacker": 5}
+LABEL_ORDER = {"grazing": 0, "stick_onset": 1, "border": 2, "fold": 3, "branch_point": 4, "period_doubling": 5,
+               "neimark_sacker": 6}
 #: A margin this close to zero (nondimensional) at a failed step: the branch ends at the grazing.
 GRAZING_NEAR = 1e-3
 
@@ -223,15 +224,43 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
             out[-1].after = b.info.signature
     if same:
         for kind in SMOOTH_TESTS:
-            if kind not in settings.locate:
+            label = kind
+            if kind == "fold" and a.t[2] * b.t[2] > 0.0:
+                # a multiplier through +1 while the parameter keeps its direction: no fold but a branch
+                # point (in the symmetric guide, typically a symmetry-breaking pitchfork)
+                label = "branch_point"
+            if label not in settings.locate:
                 continue
             va, vb = _test_value(a.info, kind), _test_value(b.info, kind)
             if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
-                out.append(_illinois(problem, a, t, h, kind, kind, va, vb, settings, index))
+                out.append(_smooth_or_jump(_illinois(problem, a, t, h, kind, label, va, vb, settings, index), kind))
     elif (not any(f.kind in ("grazing", "stick_onset") for f in out)
           and _signature_kind(a.info.signature, b.info.signature) in settings.locate):
         out.append(_bisect_signature(problem, a, b, t, h, settings, index))
     return out
+
+
+#: A located fold / PD / NS point whose critical multiplier is farther than this from +1 / -1 / the unit
+#: circle is a jump of the multipliers across it (a nonsmooth point), not a smooth crossing.
+SMOOTH_CROSSING = 1e-6
+
+
+def _smooth_or_jump(found: Found, test: str) -> Found:
+    """``found`` relabelled a border when its multipliers jump across the critical value instead of crossing it."""
+    mus = found.node.info.multipliers
+    if test == "neimark_sacker":
+        miss = float(np.min(np.abs(np.abs(mus) - 1.0)))
+    else:
+        miss = float(np.min(np.abs(mus - (1.0 if test == "fold" else -1.0))))
+    p = abs(found.node.u[2])
+    if miss <= SMOOTH_CROSSING or found.accuracy > 1e-9 * max(1.0, p):
+        return found  # a smooth crossing, or located too coarsely (locate_tol) to tell a jump from it
+    critical = {"fold": "+1", "period_doubling": "-1"}.get(test, "the unit circle")
+    found.kind = "border"
+    found.message = (f"the multipliers jump across {critical} "
+                     f"here (the nearest is {miss:.2g} from it at the located point) though the event signature "
+                     "stays the same: the map is not smooth here (e.g. just past a grazing), no smooth bifurcation")
+    return found
 
 
 def _illinois(problem, a: Node, t, h: float, name: str, kind: str, va: float, vb: float, settings, index) -> Found:
@@ -315,6 +344,9 @@ def _describe(kind: str, test: str, node: Node, before, after) -> str:
     mus = node.info.multipliers
     if kind == "fold":
         return "a multiplier passes through +1 (the branch turns back in the parameter)"
+    if kind == "branch_point":
+        return ("a multiplier passes through +1 while the branch goes on in the same direction: another branch "
+                "crosses here (a symmetric orbit's symmetry-breaking pitchfork, typically)")
     if kind == "period_doubling":
         return "a multiplier passes through -1 (a period-2n branch bifurcates)"
     if kind == "neimark_sacker":
