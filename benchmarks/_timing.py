@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import statistics
 import time
@@ -41,3 +42,11 @@ def timed(fn, repeats: int, budget: float, timeout: float):
             signal.signal(signal.SIGALRM, old)
     timed.best = min(times)
     return statistics.median(times), len(times), out
+
+
+def load_average() -> str:
+    """The 1-, 5- and 15-minute load averages, for the tables ("n/a" where the system has none)."""
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "n/a"

@@ -17,13 +17,12 @@ curve), from the measured time and the number of points, with the points actuall
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _timing import timed  # noqa: E402
+from _timing import load_average, timed  # noqa: E402
 
 import impactosc as io  # noqa: E402
 from impactosc import dynamics as dy  # noqa: E402
@@ -34,13 +33,6 @@ CONTACT = io.Oscillator(F=0.2, Omega=1.1, beta=0.01, K=1e4)
 #: The Den Hartog case of issue 19: the contact-free orbit at 0.8 Fc, from the issue's guess.
 OMEGA, BETA = 1.5, 0.1
 DH_GUESS = (-0.7891869048001374, 0.16283153617831878)
-
-
-def _load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "n/a"
 
 
 def branch_row(repeats: int, quick: bool):
@@ -85,7 +77,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rows = [branch_row(args.repeats, args.quick), curve_row(args.repeats, args.quick)]
     lines = ["# Continuation speed (issue 19)", "",
-             f"Load average at the start: {_load()}; medians of {args.repeats} runs after a warm-up run.", "",
+             f"Load average at the start: {load_average()}; medians of {args.repeats} runs after a warm-up run.", "",
              "| case | points | seconds | per 200 / 100 points | target | met |",
              "| --- | --- | --- | --- | --- | --- |"]
     for r in rows:

@@ -24,20 +24,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _timing import timed  # noqa: E402
+from _timing import load_average, timed  # noqa: E402
 
 import impactosc as io  # noqa: E402
 from impactosc import dynamics as dy  # noqa: E402
 
 CONTACT = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
 DEN_HARTOG = io.Oscillator(F=0.3, Omega=0.8, beta=0.05, K=1e4)
-
-
-def _load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "n/a"
 
 
 def bifurcation_rows(quick: bool, workers: int):
@@ -141,10 +134,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     out = args.out or Path(__file__).resolve().parent / "results" / ("quick" if args.quick else "")
     out.mkdir(parents=True, exist_ok=True)
-    load0 = _load()
+    load0 = load_average()
     rows = orbit_rows(args.quick) + bifurcation_rows(args.quick, args.workers) + other_rows(args.quick)
     lines = [f"# Dynamics toolkit speed (issue 11){' (quick)' if args.quick else ''}", "",
-             f"Machine: {os.cpu_count()} cores; load average at start {load0}, at end {_load()}.", "",
+             f"Machine: {os.cpu_count()} cores; load average at start {load0}, at end {load_average()}.", "",
              "| case | wall time | notes |", "| --- | ---: | --- |"]
     lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
     text = "\n".join(lines) + "\n"

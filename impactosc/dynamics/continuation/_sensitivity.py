@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from ...engine._driver import AT_WALL, IMPACT, N_GUARDS, guard_gradient, guard_value
+from ..flow import transition_matrix, variational_transition
 from ..saltation import vector_field
 from ..tangent import TangentRecorder
 
@@ -134,9 +135,8 @@ class SensitivityRecorder(TangentRecorder):
             return
         osc = self.osc
         if r == 0 or osc.rigid or osc.exponent == 1.0:
-            w2 = 1.0 + osc.K if (r != 0 and not osc.rigid) else 1.0
-            phi = _linear_phi(w2, osc.zeta, t1 - t0)
-            Phi = np.array([[phi[0], phi[1]], [phi[2], phi[3]]])
+            w2 = piece_constants(osc, r, s)[0]
+            Phi = np.reshape(transition_matrix(osc, mode, t0, x0, v0, t1), (2, 2))  # the tangent's own matrix
             sigma = Phi @ self.sigma
             quadrature = []
             for j, stencil in enumerate(self.stencils):
@@ -298,12 +298,6 @@ def _particular_column(stencil: Stencil, r: int, s: int, t0: float, t1: float, P
     return ends[1] - Phi @ ends[0]
 
 
-def _linear_phi(w2: float, zeta: float, tau: float):
-    from ..flow import linear_transition
-
-    return linear_transition(w2, zeta, tau)
-
-
 def _power_law_sensitivity(rec: SensitivityRecorder, mode, t0, x0, v0, t1):
     """``sigma(t1)`` over a power-law flange piece: the piece, its Jacobian and ``sigma`` integrated together."""
     from scipy.integrate import solve_ivp
@@ -324,9 +318,8 @@ def _power_law_sensitivity(rec: SensitivityRecorder, mode, t0, x0, v0, t1):
     if sol.status != 0:
         raise FloatingPointError(f"the parameter sensitivity of the power-law piece [{t0!r}, {t1!r}] could not be "
                                  f"integrated: {sol.message}")
-    # the homogeneous part: the piece's transition matrix, already multiplied into rec.jacobian
-    from ..flow import variational_transition
-
+    # the homogeneous part: the piece's transition matrix (integrated again: the tangent recorder keeps
+    # only the product; a power-law piece is the one place this costs a second integration)
     a, b, c, d = variational_transition(osc, mode, t0, x0, v0, t1)
     forced = sol.y[2:, -1].reshape(k, 2).T
     return np.array([[a, b], [c, d]]) @ rec.sigma + forced
