@@ -50,3 +50,26 @@ def test_the_energy_identity_holds_on_rigid_walls_at_any_gap(push, beta, e, gap_
         assert sol.status == 0, sol.message
         assert abs(bal["residual"]) <= 1e-8 * bal["scale"], (backend, bal)
         assert bal["forcing_work"] == pytest.approx(reference["forcing_work"], rel=1e-8, abs=1e-9), backend
+
+
+# -- flange gaps the backends cannot resolve ----------------------------------------------------
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("name", ["gap_lower", "gap_upper"])
+@pytest.mark.parametrize("flange", ["spring", "rigid"])
+def test_a_gap_below_what_the_backends_resolve_is_refused_by_name(backend, name, flange):
+    # heyoka failed (status -1, "This is a bug: please report it") and scipy missed the impact
+    # of a rigid wall at a gap of 1e-100; both run from rest at X = 0.
+    osc = io.Oscillator(0.5, 1.1, 0.01, 1e4, flange=flange, **{name: 1e-100})
+    with pytest.raises(ValueError, match=rf"{name}=1e-100 is below 1e-12"):
+        io.simulate(osc, 5.0, 0.0, 0.0, backend=backend)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_the_smallest_gap_allowed_runs_alike_on_every_backend(backend):
+    # A rigid wall at 1e-12 from rest, pushed by F cos(1.1 t): the impacts the three backends
+    # find agree (53 in five time units).
+    osc = io.Oscillator(0.5, 1.1, 0.01, flange="rigid", gap_upper=1e-12)
+    sol = io.simulate(osc, 5.0, 0.0, 0.0, backend=backend)
+    reference = io.simulate(osc, 5.0, 0.0, 0.0, backend="exact")
+    assert sol.status == 0 and sol.counts == reference.counts and sol.counts["impact"] > 10
