@@ -3,7 +3,7 @@
 ``Oscillator(..., gap_lower=a, gap_upper=b)`` puts the lower flange at ``X = -a`` and the
 upper one at ``X = +b`` (default 1 and 1); ``None`` or ``inf`` leaves a flange out. The
 switching rule reads them from the parameter vector (``p[P_LOWER]``, ``p[P_UPPER]``), every
-backend from there. Checked: the symmetric default keeps its numbers bit for bit, closed forms
+backend from there. Checked: the symmetric default keeps its numbers, closed forms
 of the free flight to the nearer flange and of a one-sided rigid stop, agreement between
 backends, the tape drive's SI fields, and refused input.
 """
@@ -22,7 +22,9 @@ SCIPY_TIGHT = {"rtol": 1e-12, "atol": 1e-14}
 
 # -- the symmetric default is unchanged -------------------------------------------------------
 # First event times and the final X, computed before the flange positions became parameters
-# (commit 97cfdcc): the default member must reproduce them bit for bit on every backend.
+# (commit 97cfdcc): the default member must reproduce them on every backend, to a tolerance the
+# numerics justify rather than bit for bit (another CPU's numpy picks other SIMD kernels and
+# rounds the forcing's cosines differently: 1-2 ulp on an EPYC with AVX-512).
 _BEFORE = {
     ("eq3", "exact"): ([1.9171595882400596, 4.3635750876330235, 4.378979151989707, 4.394387075711999,
                         6.218669337545475, 6.234332096103799], 0.6547943311428854),
@@ -52,15 +54,31 @@ _MEMBERS = {
 }
 
 
+#: How far a machine's rounding may move the stored numbers, relative (times: of max(1, t)).
+#: exact, heyoka and rk4 compute to machine precision: exact and heyoka, two independent
+#: computations, differ by at most 5.3e-15 in these event times and 3.6e-13 in the final X,
+#: so another CPU's rounding moves one backend by less than 1e-11. scipy (DOP853 at its
+#: default rtol 1e-10) chooses its steps from error estimates that the rounding moves: a step
+#: accepted on one CPU and rejected on another moves the result by up to its tolerance, here
+#: grown over a few contacts (it sits 1.6e-12 from exact). A change in the physics (a flange at
+#: another place, a mode read wrongly) moves them by 1e-3 or more.
+_MACHINE_TOL = {"exact": 1e-11, "heyoka": 1e-11, "rk4": 1e-11, "scipy": 1e-9}
+
+
 @pytest.mark.parametrize("name, backend", sorted(_BEFORE))
-def test_the_symmetric_default_keeps_its_results_bit_for_bit(name, backend):
+def test_the_symmetric_default_keeps_its_results(name, backend):
     osc, x0 = _MEMBERS[name]
     assert osc.symmetric and (osc.gap_lower, osc.gap_upper) == (1.0, 1.0)
     times, x_final = _BEFORE[name, backend]
-    for member in (osc, O(**{**_fields(osc), "gap_lower": 1.0, "gap_upper": 1.0})):
-        sol = io.simulate(member, 30.0, x0, 0.0, backend=backend)
-        assert [float(t) for t in sol.events.t[:6]] == times
-        assert sol.x_final == x_final
+    tol = _MACHINE_TOL[backend]
+    default = io.simulate(osc, 30.0, x0, 0.0, backend=backend)
+    assert default.events.t[:6] == pytest.approx(times, rel=tol, abs=tol)
+    assert default.x_final == pytest.approx(x_final, rel=tol, abs=tol)
+    # The gaps given explicitly are the same member: on one machine, the same run bit for bit.
+    explicit = io.simulate(O(**{**_fields(osc), "gap_lower": 1.0, "gap_upper": 1.0}), 30.0, x0, 0.0,
+                           backend=backend)
+    np.testing.assert_array_equal(explicit.events.t, default.events.t)
+    assert explicit.x_final == default.x_final
 
 
 def _fields(osc):

@@ -10,8 +10,8 @@ from ..model._oscillator import Oscillator
 from ..results._solution import RECORD_OPTIONS, Solution
 from ._registry import get_backend
 
-__all__ = ["simulate", "check_magnitudes", "check_cost", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE", "MAX_ZETA",
-           "MAX_OVERDAMPED_SPAN_OF", "MAX_ZETA_OF", "MAX_HEYOKA_TERMS"]
+__all__ = ["simulate", "check_magnitudes", "check_cost", "check_gaps", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE",
+           "MAX_ZETA", "MAX_OVERDAMPED_SPAN_OF", "MAX_ZETA_OF", "MAX_HEYOKA_TERMS", "MIN_GAP"]
 
 DEFAULT_MAX_EVENTS = 10_000_000
 
@@ -39,6 +39,14 @@ MAX_ZETA_OF = {"exact": 1e3, "heyoka": 1e12}
 #: integrator for: its compile time grows faster than linearly (measured 8 s for 30 terms,
 #: 35 s for 60, over 2 minutes for 200), once per process and number of terms.
 MAX_HEYOKA_TERMS = 40
+#: Smallest distance from the rest position to a flange (``gap_lower``, ``gap_upper``, in units of
+#: the clearance ``L``) the backends resolve. From rest the mass reaches a flange at distance ``g``
+#: after about ``sqrt(2 g / a)`` under a push ``a``; heyoka's root finder stops locating that first
+#: contact when it comes within about 1e-12 of the start of a step (measured: status -1 from
+#: ``g = 1e-25`` at ``a = 0.5``; its polynomial root isolation ran out of iterations at ``g = 1e-100``),
+#: and scipy missed the impact on a rigid wall at ``g = 1e-100``. 1e-12 keeps a margin of 1e6 in
+#: ``g / a`` over those; it is 1e-12 of the clearance (5e-17 m in a 50 micrometre guide).
+MIN_GAP = 1e-12
 
 
 def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *,
@@ -86,7 +94,9 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     TypeError, ValueError
         For a bad argument or option; the message names it. Also when ``x0``, ``v0``,
         ``F * t_end`` or ``K`` are so large that the run's integrals could overflow double
-        precision (see :func:`impactosc.simulate.check_magnitudes`), and when the run would
+        precision (see :func:`impactosc.simulate.check_magnitudes`), when a flange is closer
+        to the rest position than the backends resolve (``gap_lower`` or ``gap_upper`` below
+        ``MIN_GAP = 1e-12``), and when the run would
         cost minutes that another backend or option avoids: a heavily overdamped run on
         a backend that steps at its fast decay rate, or too many harmonics for heyoka's
         compiler (``check_cost`` in ``impactosc.backends._simulate``).
@@ -111,9 +121,11 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
 
 
 def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> None:
-    """Refuse a run whose statistics could overflow double precision, naming the culprit.
+    """Refuse a run whose magnitudes the backends cannot resolve or hold, naming the culprit.
 
-    The mechanical energy ``E = V^2/2 + X^2/2 + K (|X|-1)+^2 / 2`` grows at most as
+    The small end first: a flange closer to the rest position than :data:`MIN_GAP`
+    (:func:`check_gaps`). Then the large end, the statistics that could overflow: the
+    mechanical energy ``E = V^2/2 + X^2/2 + K (|X|-1)+^2 / 2`` grows at most as
     ``d sqrt(2E)/dt <= F`` (friction only dissipates), so ``R = sqrt(2 E0) + F t_end``
     bounds ``|V|`` and ``sqrt(K) (|X|-1)+`` over the run, and ``K R^2 t_end`` bounds the
     integral of the squared flange force, the largest statistic. It must stay below
@@ -122,8 +134,10 @@ def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> Non
     Raises
     ------
     ValueError
-        Naming whichever of ``x0``, ``v0``, ``F``/``t_end`` or ``K`` dominates the bound.
+        Naming ``gap_lower`` or ``gap_upper`` below :data:`MIN_GAP`, or whichever of ``x0``,
+        ``v0``, ``F``/``t_end`` or ``K`` dominates the bound.
     """
+    check_gaps(osc)
     def log10(a: float) -> float:
         return math.log10(a) if a > 0.0 else -math.inf
 
@@ -147,6 +161,22 @@ def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> Non
                      f"x0={x0!r}, v0={v0!r}, F={osc.F!r}, K={osc.K!r} and t_end={t_end!r} the integral of "
                      f"the squared flange force could reach 1e{log_q2:.0f}, beyond {MAX_MAGNITUDE:g} "
                      "(K R^2 t_end with R = sqrt(2 E0) + F t_end, see impactosc.simulate.check_magnitudes)")
+
+
+def check_gaps(osc: Oscillator) -> None:
+    """Refuse a flange closer to the rest position than the backends resolve (:data:`MIN_GAP`).
+
+    Raises
+    ------
+    ValueError
+        Naming ``gap_lower`` or ``gap_upper``, its value and the rule.
+    """
+    for name in ("gap_lower", "gap_upper"):
+        gap = getattr(osc, name)
+        if gap < MIN_GAP:
+            raise ValueError(f"{name}={gap!r} is below {MIN_GAP:g}, the smallest flange distance (in units of the "
+                             "clearance L) the backends resolve: the first contact from rest would come within "
+                             f"rounding of the start of a step; use {name} >= {MIN_GAP:g}")
 
 
 #: scipy's implicit methods: their steps follow the slow motion of a stiff (overdamped) run.

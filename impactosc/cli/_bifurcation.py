@@ -10,13 +10,14 @@ from ._common import (
     add_backend_options,
     add_model_options,
     backend_options,
+    check_dataset_output,
     check_output_dir,
-    check_output_file,
     check_plot_output,
     model_from_args,
     nonnegative_int,
     plot_title,
     positive_int,
+    write_dataset,
 )
 
 
@@ -43,7 +44,8 @@ def add_parser(sub) -> None:
     s.add_argument("--v0", type=float, default=0.0, help="initial V (default 0)")
     add_backend_options(p, dt=False)
     o = p.add_argument_group("output")
-    o.add_argument("--out", metavar="FILE.nc", help="write the xarray Dataset as netCDF (scipy engine)")
+    o.add_argument("--out", metavar="FILE.nc|FILE.csv",
+                   help="write the xarray Dataset: netCDF (.nc, scipy engine) or CSV (.csv, one row per point)")
     o.add_argument("--plot", metavar="PNG", help="the diagram: section points X against the parameter")
     o.add_argument("--store", metavar="DIR", help="resumable per-value store (rerun to continue)")
     o.add_argument("--serial", action="store_true", help="run in this process instead of a process pool")
@@ -70,7 +72,7 @@ def run(args) -> int:
     if not lo < hi:
         raise ValueError(f"--range must satisfy LO < HI, got {lo:g} {hi:g}")
     if args.out:
-        check_output_file("--out", args.out)
+        check_dataset_output("--out", args.out)
     check_plot_output("--plot", args.plot)
     if args.store:
         check_output_dir("--store", args.store)
@@ -98,8 +100,8 @@ def run(args) -> int:
             print(f"  {label:>11} {value:12.6g} {int(status[d, i]):6d} {distinct_points(row):6d} {lo_x} {hi_x}")
     print("  (points: distinct section points among the recorded periods; 1 is a period-1 orbit)")
     if args.out:
-        ds.to_netcdf(args.out, engine="scipy")
-        print(f"dataset written to {args.out}")
+        kind = write_dataset(ds, args.out)
+        print(f"dataset written to {args.out} ({kind})")
     if args.plot:
         _plot(ds, base, args.plot)
         print(f"plot written to {args.plot}")

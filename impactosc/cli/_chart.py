@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import time
 
-from ._common import add_model_options, check_output_file, check_plot_output, parse_grid_values, plot_title
+from ._common import (
+    add_model_options,
+    check_dataset_output,
+    check_parameter_option,
+    check_plot_output,
+    parse_grid_values,
+    plot_title,
+    write_dataset,
+)
 from ._onset import add_onset_options, base_for, onset_kwargs
 
 
@@ -22,7 +30,8 @@ def add_parser(sub) -> None:
     p.add_argument("--grid", action="append", required=True, metavar="FIELD=V1,V2,...",
                    help="a grid parameter and its values; give exactly two (the first is the y axis)")
     o = p.add_argument_group("output")
-    o.add_argument("--out", metavar="FILE.nc", help="write the xarray Dataset as netCDF (scipy engine)")
+    o.add_argument("--out", metavar="FILE.nc|FILE.csv",
+                   help="write the xarray Dataset: netCDF (.nc, scipy engine) or CSV (.csv, one row per point)")
     o.add_argument("--plot", metavar="PNG", help="filled contours of the critical value over the grid")
     o.add_argument("--serial", action="store_true", help="run in this process instead of a process pool")
     o.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -49,8 +58,10 @@ def run(args) -> int:
 
     base = base_for(args)
     grid = _grid(args.grid)
+    for key in grid:
+        check_parameter_option("--grid", base, key)
     if args.out:
-        check_output_file("--out", args.out)
+        check_dataset_output("--out", args.out)
     check_plot_output("--plot", args.plot)
     t = time.perf_counter()
     ds = onset_chart(base, args.param, tuple(args.bracket), grid, executor="serial" if args.serial else None,
@@ -68,8 +79,8 @@ def run(args) -> int:
         for j in range(a2.size):
             print(f"  {a1[i]:14.6g} {a2[j]:14.6g} {crit[i, j]:22.12g} {int(status[i, j]):6d}")
     if args.out:
-        ds.to_netcdf(args.out, engine="scipy")
-        print(f"dataset written to {args.out}")
+        kind = write_dataset(ds, args.out)
+        print(f"dataset written to {args.out} ({kind})")
     if args.plot:
         _plot(ds, base, args.plot)
         print(f"plot written to {args.plot}")

@@ -10,6 +10,8 @@ subcommand and :func:`model_from_args` builds the :class:`~impactosc.Oscillator`
 from __future__ import annotations
 
 import argparse
+import math
+import numbers
 import os
 import tempfile
 from pathlib import Path
@@ -25,8 +27,15 @@ DRIVE_OPTIONS = {
     "friction": ("friction", float, "friction coefficient mu [-]"),
     "stiffness-ratio": ("stiffness_ratio", float, "flange/tape stiffness ratio K [-]"),
     "bending": ("bending", str, "bending reading of eq. 4: in-plane or out-of-plane"),
+    "guide-offset": ("guide_offset", float, "offset of the tape's rest position from the guide centre, towards "
+                                            "the upper flange [m] (default 0)"),
+    "flange-sides": ("flange_sides", str, "flanges of the guide: both (default), upper or lower"),
 }
+#: Choices of the string-valued drive options.
+DRIVE_CHOICES = {"bending": ("in-plane", "out-of-plane"), "flange-sides": ("both", "upper", "lower")}
 OSC_OPTIONS = ("F", "Omega", "beta", "K", "phase")
+#: Oscillator options beyond the eq. 3 parameters (the flanges' distances from the rest position).
+OSC_GAP_OPTIONS = ("gap_lower", "gap_upper")
 
 #: Family options of both kinds of model: option -> (Oscillator field, TapeDrive field).
 FAMILY_OPTIONS = {
@@ -79,6 +88,16 @@ def _triple(names: str, integer_first: bool = False):
     return parse
 
 
+def gap(text: str) -> float:
+    """An argparse type: a flange distance (a number), or ``none`` for an absent flange (``inf``, as stored)."""
+    if text.strip().lower() in ("none", "inf"):
+        return math.inf
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or 'none' (no such flange), got {text!r}") from None
+
+
 def _probe_writable(option: str, path: str, directory: Path) -> None:
     try:
         with tempfile.TemporaryFile(dir=directory):
@@ -114,18 +133,69 @@ def check_output_dir(option: str, path: str) -> None:
 
 
 def check_plot_output(option: str, path: str | None) -> None:
-    """Before any computing: matplotlib is importable and ``path`` writable (if a figure is asked for)."""
+    """Before any computing: matplotlib is importable, ``path`` names a format it writes and is writable.
+
+    The format is the file name's extension (``.png``, ``.pdf``, ``.svg`` ...), as
+    ``Figure.savefig`` reads it; a name without one is refused (matplotlib would write
+    ``path.png``, not ``path``).
+    """
     if path:
         from .._util.optional import require_matplotlib
 
         require_matplotlib()
+        from matplotlib.backend_bases import FigureCanvasBase
+
         check_output_file(option, path)
+        formats = sorted(FigureCanvasBase.get_supported_filetypes())
+        suffix = Path(path).suffix.lower().lstrip(".")
+        if suffix not in formats:
+            got = f"the extension .{suffix}" if suffix else "no extension"
+            raise ValueError(f"{option} {path}: {got}; the figure's format is its extension, one of "
+                             f"{', '.join('.' + f for f in formats)}")
+
+
+#: Extensions of ``--out`` and the format written: netCDF (scipy engine) or CSV (one row per point).
+DATASET_FORMATS = {".nc": "netcdf", ".nc4": "netcdf", ".cdf": "netcdf", ".netcdf": "netcdf", ".csv": "csv"}
+
+
+def check_dataset_output(option: str, path: str | None) -> None:
+    """Before any computing: ``path`` ends in ``.nc`` (netCDF) or ``.csv`` and can be written."""
+    if path:
+        check_output_file(option, path)
+        suffix = Path(path).suffix.lower()
+        if suffix not in DATASET_FORMATS:
+            got = f"the extension {suffix}" if suffix else "no extension"
+            raise ValueError(f"{option} {path}: {got}; write netCDF (.nc) or CSV (.csv)")
+
+
+def write_dataset(ds, path: str) -> str:
+    """Write the xarray Dataset ``ds`` in the format of ``path``'s extension; returns a word for it.
+
+    netCDF with the scipy engine (every attribute kept), or CSV: one row per point of the
+    Dataset's dimensions (``Dataset.to_dataframe``), preceded by ``#`` lines with the
+    Dataset's attributes and each column's units (read it back with
+    ``pandas.read_csv(path, comment="#")``).
+    """
+    if DATASET_FORMATS[Path(path).suffix.lower()] == "netcdf":
+        ds.to_netcdf(path, engine="scipy")
+        return "netCDF"
+    frame = ds.to_dataframe().reset_index()
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        for key, value in ds.attrs.items():
+            fh.write(f"# {key}: {value}\n")
+        for name in frame.columns:
+            attrs = ds[name].attrs if name in ds.variables else {}
+            if attrs.get("units") or attrs.get("long_name"):
+                units = f" [{attrs['units']}]" if attrs.get("units") else ""
+                fh.write(f"# column {name}: {attrs.get('long_name', name)}{units}\n")
+        frame.to_csv(fh, index=False)
+    return "CSV"
 
 
 def add_drive_options(group) -> None:
     """The TapeDrive fields of :data:`DRIVE_OPTIONS` as ``--speed --tension ...``."""
     for opt, (_, typ, text) in DRIVE_OPTIONS.items():
-        group.add_argument(f"--{opt}", type=typ, help=text)
+        group.add_argument(f"--{opt}", type=typ, choices=DRIVE_CHOICES.get(opt), help=text)
 
 
 def drive_fields(args) -> dict:
@@ -142,6 +212,10 @@ def add_model_options(parser) -> None:
     g.add_argument("--beta-static", type=float, help="static friction level (>= beta; default: beta)")
     g.add_argument("--harmonic", action="append", type=_triple("F,Omega[,phase]"), metavar="F,OMEGA[,PHASE]",
                    help="a further forcing harmonic F cos(Omega t + phase); repeat for more")
+    g.add_argument("--gap-lower", type=gap, metavar="GAP",
+                   help="distance from X = 0 to the lower flange, at X = -GAP (default 1); none: no lower flange")
+    g.add_argument("--gap-upper", type=gap, metavar="GAP",
+                   help="distance from X = 0 to the upper flange, at X = +GAP (default 1); none: no upper flange")
     d = parser.add_argument_group("tape drive (SI units, defaults from the paper)")
     add_drive_options(d)
     d.add_argument("--static-friction", type=float, help="static friction coefficient mu_s (>= mu; default mu)")
@@ -159,12 +233,17 @@ def add_model_options(parser) -> None:
 def model_kind(args) -> str:
     """``"oscillator"`` or ``"drive"`` from the options given (a drive, the paper's, when neither)."""
     osc_given = [k for k in (*OSC_OPTIONS, "beta_static", "harmonic") if getattr(args, k) is not None]
+    gaps_given = [k for k in OSC_GAP_OPTIONS if getattr(args, k) is not None]
     drive_given = list(drive_fields(args)) + [k for k in ("static_friction", "runout_harmonic")
                                               if getattr(args, k) is not None]
-    if osc_given and drive_given:
+    if (osc_given or gaps_given) and drive_given:
         raise ValueError("give either oscillator parameters (--F --Omega --beta --K --phase --beta-static "
-                         "--harmonic) or tape-drive options (--speed --tension ... --static-friction "
-                         "--runout-harmonic), not both")
+                         "--harmonic --gap-lower --gap-upper) or tape-drive options (--speed --tension ... "
+                         "--guide-offset --flange-sides --static-friction --runout-harmonic), not both")
+    if gaps_given and not osc_given:
+        raise ValueError(f"{', '.join('--' + k.replace('_', '-') for k in gaps_given)}: flange distances of an "
+                         "oscillator (give --F --Omega --beta ...); a tape drive places its flanges with "
+                         "--clearance, --guide-offset and --flange-sides")
     return "oscillator" if osc_given else "drive"
 
 
@@ -172,7 +251,10 @@ def model_from_args(args, *, free: tuple[tuple[str, float], ...] = ()):
     """The :class:`~impactosc.Oscillator` or :class:`~impactosc.TapeDrive` the options describe.
 
     ``free``: ``(name, value)`` of oscillator parameters that may be missing (a parameter a
-    study varies anyway), filled with ``value``.
+    study varies anyway), filled with ``value``. A command that varies a parameter
+    (``args.param``, as ``bifurcation``, ``onset``, ``chart`` and ``continue`` do) gets it
+    checked here: it must be a real-valued parameter of the model
+    (:func:`numeric_parameters`), not a structural field such as ``flange``.
     """
     import impactosc as io
 
@@ -183,20 +265,60 @@ def model_from_args(args, *, free: tuple[tuple[str, float], ...] = ()):
         given = {k: getattr(args, k) for k in OSC_OPTIONS if getattr(args, k) is not None}
         for name, value in free:
             given.setdefault(name, value)
-        missing = [k for k in ("F", "Omega", "beta", "K") if k not in given]
+        gaps = {k: getattr(args, k) for k in OSC_GAP_OPTIONS if getattr(args, k) is not None}
+        # K is the stiffness of a spring flange: a rigid flange, or none at all, goes without it.
+        no_flange = all(math.isinf(gaps.get(k, 1.0)) for k in OSC_GAP_OPTIONS)
+        required = ("F", "Omega", "beta") if family.get("flange") == "rigid" or no_flange else ("F", "Omega",
+                                                                                             "beta", "K")
+        missing = [k for k in required if k not in given]
         if missing:
-            raise ValueError(f"oscillator mode needs --F --Omega --beta --K; missing: {', '.join(missing)}")
+            raise ValueError(f"oscillator mode needs {' '.join('--' + k for k in required)}"
+                             f"{' (a spring flange needs its stiffness --K)' if 'K' in missing else ''}; "
+                             f"missing: {', '.join(missing)}")
         if args.beta_static is not None:
             family["beta_static"] = args.beta_static
         if args.harmonic:
             family["harmonics"] = tuple(args.harmonic)
-        return io.Oscillator(**given, **family)
-    fields = drive_fields(args)
-    if args.static_friction is not None:
-        fields["static_friction"] = args.static_friction
-    if args.runout_harmonic:
-        fields["runout_harmonics"] = tuple(args.runout_harmonic)
-    return io.TapeDrive(**fields, **family)
+        model: io.Oscillator | io.TapeDrive = io.Oscillator(**given, **family, **gaps)
+    else:
+        fields = drive_fields(args)
+        if args.static_friction is not None:
+            fields["static_friction"] = args.static_friction
+        if args.runout_harmonic:
+            fields["runout_harmonics"] = tuple(args.runout_harmonic)
+        model = io.TapeDrive(**fields, **family)
+    if isinstance(getattr(args, "param", None), str):
+        check_parameter_option("--param", model, args.param)
+    return model
+
+
+def numeric_parameters(model) -> tuple[str, ...]:
+    """The parameters of ``model`` a command may vary: those of ``parameter_names`` with a real value.
+
+    Structural fields (``flange``, ``flange_sides``, ``bending``, the harmonics) select a
+    member of the family; they are options of their own, not a number to vary or grid.
+    """
+    from ..dynamics import parameter_names
+
+    def real(name: str) -> bool:
+        value = getattr(model, name)
+        # None: a static friction level equal to the kinetic one (beta_static, static_friction).
+        return value is None or isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+    return tuple(name for name in parameter_names(model) if real(name))
+
+
+def check_parameter_option(option: str, model, name: str) -> str:
+    """``name`` (given with ``option``) must be one of :func:`numeric_parameters` of ``model``."""
+    names = numeric_parameters(model)
+    if name not in names:
+        structural = hasattr(model, name) and not isinstance(getattr(model, name), numbers.Real)
+        flag = {"harmonics": "--harmonic", "runout_harmonics": "--runout-harmonic"}.get(
+            name, "--" + name.replace("_", "-"))
+        why = (f"{name!r} is not a number but chooses a member of the family: set it with {flag} and vary a "
+               "number" if structural else f"got {name!r}")
+        raise ValueError(f"{option} must be one of {', '.join(names)} for a {type(model).__name__}; {why}")
+    return name
 
 
 def add_backend_options(parser, *, dt: bool = True) -> None:

@@ -8,13 +8,14 @@ from typing import Any
 from ._common import (
     add_drive_options,
     backend_options,
+    check_dataset_output,
     check_output_dir,
-    check_output_file,
     check_plot_output,
     drive_fields,
     nonnegative_int,
     pandas_display,
     parse_grid_values,
+    write_dataset,
 )
 
 
@@ -34,7 +35,8 @@ def add_parser(sub) -> None:
     sw.add_argument("--backend", default="heyoka", help="heyoka (default), scipy, exact or rk4")
     sw.add_argument("--tol", type=float, help="heyoka tolerance")
     sw.add_argument("--dt", type=float, help="rk4 step")
-    sw.add_argument("--out", metavar="FILE.nc", help="write the xarray Dataset as netCDF (scipy engine)")
+    sw.add_argument("--out", metavar="FILE.nc|FILE.csv",
+                   help="write the xarray Dataset: netCDF (.nc, scipy engine) or CSV (.csv, one row per point)")
     sw.add_argument("--store", metavar="DIR", help="resumable per-point store (rerun to continue or extend)")
     sw.add_argument("--plot", metavar="PNG", help="mean flange force vs the first swept field, a line per value of "
                                                   "the others")
@@ -94,7 +96,7 @@ def run(args) -> int:
     base = io.TapeDrive(**base_fields)
     # Fail before the sweep runs, not after it.
     if args.out:
-        check_output_file("--out", args.out)
+        check_dataset_output("--out", args.out)
     check_plot_output("--plot", args.plot)
     if args.store:
         check_output_dir("--store", args.store)
@@ -113,8 +115,8 @@ def run(args) -> int:
     if n > args.rows:
         print(f"... {n - args.rows} more rows (--rows, or --out FILE.nc for all of them)")
     if args.out:
-        ds.to_netcdf(args.out, engine="scipy")
-        print(f"dataset written to {args.out}")
+        kind = write_dataset(ds, args.out)
+        print(f"dataset written to {args.out} ({kind})")
     if args.plot:
         _plot_sweep(ds, list(grid), args.plot)
         print(f"plot written to {args.plot}")

@@ -193,7 +193,8 @@ class _Recorder:
         self.impulse[side] += impulse
         self.slip_path += path
         self.impact_loss += loss
-        self.forcing_work += self.osc._forcing_scalar(jump.t0) * (x - side)
+        # The tail starts and ends on the wall (at jump.wall = side * gap, not at +-1).
+        self.forcing_work += self.osc._forcing_scalar(jump.t0) * (x - jump.wall)
         if t >= jump.t_inf:
             self.event(jump.t_inf, CHATTER, jump.wall, 0.0, side, jump.impacts, 0)
         return x, v, motion
