@@ -153,6 +153,10 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
         if isinstance(parameter, tuple | list):
             from ._boundary import boundary
 
+            if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
+                for name, pair in limits.items():
+                    check_study_parameter(start.context[0].base, name, _limits_pair(name, pair))
+
             with _progress(progress, f"boundary in {', '.join(map(str, parameter))}") as on_point:
                 settings = dataclasses.replace(settings, on_point=on_point)
                 return _adopt(boundary(start, tuple(parameter), limits, settings, backend, options),
