@@ -130,7 +130,9 @@ def test_continue_follows_the_grazing_in_two_parameters(capsys, tmp_path):
     out = capsys.readouterr().out
     assert "GR1" in out and "boundary of GR1 (grazing) in (F, Omega)" in out and "boundary written" in out
     assert png.stat().st_size > 10_000
-    with xr.open_dataset(nc, engine="scipy") as ds:
+    with xr.open_dataset(nc, engine="scipy") as ds:  # --out keeps the branch, the boundary goes beside it
+        assert ds.attrs["parameters"] == "F" and "GR1 grazing" in ds.attrs["special"]
+    with xr.open_dataset(tmp_path / "boundary_boundary.nc", engine="scipy") as ds:
         assert ds.attrs["parameters"] == "F, Omega" and ds.F.size > 10
         assert ds.Omega.values.min() == pytest.approx(0.7) and ds.Omega.values.max() == pytest.approx(0.9)
         for F, W in zip(ds.F.values, ds.Omega.values, strict=True):  # every point on Den Hartog's grazing curve

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from ._common import (
     add_model_options,
@@ -28,7 +29,8 @@ def add_parser(sub) -> None:
                                    "and --special KIND, the first special point of that kind is then followed in "
                                    "the two parameters. Example: impactosc continue --F 0.3 --Omega 0.8 --beta 0.05 "
                                    "--K 1e4 --param F --limits 0.3 0.5 --guess 0.8 0 --boundary Omega 0.7 0.9 "
-                                   "--special grazing --out branch.nc --plot branch.png")
+                                   "--special grazing --out branch.nc --plot branch.png (the boundary goes to "
+                                   "branch_boundary.nc, or --boundary-out)")
     add_model_options(p)
     c = p.add_argument_group("continuation")
     c.add_argument("--param", required=True, help="the free parameter (an oscillator's F, Omega ...; a drive's "
@@ -56,8 +58,10 @@ def add_parser(sub) -> None:
     b.add_argument("--special", choices=BOUNDARY_KINDS,
                    help="the kind of special point whose first occurrence on the branch is followed")
     o = p.add_argument_group("output")
-    o.add_argument("--out", metavar="FILE.nc", help="write the branch (the boundary with --boundary) as netCDF, one "
-                                                    "row per point (Branch.to_xarray)")
+    o.add_argument("--out", metavar="FILE.nc", help="write the branch as netCDF with its model, one row per point "
+                                                    "(Branch.save; impactosc.dynamics.Branch.load reads it back)")
+    o.add_argument("--boundary-out", metavar="FILE.nc",
+                   help="with --boundary: write the boundary there (default: FILE_boundary.nc beside --out)")
     o.add_argument("--plot", metavar="PNG", help="the branch, stable solid and unstable dashed, special points "
                                                  "labelled (and the boundary beside it)")
     p.set_defaults(handler=run)
@@ -88,6 +92,7 @@ def run(args) -> int:
     from ..dynamics import parameter_names, periodic_orbit
     from ..dynamics.continuation import continuation
 
+    args.param = args.param.replace("-", "_")
     lo, hi = args.limits
     if not lo < hi:
         raise ValueError(f"--limits must satisfy LO < HI, got {lo:g} {hi:g}")
@@ -97,8 +102,9 @@ def run(args) -> int:
     for option, name in (("--param", args.param), ("--boundary", None if boundary is None else boundary[0])):
         if name is not None and name not in names:
             raise ValueError(f"{option} must be one of {', '.join(names)}, got {name!r}")
-    if args.out:
-        check_output_file("--out", args.out)
+    outputs = _outputs(args, boundary)
+    for option, path in outputs.items():
+        check_output_file(option, path)
     check_plot_output("--plot", args.plot)
     backend = args.backend or ("exact" if _exact(base) else "heyoka")
     t = time.perf_counter()
@@ -113,7 +119,8 @@ def run(args) -> int:
     if orbit.status != 0:
         print(f"no period-{args.periods} orbit {origin}: {orbit.message}")
         return 1
-    branch = continuation(orbit, args.param, (lo, hi), base=base, backend=backend, direction=args.direction,
+    # no backend given: continuation picks one that runs every member of the range (heyoka past exponent 1)
+    branch = continuation(orbit, args.param, (lo, hi), base=base, backend=args.backend, direction=args.direction,
                           step=args.step, min_step=args.min_step, max_step=args.max_step, max_points=args.max_points)
     wall = time.perf_counter() - t
     print(f"continuation of {plot_title(base)}")
@@ -132,13 +139,32 @@ def run(args) -> int:
               f"{time.perf_counter() - t:.2f} s wall")
         print(curve.summary())
         result = curve
-    if args.out:
-        result.to_xarray().to_netcdf(args.out, engine="scipy")
-        print(f"{'boundary' if curve is not None else 'branch'} written to {args.out}")
+    if "--out" in outputs:
+        branch.save(outputs["--out"])
+        print(f"branch written to {outputs['--out']}")
+    if curve is not None and "--boundary-out" in outputs:
+        curve.save(outputs["--boundary-out"])
+        print(f"boundary written to {outputs['--boundary-out']}")
     if args.plot:
         _plot(branch, curve, base, args.plot)
         print(f"plot written to {args.plot}")
     return 0 if result.status in (0, 2) else 1
+
+
+def _outputs(args, boundary) -> dict:
+    """``{option: path}`` of the netCDF files to write: the branch, and the boundary beside it."""
+    out = {}
+    if args.out:
+        out["--out"] = args.out
+    if args.boundary_out and boundary is None:
+        raise ValueError("--boundary-out needs --boundary NAME LO HI (there is no boundary to write)")
+    if boundary is not None and (args.boundary_out or args.out):
+        out["--boundary-out"] = args.boundary_out or str(Path(args.out).with_name(Path(args.out).stem
+                                                                                   + "_boundary.nc"))
+    for option, path in out.items():
+        if Path(path).suffix.lower() not in (".nc", ".nc4", ".netcdf"):
+            raise ValueError(f"{option} {path}: the file is netCDF, so its name must end in .nc")
+    return out
 
 
 def _exact(base) -> bool:

@@ -15,20 +15,22 @@ from fractions import Fraction
 import numpy as np
 
 from .._util import validation as _v
-from ..model._oscillator import Oscillator
-from ..model._tape import FIELD_UNITS, TapeDrive
+from ..model._oscillator import PARAMETERS, Oscillator
+from ..model._tape import FIELD_UNITS, NUMERIC_FIELDS, TapeDrive
 
-#: Fields of an Oscillator that a study may vary (``flange`` and ``harmonics`` are structure).
-OSCILLATOR_PARAMETERS = ("F", "Omega", "beta", "K", "phase", "zeta", "beta_static", "exponent", "restitution")
-#: Fields of a TapeDrive that a study may vary, plus ``t_sin_half_theta`` (eq. 5, Fig. 8).
-TAPE_PARAMETERS = tuple(f.name for f in dataclasses.fields(TapeDrive) if f.name != "bending") + ("t_sin_half_theta",)
+#: Fields of an Oscillator that a study may vary: its numeric fields (``flange`` and
+#: ``harmonics`` are structure, not numbers).
+OSCILLATOR_PARAMETERS = PARAMETERS
+#: Fields of a TapeDrive that a study may vary (its numeric fields), plus ``t_sin_half_theta`` (eq. 5, Fig. 8).
+TAPE_PARAMETERS = NUMERIC_FIELDS + ("t_sin_half_theta",)
 
 #: (units, long name) of the TapeDrive parameters, for xarray attributes and plot labels.
 TAPE_UNITS = FIELD_UNITS
 _OSC_NAMES = {"F": "forcing amplitude F", "Omega": "forcing frequency Omega", "beta": "friction level beta",
               "K": "flange stiffness ratio K", "phase": "forcing phase", "zeta": "damping ratio zeta",
               "beta_static": "static friction level", "exponent": "flange law exponent p",
-              "restitution": "coefficient of restitution e"}
+              "restitution": "coefficient of restitution e", "gap_lower": "distance to the lower flange",
+              "gap_upper": "distance to the upper flange"}
 
 
 def check_base(base) -> Oscillator | TapeDrive:
@@ -44,9 +46,18 @@ def parameter_names(base) -> tuple[str, ...]:
 
 
 def check_parameter(base, name) -> str:
-    """``name`` must be a parameter of ``base`` (see :func:`parameter_names`)."""
+    """``name`` must be a parameter of ``base`` (see :func:`parameter_names`).
+
+    Only numeric fields are parameters: a string or tuple field (the flange law, the
+    flanges of a guide, the run-out harmonics) is structure, refused by name.
+    """
     names = parameter_names(base)
     if not isinstance(name, str) or name not in names:
+        fields = {f.name for f in dataclasses.fields(base)}
+        if isinstance(name, str) and name in fields:
+            raise ValueError(f"{name} of a {type(base).__name__} is not a parameter: it is not a number "
+                             f"(got {getattr(base, name)!r}) but the member's structure; the parameters are its "
+                             f"numeric fields: {', '.join(names)}")
         raise ValueError(f"parameter must be one of {', '.join(names)} for a {type(base).__name__}, got {name!r}")
     return name
 
@@ -64,12 +75,66 @@ def with_parameter(base, name: str, value):
 
 
 def parameter_value(base, name: str) -> float:
-    """The current value of parameter ``name`` of ``base``."""
+    """The current value of parameter ``name`` of ``base``.
+
+    An optional field left at ``None`` has the value it stands for: ``beta_static`` (a
+    drive's ``static_friction``) the kinetic level, a drive's ``flange_stiffness`` the
+    ``k0 = stiffness_ratio k L^(1 - p)`` of its spring law.
+    """
     check_parameter(base, name)
     value = getattr(base, name)
-    if value is None:  # beta_static None means "equal to beta"
+    if value is None and name == "beta_static":  # None means "equal to beta"
         return float(base.beta_s)
+    if value is None and name == "static_friction":
+        return float(base.friction)
+    if value is None and name == "flange_stiffness":
+        return float(base.stiffness_ratio * base.stiffness * base.clearance ** (1.0 - base.flange_exponent))
     return float(value)
+
+
+def inert_reason(base, name: str) -> str:
+    """Why parameter ``name`` does nothing in ``base`` ("" when it acts on the motion).
+
+    A flange stiffness or exponent of a rigid flange (or of a guide without flanges), a
+    drive's ``stiffness_ratio`` once its ``flange_stiffness`` is given, and the distance to
+    an absent flange leave every orbit as it is: a study in them would compute the same
+    orbit again and again.
+    """
+    osc = oscillator_of(base)
+    no_flange = math.isinf(osc.gap_lower) and math.isinf(osc.gap_upper)
+    law = "the guide has no flange" if no_flange else "the flange is rigid (flange='rigid')" if osc.rigid else ""
+    if name in ("K", "stiffness_ratio", "flange_stiffness", "exponent", "flange_exponent") and law:
+        return f"{law}: it has no spring law, so {name} does not enter the motion"
+    if name == "restitution" and not osc.rigid:
+        return "restitution applies to a rigid flange only, and this member's flange is a spring (or absent)"
+    if name == "stiffness_ratio" and isinstance(base, TapeDrive) and base.flange_stiffness is not None:
+        return f"flange_stiffness={base.flange_stiffness!r} is given, which sets K in its place"
+    for side, gap in (("lower", "gap_lower"), ("upper", "gap_upper")):
+        if name == gap and math.isinf(getattr(osc, gap)):
+            return f"there is no {side} flange ({gap} = inf): its distance does not enter the motion"
+    return ""
+
+
+def check_study_parameter(base, name, limits=None) -> str:
+    """``name`` must be a parameter that acts on ``base``, and ``limits`` inside its domain.
+
+    Refuses up front, naming the parameter: a name that is not a numeric field, a parameter
+    that does nothing in this member (:func:`inert_reason`), and limits at which the model
+    itself refuses the value (``beta < 0``, ``exponent < 1``, ``K <= 0``, a gap <= 0, ...:
+    the class's own validation, run at both ends).
+    """
+    check_parameter(base, name)
+    why = inert_reason(base, name)
+    if why:
+        raise ValueError(f"{name} is not a parameter of this {type(base).__name__}: {why}")
+    if limits is not None:
+        for end, value in zip(("lower", "upper"), limits, strict=True):
+            try:
+                with_parameter(base, name, value)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"the {end} limit {name} = {value!r} lies outside the domain of {name}: the model "
+                                 f"refuses it ({exc})") from None
+    return name
 
 
 def parameter_attrs(base, name: str) -> dict:

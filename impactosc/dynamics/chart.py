@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import sys
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from ..backends._simulate import simulate
 from ..runner import check_executor, run_points
 from ._common import (
     check_base,
-    check_parameter,
+    check_study_parameter,
     check_values,
     oscillator_of,
     parameter_attrs,
@@ -46,7 +47,8 @@ def _replace(base, point: dict):
     return base
 
 
-def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, progress: bool = True, **kwargs):
+def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, progress: bool | None = None,
+                **kwargs):
     """The critical value of ``parameter`` over a 2-D grid of two other parameters: a design chart.
 
     Parameters
@@ -61,8 +63,9 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
     executor : None, "serial", "dask", concurrent.futures.Executor or dask.distributed.Client
         Where the points run (:func:`impactosc.runner.run_points`). None: the reusable
         local process pool (no ``__main__`` guard needed), or this process for a small chart.
-    progress : bool
-        tqdm progress bar.
+    progress : bool, optional
+        A tqdm progress bar over the grid points. Default: shown when standard error is a
+        terminal (not in a notebook, a pipe or a log file).
     **kwargs
         Passed to :func:`contact_onset`: ``method`` (default ``"continuation"``: every point
         follows the orbit at the ``start`` end of the bracket, from its ``guess`` or a
@@ -100,16 +103,18 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
     def on_result(ij, result):
         crit[ij], status[ij], message[ij], direc[ij], stable[ij] = result
 
+    show = sys.stderr.isatty() if progress is None else bool(progress)
     run_points(_chart_point, points, (base, parameter, bracket, kwargs), executor=executor, on_result=on_result,
-               on_lost=lambda ij, msg: on_result(ij, (math.nan, -3, msg, 0, math.nan)), progress=progress,
+               on_lost=lambda ij, msg: on_result(ij, (math.nan, -3, msg, 0, math.nan)), progress=show,
                desc=f"onset of {parameter}", unit="point", what="onset_chart", try_here_first=True)
     attrs = parameter_attrs(base, parameter)
     return xr.Dataset(
         {"critical": ((k1, k2), crit, {**attrs, "long_name": f"critical {attrs['long_name']} (contact onset)"}),
          "direction": ((k1, k2), direc, {"long_name": f"+1: contact above the critical {parameter}; -1: below"}),
-         "status": ((k1, k2), status, {"long_name": "0 found; 1 no onset in the bracket; 2 the followed branch "
-                                                    "folds before it touches; -1 run failed; -2 exception; "
-                                                    "-3 task lost"}),
+         "status": ((k1, k2), status, {"long_name": "0 found; 1 no onset in the bracket; 2 no onset of the "
+                                                    "followed orbit (its branch folds before it touches; a "
+                                                    "transient search's sign change that is no grazing); -1 run "
+                                                    "failed; -2 exception; -3 task lost"}),
          "message": ((k1, k2), message.astype(str)),
          "stable": ((k1, k2), stable, {"long_name": "1: the followed orbit is stable just before the onset; 0: "
                                                     "not; NaN: unknown (method='transient')"})},
@@ -122,16 +127,17 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
 def _check(base, parameter, bracket, grid, executor, kwargs) -> dict:
     """The two grid axes; raises for anything that would fail at every point, before the run."""
     check_base(base)
-    check_parameter(base, parameter)
+    check_study_parameter(base, parameter)
     check_executor(executor)
     if not isinstance(grid, dict) or len(grid) != 2:
         raise ValueError(f"grid must be a dict of exactly two parameters -> values, got {grid!r}")
     axes = {}
     for key, values in grid.items():
-        check_parameter(base, key)
+        check_study_parameter(base, key)
         if key == parameter:
             raise ValueError(f"grid may not contain the charted parameter {parameter!r}")
         axes[key] = check_values(f"grid[{key!r}]", values)
+        check_study_parameter(base, key, (float(np.min(axes[key])), float(np.max(axes[key]))))
     try:
         lo, hi = (_v.real(f"bracket[{i}]", b) for i, b in enumerate(bracket))
     except (TypeError, ValueError) as exc:

@@ -47,7 +47,7 @@ from ..results._solution import Solution, _Recorder
 from ._common import (
     advanced,
     check_base,
-    check_parameter,
+    check_study_parameter,
     flange_clearance,
     forcing_period,
     oscillator_of,
@@ -181,8 +181,11 @@ class ContactOnset:
         Steady states computed (continuation: points of the followed branch).
     status : int
         0 found; 1 no onset in the bracket (the message says on which side it is);
-        2 (continuation) the followed branch folds back before it touches a flange: it has
-        no contact onset; -1 a run failed or no orbit was found (see ``message``).
+        2 no onset of the followed orbit: with continuation, the branch folds back before it
+        touches a flange; with ``method="transient"``, the margin of the steady states
+        changes sign where no orbit grazes (a jump between coexisting attractors, or
+        transients that had not settled: ``value`` is the sign change, not an onset);
+        -1 a run failed or no orbit was found (see ``message``).
     message : str
     method : str
         ``"continuation"`` or ``"transient"``.
@@ -222,6 +225,8 @@ CONTINUATION_SETTINGS = ("step", "min_step", "max_step", "max_points", "max_iter
 #: Continuation's default ``locate_tol`` here: a coarse location, then the secant on the
 #: contact-free orbits alone to ``tol`` (fewer runs than locating every point finely).
 LOCATE_TOL = 1e-4
+#: Parameters of the flange law (they act only in contact).
+FLANGE_LAW = ("K", "exponent", "restitution", "stiffness_ratio", "flange_stiffness", "flange_exponent")
 #: Flange stiffness of the model whose contact-free orbits are followed (see _shadow).
 SHADOW_K = 1e-9
 
@@ -344,6 +349,17 @@ def _check_bracket(bracket) -> tuple[float, float]:
     return lo, hi
 
 
+def _check_study(base, parameter, bracket) -> tuple[float, float]:
+    """The bracket of a contact onset, after the model (it has a flange) and the parameter are checked."""
+    osc = oscillator_of(check_base(base))
+    if math.isinf(osc.gap_lower) and math.isinf(osc.gap_upper):
+        raise ValueError(f"this {type(base).__name__} has no flange (both gaps are absent): its motion never touches "
+                         "one, so it has no contact onset")
+    lo, hi = _check_bracket(bracket)
+    check_study_parameter(base, parameter, (lo, hi))
+    return lo, hi
+
+
 def _default_backend(osc, backend, options) -> str:
     if backend is not None:
         if not isinstance(backend, str):
@@ -389,16 +405,15 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
 
     settings = {k: options.pop(k) for k in CONTINUATION_SETTINGS if k in options}
     settings.setdefault("locate_tol", LOCATE_TOL)
-    check_base(base)
-    check_parameter(base, parameter)
-    lo, hi = _check_bracket(bracket)
+    lo, hi = _check_study(base, parameter, bracket)
     if start not in ("lo", "hi"):
         raise ValueError(f"start must be 'lo' or 'hi' (the end of the bracket the followed orbit is taken at), "
                          f"got {start!r}")
     n = 1 if orbit is None else _v.integer("orbit", orbit)
     tol = 1e-12 * max(abs(lo), abs(hi)) if tol is None else _v.positive("tol", tol)
     tp = 100 if transient_periods is None else transient_periods
-    if isinstance(tp, bool) or not isinstance(tp, numbers.Integral | float) or tp != int(tp) or tp < 0:
+    if (isinstance(tp, bool) or not isinstance(tp, numbers.Integral | float) or not math.isfinite(tp)
+            or tp != int(tp) or tp < 0):
         raise ValueError(f"transient_periods must be a whole number >= 0 with method='continuation', got {tp!r}")
     tp = int(tp)
     p0 = lo if start == "lo" else hi
@@ -431,6 +446,9 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
     followed += f", {orb.stability}, {'touching a flange' if touching else 'clear of the flanges'}"
     head["followed"] = followed
     follow_base = model
+    if not touching and parameter in FLANGE_LAW:
+        raise ValueError(f"{parameter} does not move the contact onset of an orbit clear of the flanges: a flange law "
+                         "acts only in contact, so every orbit of the followed branch is the same up to the onset")
     if not touching:
         follow_base = _shadow(model)
         orb = periodic_orbit(follow_base, n, guess=(orb.x, orb.v), backend=backend, **options)
@@ -456,6 +474,12 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
                 break
     if onset is None:
         end = br.ends[-1] if br.ends else (br.status, br.message)
+        far = hi if forward else lo
+        reached = br.points[-1 if forward else 0].parameter if br.points else p0
+        if end[0] in (0, 2) and abs(reached - far) > 1e-9 * max(1.0, abs(far)):
+            return failed(-1, f"the followed branch ({followed}) stopped at {parameter} = {reached!r}, short of the "
+                              f"end of the bracket {far!r}, without touching a flange ({len(br.points)} points; "
+                              f"{end[1]}): no onset found, none ruled out beyond", br, len(br.points))
         if end[0] in (0, 2):
             where = "touches a flange" if touching else "stays clear of the flanges"
             return failed(1, f"no contact onset in [{lo!r}, {hi!r}]: the followed branch ({followed}) {where} all "
@@ -465,7 +489,10 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
     n_points = len(br.points)
     value = onset.parameter
     polished = ""
-    if onset.accuracy > tol or (onset.context[2] or {}).get("test") == "end":
+    if not touching or onset.accuracy > tol or (onset.context[2] or {}).get("test") == "end":
+        # always polished from the contact-free side: continuation's corrector stops at a residual of
+        # its own tol, and where M - I is nearly singular that leaves the orbit (hence the grazing)
+        # farther off than tol
         try:
             value, step, z, note = _polish(_shadow(model), parameter, onset, n, tol, backend, options)
         except (RuntimeError, ValueError, FloatingPointError) as exc:
@@ -570,9 +597,7 @@ def _polish(shadow, parameter, s, n, tol, backend, options):
 def _transient_onset(base, parameter: str, bracket, *, tol, scan, follow, orbit, transient_periods, record_periods,
                      x0, v0, stop_at_contact, backend, max_evaluations, **options) -> ContactOnset:
     """The search of ``method="transient"`` (see :func:`contact_onset`)."""
-    check_base(base)
-    check_parameter(base, parameter)
-    lo, hi = _check_bracket(bracket)
+    lo, hi = _check_study(base, parameter, bracket)
     tol = (1e-6 * (hi - lo)) if tol is None else _v.positive("tol", tol)
     scan = _v.integer("scan", scan, minimum=0)
     transient_periods, record_periods = _periods(transient_periods, record_periods)
@@ -617,15 +642,69 @@ def _transient_onset(base, parameter: str, bracket, *, tol, scan, follow, orbit,
             return ContactOnset(parameter, math.nan, (lo, hi), 0, (m_lo, m), calls[0], 1,
                                 f"no contact onset in [{lo!r}, {hi!r}]: the steady state {where} at all "
                                 f"{grid.size} values tried (margins {m_lo:.3g} ... {m:.3g})")
-        (a, ma, _), (b, mb, _) = _refine(found, tol, evaluate, follow, (x0, v0, 0.0))
+        (a, ma, sa), (b, mb, sb) = _refine(found, tol, evaluate, follow, (x0, v0, 0.0))
     except (RuntimeError, ValueError, FloatingPointError) as exc:
         return ContactOnset(parameter, math.nan, (lo, hi), 0, (math.nan, math.nan), calls[0], -1,
                             f"{type(exc).__name__}: {exc}")
     root = 0.5 * (a + b)
     direction = 1 if mb >= 0.0 else -1
+    where = f"{'above' if direction > 0 else 'below'} {parameter} = {root:.10g}"
+    clear = (a, ma, sa) if ma < 0.0 else (b, mb, sb)
+    doubt = _not_grazing(base, parameter, clear, (a, b), 1 if orbit is None else orbit, backend, options)
+    if doubt:
+        return ContactOnset(parameter, float(root), (float(a), float(b)), direction, (ma, mb), calls[0], 2,
+                            f"the margin of the steady states reached by transients changes sign {where} (bracket "
+                            f"width {b - a:.2g}), but that is no grazing of one followed orbit: {doubt}; "
+                            "method='continuation' follows one orbit to its grazing")
     return ContactOnset(parameter, float(root), (float(a), float(b)), direction, (ma, mb), calls[0], 0,
-                        f"contact {'above' if direction > 0 else 'below'} {parameter} = {root:.10g} "
-                        f"(bracket width {b - a:.2g}, {calls[0]} steady states)")
+                        f"contact {where} (bracket width {b - a:.2g}, {calls[0]} steady states; the periodic orbit "
+                        "at the contact-free end, shot from the transient's state, grazes the flange)")
+
+
+def _not_grazing(base, parameter, clear, bracket, n: int, backend, options) -> str:
+    """Why the sign change found by the transient search is no grazing ("" when it is one).
+
+    At the contact-free end ``p`` of the final bracket the state the transient reached is
+    shot to its period-``n`` orbit (Newton), and that orbit again one bracket width farther
+    from the contact; the secant through their clearances must vanish inside the bracket
+    (give or take one width). A transient that had not settled (a multiplier near 1 decays
+    slowly), or a sign change that is a jump between coexisting attractors, leaves the
+    orbit at ``p`` touching or well clear of the flange, and fails.
+    """
+    from .shooting import periodic_orbit
+
+    p, _, (x, v, cycle) = clear
+    a, b = bracket
+    width = b - a
+    if not (math.isfinite(x) and math.isfinite(v)):
+        return "the contact-free end has no final state to check"
+    away = a - width if p == a else b + width
+
+    def gap_of(value, guess):
+        osc = oscillator_of(with_parameter(base, parameter, float(value)))
+        section = advanced(osc, (cycle if math.isfinite(cycle) else 0.0) * forcing_period(osc))
+        orb = periodic_orbit(section, n, guess=guess, backend=backend, tol=1e-12, **options)
+        if orb.status != 0:
+            raise RuntimeError(f"no period-{n} orbit at {parameter} = {value!r} ({orb.message})")
+        return flange_clearance(orb.oscillator, [orb.x, *map(float, orb.events.x)]), (orb.x, orb.v), orb
+
+    try:
+        g0, z0, orb = gap_of(p, (x, v))
+        if g0 <= 0.0 or _touches(orb):
+            return (f"the period-{n} orbit through the state the transient reached at the contact-free end "
+                    f"{parameter} = {p!r} touches a flange (the transient had not settled there)")
+        g1, _, _ = gap_of(away, z0)
+    except (RuntimeError, ValueError) as exc:
+        return str(exc)
+    if not g1 > g0:
+        return (f"the orbit at the contact-free end {parameter} = {p!r} does not come nearer the flange towards the "
+                f"bracket (clearance {g0:.3g} there, {g1:.3g} one width away)")
+    zero = p + g0 * (p - away) / (g1 - g0)
+    if not a - width <= zero <= b + width:
+        return (f"the orbit at the contact-free end {parameter} = {p!r} stays {g0:.3g} from the flanges and would "
+                f"graze near {parameter} = {zero:.10g}, outside the bracket: the steady state jumps there to "
+                "another attractor, or the transients had not settled")
+    return ""
 
 
 

@@ -46,10 +46,14 @@ import numpy as np
 from .._util import validation as _v
 from . import _layout
 
-__all__ = ["Oscillator", "FLANGE_LAWS"]
+__all__ = ["Oscillator", "FLANGE_LAWS", "PARAMETERS"]
 
 #: The flange laws of the family: an elastic spring ``K d^p`` or a rigid stop with restitution.
 FLANGE_LAWS = ("spring", "rigid")
+#: The numeric fields of :class:`Oscillator`: what a study (sweep, continuation, onset) may vary.
+#: ``flange`` (a string) and ``harmonics`` (a tuple) are the member's structure.
+PARAMETERS = ("F", "Omega", "beta", "K", "phase", "zeta", "beta_static", "exponent", "restitution", "gap_lower",
+              "gap_upper")
 
 
 def _harmonic_terms(value) -> tuple[tuple[float, float, float], ...]:
@@ -217,6 +221,39 @@ class Oscillator:
                              "with flange='spring'")
         put(self, "harmonics", _harmonic_terms(self.harmonics))
         put(self, "_p", _layout.params(self))
+
+    def replace(self, **fields) -> Oscillator:
+        """A copy with some fields changed, validated again (:func:`dataclasses.replace`).
+
+        Parameters
+        ----------
+        **fields
+            Any field of the class (``F``, ``Omega``, ..., ``gap_upper``).
+
+        Raises
+        ------
+        TypeError
+            If a name is not a field of :class:`Oscillator`.
+        ValueError
+            If the new member breaks a rule (the message names the field).
+
+        Examples
+        --------
+        >>> osc = Oscillator(0.5, 1.1, 0.01, 1e4)
+        >>> osc.replace(F=0.6, zeta=0.02).F
+        0.6
+        >>> osc.replace(gap_lower=None).flanges                 # a one-sided stop
+        (-inf, 1.0)
+        """
+        from dataclasses import fields as _fields
+        from dataclasses import replace
+
+        known = {f.name for f in _fields(self) if f.init}
+        unknown = sorted(set(fields) - known)
+        if unknown:
+            raise TypeError(f"replace() got fields that Oscillator does not have: {', '.join(unknown)}; its fields "
+                            f"are {', '.join(sorted(known))}")
+        return replace(self, **fields)
 
     @classmethod
     def from_harmonics(cls, harmonics, beta: float, K: float | None = None, **family) -> Oscillator:

@@ -27,7 +27,7 @@ import numpy as np
 from .._util import validation as _v
 from ._oscillator import Oscillator
 
-__all__ = ["TapeDrive", "BENDING_OPTIONS", "FIELD_UNITS"]
+__all__ = ["TapeDrive", "BENDING_OPTIONS", "FIELD_UNITS", "NUMERIC_FIELDS"]
 
 #: The flanges a guide can have (:attr:`TapeDrive.flange_sides`).
 FLANGE_SIDES = ("both", "upper", "lower")
@@ -66,6 +66,13 @@ FIELD_UNITS = {
     "runout_harmonics": ("", "run-out harmonics (n, fraction, phase)"),
     "t_sin_half_theta": ("N", "T sin(theta/2), half the roller normal force (eq. 5)"),
 }
+
+#: The numeric fields of :class:`TapeDrive`: what a study may vary (``bending``, ``flange``, ``flange_sides`` and
+#: ``runout_harmonics`` are the drive's structure, not numbers).
+NUMERIC_FIELDS = ("speed", "tension", "pack_diameter", "wrap_angle", "width", "thickness", "free_length",
+                  "youngs_modulus", "density", "clearance", "stiffness_ratio", "friction", "hub_diameter",
+                  "full_pack_diameter", "runout_hub", "runout_full", "damping_ratio", "static_friction",
+                  "flange_exponent", "flange_stiffness", "restitution", "guide_offset")
 
 _HUB_DIAMETER = 44e-3
 _FULL_PACK_DIAMETER = 97e-3

@@ -7,6 +7,15 @@ the event signature), switches onto the period-doubled branch, and follows a loc
 point in two parameters (the boundary a design chart draws). The map and its Jacobian
 are the exact event-driven ones of :mod:`impactosc.dynamics`: no collocation mesh, no
 user-written segment signature.
+
+What a COCO or AUTO user expects of a run: an AUTO-style table of the labelled points
+(:meth:`Branch.table`, printed by :meth:`Branch.summary`, on the ``label`` dimension of
+:meth:`Branch.to_xarray`); one file with the model (:meth:`Branch.save`,
+:meth:`Branch.load`); the orbit at a label or an index (:meth:`Branch.orbit`, a
+:class:`~impactosc.dynamics.PeriodicOrbit` with its time series); a restart from any point
+(a :class:`BranchPoint` as the start of :func:`continuation`, :meth:`Branch.model`,
+:meth:`impactosc.Oscillator.replace`). Every numeric field of the model is a parameter,
+the flange gaps and a drive's guide offset included.
 """
 
 from ._api import continuation

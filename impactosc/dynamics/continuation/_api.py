@@ -2,16 +2,30 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import sys
+from contextlib import contextmanager
+
 import numpy as np
 
 from ..._util import validation as _v
 from ...model._oscillator import Oscillator
-from .._common import advanced, check_base, check_parameter, oscillator_of
+from .._common import (
+    advanced,
+    check_base,
+    check_study_parameter,
+    forcing_period,
+    oscillator_of,
+    parameter_value,
+    with_parameter,
+)
 from ..shooting import PeriodicOrbit
+from ..tangent import check_backend, check_start
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
-from ._branch import SPECIAL_KINDS, Branch, SpecialPoint
-from ._follow import follow, make_node
+from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
+from ._follow import Found, Node, follow, make_node
 from ._problem import MapProblem
 
 __all__ = ["continuation"]
@@ -22,7 +36,7 @@ _DIRECTIONS = ("both", "forward", "backward")
 def continuation(start, parameter, limits, *, base=None, backend: str | None = None, direction: str = "both",
                  step: float = 0.02, min_step: float = 1e-7, max_step: float = 0.1, max_points: int = 500,
                  tol: float = 1e-10, max_iter: int = 8, locate=True, locate_tol: float = 1e-12,
-                 stop_at=(), **options) -> Branch:
+                 stop_at=(), progress: bool | None = None, **options) -> Branch:
     """Follow a family of periodic orbits as parameters change (pseudo-arclength continuation).
 
     The orbits are fixed points of the stroboscopic map ``P^n`` (:func:`periodic_orbit`),
@@ -38,8 +52,11 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
 
     Parameters
     ----------
-    start : PeriodicOrbit, SpecialPoint or (float, float)
+    start : PeriodicOrbit, BranchPoint, SpecialPoint or (float, float)
         * a converged :class:`PeriodicOrbit` (from :func:`periodic_orbit`): the branch through it;
+        * a :class:`BranchPoint` of a branch (``branch.points[i]``, also of a loaded one): the
+          branch through that point's orbit, in any parameter (a restart); for a labelled
+          point use ``branch.orbit(label)``;
         * a ``(X, V)`` guess on the section (``base`` required): Newton at the base's
           parameter value first;
         * a :class:`SpecialPoint` of a branch with ``parameter`` a pair of names: the
@@ -59,8 +76,9 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     direction : {"both", "forward", "backward"}
         Forward is the direction of increasing parameter at the start.
     step, min_step, max_step : float
-        Arclength steps in scaled units (state nondimensional; each parameter divided by its
-        value at the start, or by 1e-3 if smaller).
+        Arclength steps in scaled units (state nondimensional; the parameter divided by the
+        larger of its value at the start and the span ``hi - lo`` of its limits, so a
+        parameter that starts at 0 crosses its range in a few dozen steps).
     max_points : int
         Points per direction.
     tol : float
@@ -77,6 +95,9 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     stop_at : sequence of str
         Kinds of special point whose first located point ends the run in that direction
         (status 0, the message says so), e.g. ``("grazing",)`` for a contact onset.
+    progress : bool, optional
+        A tqdm progress bar over the accepted points. Default: shown when standard error is
+        a terminal (not in a notebook, a pipe or a log file); False never imports tqdm.
     **options
         The backend's options (``tol`` of heyoka, ``rtol`` of scipy, ...).
 
@@ -89,8 +110,31 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     Raises
     ------
     TypeError, ValueError
-        For a bad argument: an unknown parameter, limits not ``lo < hi`` or not finite, a start
-        outside the limits, a start that is not a converged orbit.
+        For a bad argument: an unknown parameter, a field that is not a number (``flange``), a
+        parameter that does nothing in this member (``K`` of a rigid flange), limits not
+        ``lo < hi``, not finite or outside the parameter's domain (``beta < 0``,
+        ``exponent < 1``), a start outside the limits, a start that is not a converged orbit,
+        an explicit backend that does not run every member of the range (``backend="exact"``
+        with ``exponent`` free: pass no backend and heyoka runs the branch, the message says so).
+
+    Examples
+    --------
+    The rigid one-sided stop of COCO's impact demo, ``X'' + 0.1 X' + X = F cos(Omega t)``
+    with a wall at ``X = 1``: a branch in ``F`` from a contact-free orbit, its grazing, the
+    grazing followed in ``(F, Omega)``, and the orbit at a labelled point:
+
+    >>> import impactosc as io, impactosc.dynamics as dy
+    >>> stop = io.Oscillator(0.3, 1.0, 0.0, zeta=0.05, flange="rigid", restitution=0.8, gap_lower=None)
+    >>> orb = dy.periodic_orbit(stop, backend="exact", transient_periods=200)
+    >>> br = dy.continuation(orb, "F", (0.02, 0.5))
+    >>> print(br.summary())                                   # doctest: +SKIP
+    >>> gr = br.find("grazing")[0]
+    >>> curve = dy.continuation(gr, ("F", "Omega"), {"Omega": (0.5, 1.4)})   # doctest: +SKIP
+    >>> br.orbit(gr.label).solution.plot()                    # doctest: +SKIP
+
+    A parameter that starts at 0 (the damping), restarted from the last point of a branch:
+
+    >>> tail = dy.continuation(br.points[-1], "zeta", (0.0, 0.2))            # doctest: +SKIP
 
     References
     ----------
@@ -102,20 +146,82 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     if direction not in _DIRECTIONS:
         raise ValueError(f"direction must be one of {', '.join(_DIRECTIONS)}, got {direction!r}")
     if isinstance(start, SpecialPoint):
+        if not isinstance(start.context, tuple) or len(start.context) != 3 or start.context[0] is None:
+            raise ValueError(f"the SpecialPoint {start.label!r} carries no context (it was built by hand or loaded "
+                             "from a file): only a point located by continuation() can be followed as a boundary or "
+                             "switched at; restart from its orbit instead, continuation(branch.orbit(label), ...)")
         if isinstance(parameter, tuple | list):
             from ._boundary import boundary
 
-            return boundary(start, tuple(parameter), limits, settings, backend, options)
+            if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
+                for name, pair in limits.items():
+                    check_study_parameter(start.context[0].base, name, _limits_pair(name, pair))
+
+            with _progress(progress, f"boundary in {', '.join(map(str, parameter))}") as on_point:
+                settings = dataclasses.replace(settings, on_point=on_point)
+                return _adopt(boundary(start, tuple(parameter), limits, settings, backend, options),
+                              start.context[0])
         if start.kind != "period_doubling":
             raise ValueError(f"a branch switch starts at a period_doubling point, got a {start.kind!r} point; give "
                              "two parameters to follow this point as a boundary")
-        return _switch(start, parameter, limits, settings, max_points)
+        with _progress(progress, f"period-2 branch in {parameter}") as on_point:
+            settings = dataclasses.replace(settings, on_point=on_point)
+            return _adopt(_switch(start, parameter, limits, settings, max_points), start.context[0])
     if isinstance(parameter, tuple | list):
         raise TypeError("two parameters need a SpecialPoint start (a located point to follow as a boundary), got "
                         f"{type(start).__name__}")
-    problem, z0 = _problem_from(start, parameter, base, backend, options)
+    if isinstance(start, BranchPoint):
+        start, base, backend, options = _restart(start, base, backend, options)
+    problem, z0, note = _problem_from(start, parameter, limits, base, backend, options)
     lo, hi = check_limits(parameter, limits, problem.values()[0])
-    return _run(problem, z0, (lo, hi), direction, settings, max_points)
+    with _progress(progress, f"continuation in {parameter}") as on_point:
+        settings = dataclasses.replace(settings, on_point=on_point)
+        branch = _run(problem, z0, (lo, hi), direction, settings, max_points)
+    if note:
+        branch = dataclasses.replace(branch, message=f"{branch.message}; {note}")
+    return _adopt(branch, problem)
+
+
+@contextmanager
+def _progress(progress, desc: str):
+    """A callback for every accepted point that moves a tqdm bar, or None (no bar: off when not a terminal)."""
+    show = sys.stderr.isatty() if progress is None else bool(progress)
+    if not show:
+        yield None
+        return
+    from tqdm.auto import tqdm
+
+    with tqdm(desc=desc, unit="point") as bar:
+        def on_point(node):
+            bar.update(1)
+
+        yield on_point
+
+
+def _adopt(branch: Branch, problem: MapProblem) -> Branch:
+    """The branch with its section and options, every point knowing it (a start of its own)."""
+    branch = dataclasses.replace(branch, section_phase=problem.section_phase, options=dict(problem.options))
+    return branch.adopted()
+
+
+def _restart(point: BranchPoint, base, backend, options):
+    """``(PeriodicOrbit, base, backend, options)`` of a branch point, to start a new branch there."""
+    branch = point.branch
+    if branch is None:
+        raise ValueError("this BranchPoint belongs to no branch (built by hand): give a PeriodicOrbit start, e.g. "
+                         "periodic_orbit(model, guess=(x, v))")
+    here = branch.model(point)
+    if base is None:
+        base = here
+    elif oscillator_of(check_base(base)) != oscillator_of(here):
+        raise ValueError("base must be the model at the branch point (branch.model(point)); its oscillator differs")
+    options = {**branch.options, **options}
+    backend = branch.backend if backend is None else backend
+    orbit = branch.orbit(point, **{k: v for k, v in options.items() if k not in branch.options})
+    if orbit.status != 0:
+        raise ValueError(f"the orbit at the branch point did not converge again (status {orbit.status}): "
+                         f"{orbit.message}")
+    return orbit, base, backend, options
 
 
 def _settings(step, min_step, max_step, max_points, tol, max_iter, locate, locate_tol, stop_at) -> Settings:
@@ -149,8 +255,6 @@ def _kinds(name: str, kinds) -> frozenset:
 def default_backend(osc: Oscillator, backend, options) -> str:
     if backend is not None:
         return backend
-    from ..tangent import check_backend
-
     try:
         check_backend(osc, "exact", options)
         return "exact"
@@ -158,8 +262,31 @@ def default_backend(osc: Oscillator, backend, options) -> str:
         return "heyoka"
 
 
-def _problem_from(start, parameter, base, backend, options):
-    """``(MapProblem, z0)`` of a PeriodicOrbit or a guess."""
+def _range_backend(base, parameter: str, limits, backend, options) -> tuple[str, str]:
+    """``(backend, note)``: a backend that runs every member of the parameter's range.
+
+    The members at both limits are checked (a parameter such as the flange exponent takes
+    the branch out of the exact backend's linear members). A default backend becomes heyoka
+    for the whole branch when exact does not run them all (``note`` says so); an explicit
+    one that does not is refused.
+    """
+    chosen = default_backend(oscillator_of(base), backend, options)
+    for value in limits:
+        member = oscillator_of(with_parameter(base, parameter, float(value)))
+        try:
+            check_backend(member, chosen, options)
+        except ValueError as exc:
+            if backend is not None:
+                raise ValueError(f"backend={backend!r} does not run every member of the range of {parameter}: at "
+                                 f"{parameter} = {value!r} {exc}; leave backend out (heyoka runs every member) or "
+                                 "narrow the limits") from None
+            return "heyoka", (f"backend heyoka for the whole branch: the exact backend does not run the member at "
+                              f"{parameter} = {value!r} ({exc})")
+    return chosen, ""
+
+
+def _problem_from(start, parameter, limits, base, backend, options):
+    """``(MapProblem, z0, note)`` of a PeriodicOrbit or a guess."""
     if isinstance(start, PeriodicOrbit):
         if start.status != 0:
             raise ValueError(f"start must be a converged PeriodicOrbit (status 0), got status {start.status}: "
@@ -175,20 +302,35 @@ def _problem_from(start, parameter, base, backend, options):
                                  "orbit's oscillator")
     else:
         if base is None:
-            raise TypeError(f"start must be a PeriodicOrbit or a SpecialPoint, or a guess (X, V) with base=..., got "
-                            f"{type(start).__name__}")
+            raise TypeError(f"start must be a PeriodicOrbit, a BranchPoint or a SpecialPoint, or a guess (X, V) with "
+                            f"base=..., got {type(start).__name__}")
         check_base(base)
         try:
             gx, gv = start
         except (TypeError, ValueError):
             raise TypeError(f"start must be a PeriodicOrbit, a SpecialPoint or a pair (X, V), got {start!r}") from None
-        z0 = (_v.real("start[0]", gx), _v.real("start[1]", gv))
         osc, n = oscillator_of(base), 1
+        # the magnitude check of periodic_orbit: a guess whose run would overflow is no orbit's point
+        z0 = check_start(osc, forcing_period(osc), gx, gv, names=("start[0]", "start[1]"))
         theta = osc.phase
-    check_parameter(base, parameter)
-    backend = default_backend(osc, backend, options)
-    problem = MapProblem(base, (parameter,), n, theta, backend, options)
-    return problem, np.array(z0, dtype=float)
+    check_study_parameter(base, parameter, _limits_pair(parameter, limits))
+    backend, note = _range_backend(base, parameter, _limits_pair(parameter, limits), backend, options)
+    value = parameter_value(base, parameter)
+    lo, hi = _limits_pair(parameter, limits)
+    scale = max(abs(value), hi - lo)
+    problem = MapProblem(base, (parameter,), n, theta, backend, options, (scale,))
+    return problem, np.array(z0, dtype=float), note
+
+
+def _limits_pair(name, limits) -> tuple[float, float]:
+    """The limits as floats (checked in full by check_limits; only their shape and order here)."""
+    try:
+        lo, hi = (float(x) for x in limits)
+    except (TypeError, ValueError):
+        raise TypeError(f"limits must be a pair (lo, hi) of the parameter {name!r}, got {limits!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ValueError(f"limits must be finite with lo < hi, got {limits!r}")
+    return lo, hi
 
 
 def _start_node(problem: MapProblem, z0, settings: Settings):
@@ -219,7 +361,99 @@ def _run(problem: MapProblem, z0, limits, direction: str, settings: Settings, ma
     found = [reindex(f, nb - 2 - f.index) for f in reversed(back_found)]
     found += [reindex(f, nb + 1 + f.index) for f in fwd_found]
     ends = [tuple(e) for e in (back_end, fwd_end) if e[0] is not None]
+    found = [_vetted(problem, f, nodes, settings) for f in found]
     return assemble(problem, nodes, found, ends, nb)
+
+
+#: A test value this small at a located point is a zero whatever the bracket (rounding of det(M -+ I)).
+SMOOTH_CROSSING_TEST = 1e-8
+#: Kinds located on a test function of the multipliers, and the test's name.
+_SMOOTH = {"fold": "fold", "branch_point": "fold", "period_doubling": "period_doubling",
+           "neimark_sacker": "neimark_sacker"}
+
+
+def _vetted(problem: MapProblem, f: Found, nodes: list[Node], settings: Settings) -> Found:
+    """``f`` where its test function vanishes: checked, located again, or marked "not located".
+
+    Near a pitchfork the pseudo-arclength corrector's Jacobian is singular and the locator
+    may stop early, keeping a node far from the zero (its multipliers far from +1). A
+    located point's test value, divided by the test's slope between the bracketing branch
+    points, must not exceed its stated accuracy. Where it does, the zero is located again
+    by regula falsi in the parameter itself (each value a Newton solve at that value, which
+    a branch point does not disturb the way it does the arclength corrector); where that
+    fails too, the point is reported in its bracket, at the zero of the test function
+    interpolated between the two branch points, and its message begins "not located".
+    """
+    test = _SMOOTH.get(f.kind)
+    if test is None or not 0 <= f.index < len(nodes) - 1:
+        return f
+    a, b = nodes[f.index], nodes[f.index + 1]
+    va, vb, vf = (float(n.info.tests[test]) for n in (a, b, f.node))
+    pa, pb = (float(n.u[2] * problem.scales[0]) for n in (a, b))
+    if not all(map(math.isfinite, (va, vb, vf))) or va * vb >= 0.0 or pa == pb:
+        return f
+    slope = abs(vb - va) / abs(pb - pa)
+    if abs(vf) <= SMOOTH_CROSSING_TEST or abs(vf) <= slope * max(f.accuracy, 1e-12 * max(1.0, abs(pa))):
+        return f
+    again = _locate_in_parameter(problem, a, b, test, settings)
+    if again is not None:
+        f.node, f.accuracy = again
+        f.extra = {**f.extra, "test": f"{test} (in the parameter)"}
+        return f
+    where = pa + va * (pb - pa) / (va - vb)
+    f.extra = {**f.extra, "value": where}
+    f.accuracy = abs(pb - pa)
+    f.message = (f"not located: {f.message}, somewhere between {problem.names[0]} = {pa!r} and {pb!r} (the corrector "
+                 f"failed next to it, and the last point it reached has test value {vf:.3g}, multipliers "
+                 f"{np.round(f.node.info.multipliers, 6)}); the parameter given is the zero of the test function "
+                 f"interpolated between the two branch points")
+    return f
+
+
+def _locate_in_parameter(problem: MapProblem, a: Node, b: Node, test: str, settings: Settings):
+    """``(node, accuracy)`` at the zero of ``test`` between the branch points ``a`` and ``b``, or None.
+
+    Illinois regula falsi on the parameter; at each value the orbit is corrected with the
+    parameter fixed, from the state interpolated between ``a`` and ``b``. Where no orbit
+    can be corrected any more (next to the branch point, where it is not isolated), the
+    last point computed is kept with the width of the bracket reached as its accuracy.
+    """
+    from ._points import point_info
+
+    scale = problem.scales[0]
+    lo, hi = float(a.u[2]), float(b.u[2])
+    flo, fhi = (float(n.info.tests[test]) for n in (a, b))
+    constraint = np.zeros_like(a.u)
+    constraint[2] = 1.0
+    best, side = None, 0
+    for _ in range(60):
+        s = hi - fhi * (hi - lo) / (fhi - flo)
+        if not min(lo, hi) < s < max(lo, hi):
+            s = 0.5 * (lo + hi)
+        w = (s - float(a.u[2])) / (float(b.u[2]) - float(a.u[2]))
+        guess = (1.0 - w) * a.u + w * b.u
+        guess[2] = s
+        c = correct(problem, guess, constraint, settings, max_distance=2.0 * float(np.linalg.norm(b.u - a.u)))
+        info = point_info(problem, c.ev) if isinstance(c, Corrected) else None
+        value = float(info.tests[test]) if info is not None else math.nan
+        if not isinstance(c, Corrected) or info is None or not math.isfinite(value):
+            # at the branch point itself the orbit is not isolated (M - I is singular): the
+            # bracket reached so far is the accuracy
+            return (best, abs(hi - lo) * scale) if best is not None else None
+        best = Node(c.u, a.t, c, info, a.arclength)
+        if value * fhi < 0.0:
+            lo, flo = hi, fhi
+            hi, fhi = s, value
+            side = 0
+        else:
+            hi, fhi = s, value
+            if side == -1:
+                flo *= 0.5
+            side = -1
+        width = abs(hi - lo) * scale
+        if value == 0.0 or width <= settings.locate_tol * max(1.0, abs(s * scale)):
+            return best, width
+    return (best, abs(hi - lo) * scale) if best is not None else None
 
 
 def _switch(pd: SpecialPoint, parameter, limits, settings: Settings, max_points: int) -> Branch:

@@ -13,7 +13,8 @@ that is drawn towards another branch fails instead of jumping there.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -41,6 +42,8 @@ class Settings:
     locate: frozenset  #: the kinds of special point to locate (empty: none)
     locate_tol: float
     stop_at: frozenset = frozenset()  #: kinds whose first located point ends a direction
+    #: Called with every accepted point (a progress bar); None: nothing.
+    on_point: Any = field(default=None, compare=False)
 
 
 @dataclass(frozen=True, eq=False)

@@ -63,11 +63,19 @@ class BranchPoint:
     arclength: float
     tests: dict = field(default_factory=dict, repr=False)
     collapsed: bool = False
+    #: The branch the point belongs to (set by :func:`continuation` and :meth:`Branch.load`): what
+    #: makes the point a start of its own (``continuation(point, ...)``, :meth:`Branch.orbit`).
+    branch: Any = field(default=None, repr=False, compare=False)
 
     @property
     def parameter(self) -> float:
         """The value of the first free parameter."""
         return next(iter(self.parameters.values()))
+
+    @property
+    def norm(self) -> float:
+        """``|(X, V)|`` of the orbit's point on the section (the norm column of :meth:`Branch.table`)."""
+        return math.hypot(self.x, self.v)
 
     @property
     def stable(self) -> bool:
@@ -115,11 +123,34 @@ class SpecialPoint:
     index: int
     accuracy: float
     message: str
-    context: Any = field(default=None, repr=False)  #: (problem, u, tangent): what continues it
+    context: Any = field(default=None, repr=False)  #: (problem, node, extra): what continues it
+    #: The flange a grazing touches, as saved in a file (a loaded point has no ``context``).
+    saved_flange: str = field(default="", repr=False)
 
     @property
     def parameter(self) -> float:
         return next(iter(self.parameters.values()))
+
+    @property
+    def norm(self) -> float:
+        """``|(X, V)|`` of the orbit's point on the section."""
+        return math.hypot(self.x, self.v)
+
+    @property
+    def located(self) -> bool:
+        """False for a point known only to lie in a bracket (see its message and accuracy)."""
+        return not self.message.startswith("not located")
+
+    @property
+    def flange(self) -> str:
+        """The flange a grazing touches (``"upper"``, ``"lower"``); ``""`` for other kinds or when unknown."""
+        if self.kind != "grazing" or self.saved_flange:
+            return self.saved_flange if self.kind == "grazing" else ""
+        extra = self.context[2] if isinstance(self.context, tuple) and len(self.context) > 2 else None
+        margin = (extra or {}).get("margin") or (extra or {}).get("test")
+        if margin in ("upper_margin", "lower_margin"):
+            return margin.split("_")[0]
+        return touched_flanges(tuple(set(self.before) ^ set(self.after)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,6 +178,29 @@ class Branch:
         ``(status, message)`` of the backward and the forward end.
     base : Oscillator or TapeDrive
         The model at the start.
+    backend : str
+        The backend of every run of the branch.
+    section_phase : float
+        The forcing phase ``Omega t + phase`` (mod 2 pi) of the section the points lie on.
+    options : dict
+        The backend's options.
+
+    Examples
+    --------
+    The Den Hartog orbit of a Coulomb oscillator between spring flanges, followed in the
+    forcing amplitude through its grazing; the table, an orbit at a labelled point, a
+    file and a restart:
+
+    >>> import impactosc as io, impactosc.dynamics as dy
+    >>> osc = io.Oscillator(0.9, 1.5, 0.1, 24.0)
+    >>> orb = dy.periodic_orbit(osc, guess=(-0.79, 0.16), backend="exact")
+    >>> br = dy.continuation(orb, "F", (0.6, 1.3))
+    >>> print(br.summary())                                  # doctest: +SKIP
+    >>> gr = br.find("grazing")[0]                           # the first touch of a flange
+    >>> br.orbit(gr.label).solution.plot()                   # doctest: +SKIP
+    >>> br.save("branch.nc")                                 # doctest: +SKIP
+    >>> again = dy.Branch.load("branch.nc")                  # doctest: +SKIP
+    >>> more = dy.continuation(br.points[-1], "Omega", (1.2, 1.8))   # restart at a point  # doctest: +SKIP
     """
 
     names: tuple
@@ -158,9 +212,77 @@ class Branch:
     ends: tuple
     base: Any
     backend: str
+    section_phase: float = 0.0
+    options: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.points)
+
+    # -- the points as models, orbits and starts -----------------------------------------
+    def point(self, key):
+        """The point labelled ``key`` (a :class:`SpecialPoint`, e.g. ``"LP1"``) or at index ``key`` (a BranchPoint).
+
+        Raises
+        ------
+        KeyError
+            If no special point has that label.
+        IndexError, TypeError
+            For an index out of range, or a key that is neither a label nor an integer.
+        """
+        if isinstance(key, BranchPoint | SpecialPoint):
+            return key
+        if isinstance(key, str):
+            for s in self.special:
+                if s.label == key:
+                    return s
+            raise KeyError(f"no special point is labelled {key!r}; the labels are "
+                           f"{', '.join(s.label for s in self.special) or 'none'}")
+        if isinstance(key, bool) or not isinstance(key, int | np.integer):
+            raise TypeError(f"key must be a label (str) or an index (int), got {key!r}")
+        return self.points[int(key)]
+
+    def model(self, key):
+        """The model (Oscillator or TapeDrive, like :attr:`base`) at the point ``key`` (see :meth:`point`)."""
+        from .._common import with_parameter
+
+        m = self.base
+        for name, value in self.point(key).parameters.items():
+            m = with_parameter(m, name, float(value))
+        return m
+
+    def orbit_phase(self, key) -> float:
+        """The forcing phase of the section at the point ``key`` (``section_phase`` unless the phase is free)."""
+        if "phase" not in self.names:
+            return self.section_phase
+        from .._common import oscillator_of
+
+        base = oscillator_of(self.base)
+        here = oscillator_of(self.model(key))
+        t_section = ((self.section_phase - base.phase) % (2.0 * math.pi)) / base.Omega if base.F and base.Omega \
+            else 0.0
+        return math.fmod(here.phase + here.Omega * t_section, 2.0 * math.pi)
+
+    def orbit(self, key, **options):
+        """The periodic orbit at the point ``key`` (a label such as ``"PD1"`` or an index), Newton-corrected.
+
+        A :class:`~impactosc.dynamics.PeriodicOrbit`: its ``solution`` has the time series of
+        one period (``solution.sample``, ``solution.plot()``), its multipliers and events.
+        At a located nonsmooth point (a grazing) the orbit exists but the map has no
+        Jacobian there: Newton may say so in ``status``/``message``.
+
+        Parameters
+        ----------
+        key : str or int
+            A special point's label or a point's index (:meth:`point`).
+        **options
+            Passed to :func:`~impactosc.dynamics.periodic_orbit` (``tol``, ``max_iter``, ...).
+        """
+        from ..shooting import periodic_orbit
+
+        p = self.point(key)
+        kw = {**self.options, **options}
+        return periodic_orbit(self.model(p), self.n, guess=(p.x, p.v), phase=self.orbit_phase(p),
+                              backend=self.backend, **kw)
 
     def values(self, name: str | None = None) -> np.ndarray:
         """The values of a free parameter (default the first) along the branch."""
@@ -185,30 +307,69 @@ class Branch:
             raise ValueError(f"kind must be one of {', '.join(SPECIAL_KINDS)}, got {kind!r}")
         return [s for s in self.special if s.kind == kind]
 
+    def table(self) -> list[dict]:
+        """The AUTO-style table of the labelled points: the ends (``EP``) and the special points.
+
+        One dict per row, in arclength order: ``label`` (``EP1``, ``LP1``, ...), ``type``
+        (AUTO's ``EP``, ``LP``, ``BP``, ``PD``, ``NS``, ``GR``, ``ST``, ``SC``), ``point`` (the
+        index of the branch point at or just before it), one entry per free parameter,
+        ``norm`` (``|(X, V)|`` on the section), ``stability`` and ``flange`` (which flanges the
+        orbit touches there, or the flange a grazing touches).
+        """
+        from ._points import _stability
+
+        rows: list[tuple[float, int, dict]] = []
+        ends = [0, len(self.points) - 1] if len(self.points) > 1 else [0] if self.points else []
+        for k, i in enumerate(ends, start=1):
+            p = self.points[i]
+            rows.append((i, 0 if k == 1 else 2, {"label": f"EP{k}", "type": "EP", "point": i, **p.parameters,
+                                                  "norm": p.norm, "stability": p.stability,
+                                                  "flange": touched_flanges(p.signature) or "none"}))
+        for s in self.special:
+            mus = np.asarray(s.multipliers)
+            stability = _stability(mus) if np.all(np.isfinite(mus)) else "undefined"
+            rows.append((s.index + 0.5, 1, {"label": s.label, "type": s.label.rstrip("0123456789"),
+                                            "point": max(s.index, 0), **s.parameters, "norm": s.norm,
+                                            "stability": stability,
+                                            "flange": s.flange or touched_flanges(s.after) or "none"}))
+        return [row for *_, row in sorted(rows, key=lambda r: (r[0], r[1]))]
+
     def to_xarray(self):
         """One row per point: parameters, state, multipliers, stability, signature, margins.
 
-        The special points are in the attributes ``special`` (one line each).
+        The labelled points (:meth:`table`) are on a second dimension ``label``: ``type``,
+        ``label_point``, ``label_<parameter>``, ``label_norm``, ``label_stability`` and
+        ``label_flange``. The special points are also in the attribute ``special`` (one line
+        each). A branch without points gives a Dataset of length 0.
         """
         import xarray as xr
 
         idx = np.arange(len(self.points))
-        mus = np.array([p.multipliers for p in self.points], dtype=complex).reshape(len(idx), -1)
+        mus = np.array([p.multipliers for p in self.points], dtype=complex).reshape(len(idx), 2)
         data = {name: ("point", self.values(name)) for name in self.names}
         data.update({
             "x": ("point", self.x), "v": ("point", self.v),
-            "period": ("point", np.array([p.period for p in self.points])),
+            "period": ("point", np.array([p.period for p in self.points], dtype=float)),
             "multiplier_real": (("point", "k"), mus.real), "multiplier_imag": (("point", "k"), mus.imag),
             "multiplier_abs": (("point", "k"), np.abs(mus)),
             "stability": ("point", np.array([p.stability for p in self.points], dtype=str)),
             "stable": ("point", self.stable),
             "signature": ("point", np.array([p.signature_text() for p in self.points], dtype=str)),
-            "upper_margin": ("point", np.array([p.upper_margin for p in self.points])),
-            "lower_margin": ("point", np.array([p.lower_margin for p in self.points])),
-            "stick_margin": ("point", np.array([p.stick_margin for p in self.points])),
-            "arclength": ("point", np.array([p.arclength for p in self.points])),
+            "norm": ("point", np.array([p.norm for p in self.points], dtype=float)),
+            "flange": ("point", np.array([touched_flanges(p.signature) or "none" for p in self.points], dtype=str)),
+            "upper_margin": ("point", np.array([p.upper_margin for p in self.points], dtype=float)),
+            "lower_margin": ("point", np.array([p.lower_margin for p in self.points], dtype=float)),
+            "stick_margin": ("point", np.array([p.stick_margin for p in self.points], dtype=float)),
+            "arclength": ("point", np.array([p.arclength for p in self.points], dtype=float)),
         })
-        ds = xr.Dataset(data, coords={"point": idx})
+        rows = self.table()
+        data["type"] = ("label", np.array([r["type"] for r in rows], dtype=str))
+        data["label_point"] = ("label", np.array([r["point"] for r in rows], dtype=int))
+        for key in (*self.names, "norm"):
+            data[f"label_{key}"] = ("label", np.array([r[key] for r in rows], dtype=float))
+        for key in ("stability", "flange"):
+            data[f"label_{key}"] = ("label", np.array([r[key] for r in rows], dtype=str))
+        ds = xr.Dataset(data, coords={"point": idx, "label": np.array([r["label"] for r in rows], dtype=str)})
         ds.attrs.update({"parameters": ", ".join(self.names), "n": self.n, "status": self.status,
                          "message": self.message, "backend": self.backend,
                          "special": "; ".join(f"{s.label} {s.kind} at "
@@ -218,13 +379,60 @@ class Branch:
         return ds
 
     def summary(self) -> str:
-        """A few lines: the run's outcome and its special points."""
+        """The run's outcome, its special points in words, and the AUTO-style table (:meth:`table`)."""
         lines = [f"branch of period-{self.n} orbits in {', '.join(self.names)}: {len(self.points)} points, "
                  f"status {self.status}: {self.message}"]
         for s in self.special:
             where = ", ".join(f"{k} = {val:.12g}" for k, val in s.parameters.items())
             lines.append(f"  {s.label:5s} {s.kind:16s} {where}  ({s.message})")
+        rows = self.table()
+        if rows:
+            lines.append("")
+            head = f"  {'LAB':5s} {'TY':3s} {'PT':>5s} " + " ".join(f"{n:>16s}" for n in self.names)
+            lines.append(head + f" {'norm':>14s}  {'stability':10s} flange")
+            for r in rows:
+                lines.append(f"  {r['label']:5s} {r['type']:3s} {r['point']:5d} "
+                             + " ".join(f"{r[n]:16.10g}" for n in self.names)
+                             + f" {r['norm']:14.8g}  {r['stability']:10s} {r['flange']}")
         return "\n".join(lines)
+
+    # -- one file -----------------------------------------------------------------------
+    def save(self, path) -> None:
+        """Write the branch and its model to one netCDF file (:meth:`load` reads it back).
+
+        The file is :meth:`to_xarray` plus what a restart needs: the model's class and
+        fields, the backend and its options, the section phase, each point's event
+        signature and test functions, and the special points (kind, label, where, state,
+        multipliers, signatures, accuracy, message) on a dimension ``special``. The special
+        points come back without their ``context``: follow one as a boundary or switch
+        branches from a fresh run, or restart from :meth:`orbit`.
+        """
+        from ._file import to_dataset
+
+        to_dataset(self).to_netcdf(path, engine="scipy")
+
+    @classmethod
+    def load(cls, path) -> Branch:
+        """The branch :meth:`save` wrote to ``path``.
+
+        Raises
+        ------
+        ValueError
+            If the file is not a saved branch (or from another format version).
+        """
+        import xarray as xr
+
+        from ._file import from_dataset
+
+        with xr.open_dataset(path, engine="scipy") as ds:
+            ds.load()
+            return from_dataset(ds, (cls, BranchPoint, SpecialPoint)).adopted()
+
+    def adopted(self) -> Branch:
+        """The branch with every point knowing it (:attr:`BranchPoint.branch`): each point a start of its own."""
+        for p in self.points:
+            object.__setattr__(p, "branch", self)
+        return self
 
     def plot(self, ax=None, y: str = "x", **style):
         """The branch in the AUTO/COCO style: stable solid, unstable dashed, special points labelled.
@@ -295,6 +503,13 @@ class Branch:
 
         ax = plot_bifurcation(diagram, ax=ax) if ax is None else ax
         return self.plot(ax=ax, y="x", **style)
+
+
+def touched_flanges(signature) -> str:
+    """``"upper"``, ``"lower"``, ``"both"`` or ``""``: the flanges an event signature's contacts touch."""
+    sides = {side for (kind, side), count in signature
+             if count and kind in ("impact", "contact_start", "chatter") and side}
+    return "both" if sides == {1, -1} else "upper" if sides == {1} else "lower" if sides == {-1} else ""
 
 
 def nan_multipliers() -> np.ndarray:

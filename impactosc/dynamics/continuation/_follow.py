@@ -77,8 +77,10 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
     bounds = [limits] if np.ndim(limits) == 1 else list(limits)
     nodes: list[Node] = []
     found: list[Found] = []
-    node = start
     t = direction * start.t
+    # every later node's tangent points along the travel; so must the start's, or a fold in the
+    # first backward step would read as a turn that is none (and the reverse)
+    node = start if direction > 0 else Node(start.u, t, start.corrected, start.info, start.arclength)
     h = settings.step
     jumped_last = False
     h_good = h  # the last step that succeeded: the scale of a jump across a grazing
@@ -115,6 +117,8 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
         if settings.locate:
             found += locate_between(problem, node, new, t, settings, index=len(nodes) - 1)
         nodes.append(new)
+        if settings.on_point is not None:
+            settings.on_point(new)
         stop = [f for f in found if f.kind in settings.stop_at]
         if stop:
             return nodes, found, 0, f"stopped at the first {stop[0].kind} point, as asked (stop_at)"
