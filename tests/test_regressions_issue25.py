@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -171,3 +172,103 @@ def test_the_cli_refuses_flange_options_it_cannot_use(capsys, monkeypatch, argv,
     _no_run(monkeypatch)
     status, _, err = _cli(argv, capsys)
     assert status == 2 and message in err, err
+
+
+# -- figures: the flanges where they are, a rigid wall's impacts ----------------------------------
+
+@pytest.fixture()
+def plt():
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as pyplot
+
+    yield pyplot
+    pyplot.close("all")
+
+
+#: A rigid wall at X = 0.5 and no lower flange, driven into the wall: five impacts in 30 units.
+WALL = io.Oscillator(0.5, 1.1, 0.1, flange="rigid", restitution=0.5, gap_upper=0.5, gap_lower=None)
+
+
+def _flange_lines(ax):
+    """{label or '': positions} of the dashed flange lines of ``ax`` (horizontal or vertical)."""
+    from impactosc.results._frames import FLANGE_STYLE
+
+    out = {}
+    for line in ax.get_lines():
+        if line.get_linestyle() == FLANGE_STYLE["ls"] and line.get_color() == FLANGE_STYLE["color"]:
+            xs, ys = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+            out.setdefault(line.get_label() if not line.get_label().startswith("_") else "", []).append(
+                (xs, ys))
+    return out
+
+
+def test_a_rigid_run_plots_with_its_impacts_and_its_wall(plt):
+    # Solution.plot raised KeyError: 'impact' on every rigid-flange run, and drew flanges at +-1.
+    sol = io.simulate(WALL, 30.0, 0.0, 0.0)
+    assert sol.counts["impact"] == 5
+    fig = sol.plot()
+    ax_t, ax_p = fig.axes
+    labels = [t.get_text() for t in ax_t.get_legend().get_texts()]
+    assert "impact (5)" in labels and "upper rigid wall (X = 0.5)" in labels
+    lines = _flange_lines(ax_t)
+    assert list(lines) == ["upper rigid wall (X = 0.5)"]  # no line where the absent lower flange would be
+    ((_, ys),) = lines["upper rigid wall (X = 0.5)"]
+    assert np.all(ys == 0.5)
+    ((xs, _),) = _flange_lines(ax_p)[""]
+    assert np.all(xs == 0.5)
+
+
+def test_the_solution_figure_shows_a_rigid_walls_impulses_not_a_flat_force(plt):
+    from impactosc.results import plot_solution
+
+    sol = io.simulate(WALL, 30.0, 0.0, 0.0)
+    fig = plot_solution(sol)
+    ax_x, ax_f, ax_p, twin = fig.axes
+    ((_, ys),) = _flange_lines(ax_x)["upper rigid wall (X = 0.5)"]
+    assert np.all(ys == 0.5) and len(_flange_lines(ax_x)) == 1
+    # One stem per impact, as high as its impulse (1 + e)|V|.
+    (stems,) = twin.collections
+    heights = sorted(seg[1, 1] for seg in stems.get_segments())
+    assert heights == pytest.approx(sorted(sol.impacts.impulse), rel=1e-12)
+    assert heights == pytest.approx(sorted(1.5 * np.abs(sol.impacts.entry_velocity)), rel=1e-12)
+
+
+def test_a_spring_run_draws_its_flanges_at_their_gaps(plt):
+    osc = io.Oscillator(0.5, 1.1, 0.01, 1e4, gap_lower=1.5, gap_upper=0.5)
+    sol = io.simulate(osc, 20.0, 0.0, 0.0)
+    lines = _flange_lines(sol.plot().axes[0])
+    assert sorted(lines) == ["lower flange (X = -1.5)", "upper flange (X = 0.5)"]
+
+
+def test_a_section_and_a_diagram_draw_the_walls_where_they_are(plt):
+    from impactosc.dynamics import bifurcation_diagram, plot_bifurcation, stroboscopic_section
+
+    section = stroboscopic_section(WALL, 10, transient_periods=5, x0=0.0)
+    ax = section.plot()
+    assert [np.unique(xs).tolist() for xs, _ in _flange_lines(ax)[""]] == [[0.5]]
+    ds = bifurcation_diagram(WALL, "F", [0.3, 0.5], transient_periods=5, record_periods=3, x0=0.0,
+                             executor="serial", progress=False)
+    ax = plot_bifurcation(ds)  # the base read back from the Dataset's attributes
+    assert list(_flange_lines(ax)) == ["upper rigid wall (X = 0.5)"]
+
+
+def test_a_diagram_over_the_guide_offset_moves_the_flanges_with_it(plt):
+    # The diagram's Dataset as bifurcation_diagram lays it out (a tape drive's runs take a
+    # minute: the points do not matter here, the flanges do).
+    xr = pytest.importorskip("xarray")
+    from impactosc.dynamics import plot_bifurcation
+
+    offsets = [-400e-6, 0.0, 400e-6]  # clearance 1 mm: upper flange at 1.4, 1, 0.6; lower at -0.6, -1, -1.4
+    ds = xr.Dataset({"x": (("direction", "guide_offset", "period"), np.zeros((1, 3, 2))),
+                     "v": (("direction", "guide_offset", "period"), np.zeros((1, 3, 2)))},
+                    coords={"direction": ["independent"], "guide_offset": offsets, "period": [0, 1]},
+                    attrs={"parameter": "guide_offset", "base": repr(io.TapeDrive())})
+    lines = _flange_lines(plot_bifurcation(ds))
+    ((xs, upper),) = lines["upper flange"]
+    ((_, lower),) = lines["lower flange"]
+    assert xs.tolist() == offsets
+    assert upper == pytest.approx([1.4, 1.0, 0.6], rel=1e-12) and lower == pytest.approx([-0.6, -1.0, -1.4], rel=1e-12)
+    # A Dataset whose base cannot be read back (or is not a model) gets no flanges, and no error.
+    ds.attrs["base"] = "__import__('os').system('echo never run')"
+    assert _flange_lines(plot_bifurcation(ds)) == {}
