@@ -272,3 +272,69 @@ def test_a_diagram_over_the_guide_offset_moves_the_flanges_with_it(plt):
     # A Dataset whose base cannot be read back (or is not a model) gets no flanges, and no error.
     ds.attrs["base"] = "__import__('os').system('echo never run')"
     assert _flange_lines(plot_bifurcation(ds)) == {}
+
+
+# -- backend="auto": the fastest backend that runs the member ------------------------------------
+
+def test_auto_picks_exact_for_a_linear_member_and_heyoka_for_the_rest():
+    from impactosc._util.jit import HAVE_NUMBA
+    from impactosc.backends import resolve_backend
+
+    linear = io.Oscillator(0.5, 1.1, 0.01, 1e4)
+    assert resolve_backend("auto", linear) == ("exact" if HAVE_NUMBA else "heyoka")
+    assert resolve_backend("auto", io.Oscillator(0.5, 1.1, 0.01, flange="rigid")) == (
+        "exact" if HAVE_NUMBA else "heyoka")
+    assert resolve_backend("auto", io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)) == "heyoka"
+    assert resolve_backend("auto", io.Oscillator(0.5, 1.1, 0.01, 1e4, zeta=1e4)) == "heyoka"  # beyond exact's zeta
+    many = io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5, harmonics=[(0.01, 1.0 + k, 0.0) for k in range(45)])
+    assert resolve_backend("auto", many) == "scipy"  # heyoka's compile time would dominate
+    assert resolve_backend("heyoka", io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)) == "heyoka"
+    # Options say whose they are.
+    assert resolve_backend("auto", linear, ["tol"]) == "heyoka"
+    assert resolve_backend("auto", linear, ["rtol", "method"]) == "scipy"
+    with pytest.raises(TypeError, match="no single backend takes"):
+        resolve_backend("auto", linear, ["tol", "rtol"])
+
+
+def test_the_option_table_of_auto_is_the_backends_signatures():
+    import inspect
+
+    from impactosc.backends import BACKENDS, get_backend
+    from impactosc.backends._registry import OPTIONS
+
+    common = {"osc", "t_end", "x0", "v0", "record", "max_events", "sample_at"}
+    for name in BACKENDS:
+        params = set(inspect.signature(get_backend(name)).parameters) - common
+        assert set(OPTIONS[name]) == params, name
+
+
+@pytest.mark.parametrize("osc", [io.Oscillator(0.5, 1.1, 0.01, 1e4),
+                                 io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)], ids=["linear", "hertz"])
+def test_simulate_auto_says_which_backend_ran_and_runs_it(osc):
+    from impactosc.backends import resolve_backend
+
+    auto = io.simulate(osc, 50.0, backend="auto")
+    chosen = resolve_backend("auto", osc)
+    assert auto.backend == chosen and f"[{chosen}]" in auto.summary()
+    same = io.simulate(osc, 50.0, backend=chosen)
+    np.testing.assert_array_equal(auto.events.t, same.events.t)  # one machine, one backend: the same run
+
+
+def test_sweep_defaults_to_auto_and_says_which_backend_ran():
+    # The README's sweep took 13 minutes on heyoka, 1.5 on exact with the same forces.
+    from impactosc._util.jit import HAVE_NUMBA
+
+    base = io.TapeDrive(clearance=50e-6)
+    grid = {"pack_diameter": [0.05, 0.09], "speed": [4.0]}
+    auto = io.sweep(base, grid, duration=0.002, executor="serial", progress=False)
+    assert auto.attrs["backend"] == "auto"
+    assert auto.attrs["backend_used"] == ("exact" if HAVE_NUMBA else "heyoka")
+    heyoka = io.sweep(base, grid, duration=0.002, backend="heyoka", executor="serial", progress=False)
+    assert heyoka.attrs["backend_used"] == "heyoka"
+    assert (auto["impacts"] > 0).all()
+    np.testing.assert_array_equal(auto["impacts"], heyoka["impacts"])
+    # Two machine-precision event locators: the forces agree far below any physical meaning.
+    np.testing.assert_allclose(auto["mean_flange_force"], heyoka["mean_flange_force"], rtol=1e-9)
+    # Backend options choose their backend: tol is heyoka's.
+    tol = io.sweep(base, grid, duration=0.002, executor="serial", progress=False, tol=1e-14)
+    assert tol.attrs["backend_used"] == "heyoka"
