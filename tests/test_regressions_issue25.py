@@ -338,3 +338,24 @@ def test_sweep_defaults_to_auto_and_says_which_backend_ran():
     # Backend options choose their backend: tol is heyoka's.
     tol = io.sweep(base, grid, duration=0.002, executor="serial", progress=False, tol=1e-14)
     assert tol.attrs["backend_used"] == "heyoka"
+
+
+@pytest.mark.slow  # about 15 s: a transient at each end of the bracket, then one grid point
+def test_a_chart_with_the_default_options_finishes_and_prints_micrometres(tmp_path):
+    # Before: one point of this chart ran for over 5 minutes (the orbit followed from the
+    # narrow clearance, in contact, after 100 forcing periods) and printed 0.0001198.
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, "-m", "impactosc", "chart", "--param", "clearance", "--bracket", "100e-6",
+                           "140e-6", "--grid", "speed=8", "--grid", "tension=0.5", "--serial", "--no-progress"],
+                          capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "followed from the hi end of the bracket, after 1 forcing periods" in proc.stdout
+    assert "critical clearance [um]" in proc.stdout
+    row = proc.stdout.strip().splitlines()[-1].split()
+    assert float(row[2]) == pytest.approx(119.8, abs=0.1) and row[3] == "0"  # micrometres, status 0
