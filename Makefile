@@ -1,18 +1,27 @@
-# `make test`, `make demo` and `make docs` each create (or reuse) .venv in this folder and install what they need.
+# `make test`, `make demo` and `make docs` each create (or reuse) .venv in this folder and install what they need:
+# the demo only the package and numba (a stamp of its own), the rest the test extra (docs, plots, dask, tools).
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
+DEMO_STAMP := $(VENV)/.installed-demo-stamp
 # -W: a warning (a broken cross-reference, a failing notebook cell) fails the build.
 SPHINXOPTS ?= -W --keep-going
 DOCS_OUT ?= docs/_build
 
 .PHONY: test test-fast demo docs lint bench clean
 
-$(STAMP): pyproject.toml
-	test -x $(PY) || python3 -m venv $(VENV)
+$(PY):
+	python3 -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
+
+# What `impactosc demo` runs on: the dependencies and numba (the compiled event rules), not the test extra.
+$(DEMO_STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e ".[fast]"
+	touch $(DEMO_STAMP)
 
 lint: $(STAMP)
 	$(PY) -m ruff check impactosc tests benchmarks docs/conf.py docs/_ext
@@ -26,7 +35,7 @@ test: $(STAMP) lint
 test-fast: $(STAMP) lint
 	$(PY) -m pytest -q -m "not slow"
 
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(PY) -m impactosc demo
 
 # The whole site from scratch (-E, and a fresh html folder): the notebooks are executed again, in quick mode.

@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -171,3 +172,190 @@ def test_the_cli_refuses_flange_options_it_cannot_use(capsys, monkeypatch, argv,
     _no_run(monkeypatch)
     status, _, err = _cli(argv, capsys)
     assert status == 2 and message in err, err
+
+
+# -- figures: the flanges where they are, a rigid wall's impacts ----------------------------------
+
+@pytest.fixture()
+def plt():
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as pyplot
+
+    yield pyplot
+    pyplot.close("all")
+
+
+#: A rigid wall at X = 0.5 and no lower flange, driven into the wall: five impacts in 30 units.
+WALL = io.Oscillator(0.5, 1.1, 0.1, flange="rigid", restitution=0.5, gap_upper=0.5, gap_lower=None)
+
+
+def _flange_lines(ax):
+    """{label or '': positions} of the dashed flange lines of ``ax`` (horizontal or vertical)."""
+    from impactosc.results._frames import FLANGE_STYLE
+
+    out = {}
+    for line in ax.get_lines():
+        if line.get_linestyle() == FLANGE_STYLE["ls"] and line.get_color() == FLANGE_STYLE["color"]:
+            xs, ys = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+            out.setdefault(line.get_label() if not line.get_label().startswith("_") else "", []).append(
+                (xs, ys))
+    return out
+
+
+def test_a_rigid_run_plots_with_its_impacts_and_its_wall(plt):
+    # Solution.plot raised KeyError: 'impact' on every rigid-flange run, and drew flanges at +-1.
+    sol = io.simulate(WALL, 30.0, 0.0, 0.0)
+    assert sol.counts["impact"] == 5
+    fig = sol.plot()
+    ax_t, ax_p = fig.axes
+    labels = [t.get_text() for t in ax_t.get_legend().get_texts()]
+    assert "impact (5)" in labels and "upper rigid wall (X = 0.5)" in labels
+    lines = _flange_lines(ax_t)
+    assert list(lines) == ["upper rigid wall (X = 0.5)"]  # no line where the absent lower flange would be
+    ((_, ys),) = lines["upper rigid wall (X = 0.5)"]
+    assert np.all(ys == 0.5)
+    ((xs, _),) = _flange_lines(ax_p)[""]
+    assert np.all(xs == 0.5)
+
+
+def test_the_solution_figure_shows_a_rigid_walls_impulses_not_a_flat_force(plt):
+    from impactosc.results import plot_solution
+
+    sol = io.simulate(WALL, 30.0, 0.0, 0.0)
+    fig = plot_solution(sol)
+    ax_x, ax_f, ax_p, twin = fig.axes
+    ((_, ys),) = _flange_lines(ax_x)["upper rigid wall (X = 0.5)"]
+    assert np.all(ys == 0.5) and len(_flange_lines(ax_x)) == 1
+    # One stem per impact, as high as its impulse (1 + e)|V|.
+    (stems,) = twin.collections
+    heights = sorted(seg[1, 1] for seg in stems.get_segments())
+    assert heights == pytest.approx(sorted(sol.impacts.impulse), rel=1e-12)
+    assert heights == pytest.approx(sorted(1.5 * np.abs(sol.impacts.entry_velocity)), rel=1e-12)
+
+
+def test_a_spring_run_draws_its_flanges_at_their_gaps(plt):
+    osc = io.Oscillator(0.5, 1.1, 0.01, 1e4, gap_lower=1.5, gap_upper=0.5)
+    sol = io.simulate(osc, 20.0, 0.0, 0.0)
+    lines = _flange_lines(sol.plot().axes[0])
+    assert sorted(lines) == ["lower flange (X = -1.5)", "upper flange (X = 0.5)"]
+
+
+def test_a_section_and_a_diagram_draw_the_walls_where_they_are(plt):
+    from impactosc.dynamics import bifurcation_diagram, plot_bifurcation, stroboscopic_section
+
+    section = stroboscopic_section(WALL, 10, transient_periods=5, x0=0.0)
+    ax = section.plot()
+    assert [np.unique(xs).tolist() for xs, _ in _flange_lines(ax)[""]] == [[0.5]]
+    ds = bifurcation_diagram(WALL, "F", [0.3, 0.5], transient_periods=5, record_periods=3, x0=0.0,
+                             executor="serial", progress=False)
+    ax = plot_bifurcation(ds)  # the base read back from the Dataset's attributes
+    assert list(_flange_lines(ax)) == ["upper rigid wall (X = 0.5)"]
+
+
+def test_a_diagram_over_the_guide_offset_moves_the_flanges_with_it(plt):
+    # The diagram's Dataset as bifurcation_diagram lays it out (a tape drive's runs take a
+    # minute: the points do not matter here, the flanges do).
+    xr = pytest.importorskip("xarray")
+    from impactosc.dynamics import plot_bifurcation
+
+    offsets = [-400e-6, 0.0, 400e-6]  # clearance 1 mm: upper flange at 1.4, 1, 0.6; lower at -0.6, -1, -1.4
+    ds = xr.Dataset({"x": (("direction", "guide_offset", "period"), np.zeros((1, 3, 2))),
+                     "v": (("direction", "guide_offset", "period"), np.zeros((1, 3, 2)))},
+                    coords={"direction": ["independent"], "guide_offset": offsets, "period": [0, 1]},
+                    attrs={"parameter": "guide_offset", "base": repr(io.TapeDrive())})
+    lines = _flange_lines(plot_bifurcation(ds))
+    ((xs, upper),) = lines["upper flange"]
+    ((_, lower),) = lines["lower flange"]
+    assert xs.tolist() == offsets
+    assert upper == pytest.approx([1.4, 1.0, 0.6], rel=1e-12) and lower == pytest.approx([-0.6, -1.0, -1.4], rel=1e-12)
+    # A Dataset whose base cannot be read back (or is not a model) gets no flanges, and no error.
+    ds.attrs["base"] = "__import__('os').system('echo never run')"
+    assert _flange_lines(plot_bifurcation(ds)) == {}
+
+
+# -- backend="auto": the fastest backend that runs the member ------------------------------------
+
+def test_auto_picks_exact_for_a_linear_member_and_heyoka_for_the_rest():
+    from impactosc._util.jit import HAVE_NUMBA
+    from impactosc.backends import resolve_backend
+
+    linear = io.Oscillator(0.5, 1.1, 0.01, 1e4)
+    assert resolve_backend("auto", linear) == ("exact" if HAVE_NUMBA else "heyoka")
+    assert resolve_backend("auto", io.Oscillator(0.5, 1.1, 0.01, flange="rigid")) == (
+        "exact" if HAVE_NUMBA else "heyoka")
+    assert resolve_backend("auto", io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)) == "heyoka"
+    assert resolve_backend("auto", io.Oscillator(0.5, 1.1, 0.01, 1e4, zeta=1e4)) == "heyoka"  # beyond exact's zeta
+    many = io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5, harmonics=[(0.01, 1.0 + k, 0.0) for k in range(45)])
+    assert resolve_backend("auto", many) == "scipy"  # heyoka's compile time would dominate
+    assert resolve_backend("heyoka", io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)) == "heyoka"
+    # Options say whose they are.
+    assert resolve_backend("auto", linear, ["tol"]) == "heyoka"
+    assert resolve_backend("auto", linear, ["rtol", "method"]) == "scipy"
+    with pytest.raises(TypeError, match="no single backend takes"):
+        resolve_backend("auto", linear, ["tol", "rtol"])
+
+
+def test_the_option_table_of_auto_is_the_backends_signatures():
+    import inspect
+
+    from impactosc.backends import BACKENDS, get_backend
+    from impactosc.backends._registry import OPTIONS
+
+    common = {"osc", "t_end", "x0", "v0", "record", "max_events", "sample_at"}
+    for name in BACKENDS:
+        params = set(inspect.signature(get_backend(name)).parameters) - common
+        assert set(OPTIONS[name]) == params, name
+
+
+@pytest.mark.parametrize("osc", [io.Oscillator(0.5, 1.1, 0.01, 1e4),
+                                 io.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)], ids=["linear", "hertz"])
+def test_simulate_auto_says_which_backend_ran_and_runs_it(osc):
+    from impactosc.backends import resolve_backend
+
+    auto = io.simulate(osc, 50.0, backend="auto")
+    chosen = resolve_backend("auto", osc)
+    assert auto.backend == chosen and f"[{chosen}]" in auto.summary()
+    same = io.simulate(osc, 50.0, backend=chosen)
+    np.testing.assert_array_equal(auto.events.t, same.events.t)  # one machine, one backend: the same run
+
+
+def test_sweep_defaults_to_auto_and_says_which_backend_ran():
+    # The README's sweep took 13 minutes on heyoka, 1.5 on exact with the same forces.
+    from impactosc._util.jit import HAVE_NUMBA
+
+    base = io.TapeDrive(clearance=50e-6)
+    grid = {"pack_diameter": [0.05, 0.09], "speed": [4.0]}
+    auto = io.sweep(base, grid, duration=0.002, executor="serial", progress=False)
+    assert auto.attrs["backend"] == "auto"
+    assert auto.attrs["backend_used"] == ("exact" if HAVE_NUMBA else "heyoka")
+    heyoka = io.sweep(base, grid, duration=0.002, backend="heyoka", executor="serial", progress=False)
+    assert heyoka.attrs["backend_used"] == "heyoka"
+    assert (auto["impacts"] > 0).all()
+    np.testing.assert_array_equal(auto["impacts"], heyoka["impacts"])
+    # Two machine-precision event locators: the forces agree far below any physical meaning.
+    np.testing.assert_allclose(auto["mean_flange_force"], heyoka["mean_flange_force"], rtol=1e-9)
+    # Backend options choose their backend: tol is heyoka's.
+    tol = io.sweep(base, grid, duration=0.002, executor="serial", progress=False, tol=1e-14)
+    assert tol.attrs["backend_used"] == "heyoka"
+
+
+@pytest.mark.slow  # about 15 s: a transient at each end of the bracket, then one grid point
+def test_a_chart_with_the_default_options_finishes_and_prints_micrometres(tmp_path):
+    # Before: one point of this chart ran for over 5 minutes (the orbit followed from the
+    # narrow clearance, in contact, after 100 forcing periods) and printed 0.0001198.
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, "-m", "impactosc", "chart", "--param", "clearance", "--bracket", "100e-6",
+                           "140e-6", "--grid", "speed=8", "--grid", "tension=0.5", "--serial", "--no-progress"],
+                          capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "followed from the hi end of the bracket, after 1 forcing periods" in proc.stdout
+    assert "critical clearance [um]" in proc.stdout
+    row = proc.stdout.strip().splitlines()[-1].split()
+    assert float(row[2]) == pytest.approx(119.8, abs=0.1) and row[3] == "0"  # micrometres, status 0

@@ -8,9 +8,12 @@ fails with an install hint only then, and so that ``import impactosc`` costs not
 - ``scipy``: ``solve_ivp`` restarted at every event, the independent cross-check.
 - ``exact``: closed-form pieces (compiled), the ground truth (subfolder ``exact/``).
 - ``rk4``: the paper's fixed-step method, no events (subfolder ``rk4/``).
+
+``"auto"`` is not a backend but a choice among them, member by member
+(:func:`resolve_backend`): the default of :func:`impactosc.sweep`.
 """
 
-from ._registry import BACKENDS, get_backend
+from ._registry import AUTO, BACKENDS, get_backend, resolve_backend
 from ._simulate import DEFAULT_MAX_EVENTS, simulate
 
-__all__ = ["simulate", "get_backend", "BACKENDS", "DEFAULT_MAX_EVENTS"]
+__all__ = ["simulate", "get_backend", "resolve_backend", "BACKENDS", "AUTO", "DEFAULT_MAX_EVENTS"]

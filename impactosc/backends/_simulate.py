@@ -8,7 +8,7 @@ from .._util import validation as _v
 from ..engine._driver import check_run_arguments, check_sample_times
 from ..model._oscillator import Oscillator
 from ..results._solution import RECORD_OPTIONS, Solution
-from ._registry import get_backend
+from ._registry import MAX_HEYOKA_TERMS, MAX_ZETA_OF, get_backend, resolve_backend
 
 __all__ = ["simulate", "check_magnitudes", "check_cost", "check_gaps", "DEFAULT_MAX_EVENTS", "MAX_MAGNITUDE",
            "MAX_ZETA", "MAX_OVERDAMPED_SPAN_OF", "MAX_ZETA_OF", "MAX_HEYOKA_TERMS", "MIN_GAP"]
@@ -30,15 +30,6 @@ MAX_ZETA = 1e100
 #: of one core at its limit (measured: exact 2.7 s at 1e6, heyoka 3.5 s at 1e7, scipy's
 #: DOP853 24 s at 9e5); ``"scipy"`` stands for its explicit methods.
 MAX_OVERDAMPED_SPAN_OF = {"exact": 1e6, "heyoka": 1e7, "scipy": 1e5}
-#: Largest damping ratio per backend, where it is below :data:`MAX_ZETA` (measured on random
-#: members and starts): the exact backend's guard search loses the sign of a velocity that
-#: creeps at ``|f_net| / (2 zeta)`` next to its fast transient (status -1 in 2 of 30 runs at
-#: ``zeta = 1e4``, none of 30 at 1e3); heyoka works at 1e12 and stops at 1e20.
-MAX_ZETA_OF = {"exact": 1e3, "heyoka": 1e12}
-#: Most forcing terms (the fundamental and the harmonics) the heyoka backend compiles an
-#: integrator for: its compile time grows faster than linearly (measured 8 s for 30 terms,
-#: 35 s for 60, over 2 minutes for 200), once per process and number of terms.
-MAX_HEYOKA_TERMS = 40
 #: Smallest distance from the rest position to a flange (``gap_lower``, ``gap_upper``, in units of
 #: the clearance ``L``) the backends resolve. From rest the mass reaches a flange at distance ``g``
 #: after about ``sqrt(2 g / a)`` under a push ``a``; heyoka's root finder stops locating that first
@@ -63,11 +54,15 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     x0, v0 : float
         Initial position ``X = x/L`` and velocity. The defaults are the paper's eq. 6-7.
         With ``v0 == 0`` the stick test decides whether the mass starts stuck.
-    backend : {"heyoka", "scipy", "exact", "rk4"}
-        ``"heyoka"`` (default): Taylor integration, events at machine precision.
-        ``"scipy"``: ``solve_ivp`` per smooth piece, the independent cross-check.
-        ``"exact"``: closed-form pieces, the ground truth. ``"rk4"``: the paper's fixed-step
-        RK4 with a naive ``sign()``, events reconstructed from sign changes (the baseline).
+    backend : {"heyoka", "scipy", "exact", "rk4", "auto"}
+        ``"heyoka"`` (default): Taylor integration, events at machine precision; runs every
+        member. ``"scipy"``: ``solve_ivp`` per smooth piece, the independent cross-check.
+        ``"exact"``: closed-form pieces, the ground truth (linear members). ``"rk4"``: the
+        paper's fixed-step RK4 with a naive ``sign()``, events reconstructed from sign
+        changes (the baseline). ``"auto"``: the fastest that runs the member
+        (:func:`impactosc.backends.resolve_backend`: ``"exact"`` for a linear member with
+        numba installed, else ``"heyoka"``; with backend options, the backend they are
+        for); :attr:`Solution.backend` says which one ran.
     record : {"full", "events", "stats"}
         What to keep (see :mod:`impactosc.solution`). Use ``"stats"`` for long runs.
     max_events : int
@@ -106,10 +101,12 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
         and the next run works normally. To bound a run and keep what it computed, use
         ``max_events`` or heyoka's ``max_wall_time``.
     """
-    run = get_backend(backend)
+    get_backend(backend)  # an unknown name fails first
     osc, t_end, x0, v0, max_events = check_run_arguments(osc, t_end, x0, v0, max_events)
     _v.choice("record", record, RECORD_OPTIONS)
     stops = check_sample_times(sample_at, t_end)
+    backend = resolve_backend(backend, osc, options)
+    run = get_backend(backend)
     check_magnitudes(osc, t_end, x0, v0)
     check_cost(osc, t_end, backend, options)
     try:

@@ -32,7 +32,8 @@ def add_parser(sub) -> None:
                                                    "[drive] table of base TapeDrive fields; --grid adds to it")
     add_drive_options(sw.add_argument_group("base drive (SI units, defaults from the paper)"))
     sw.add_argument("--duration", type=float, default=1.0, help="simulated time per point [s] (default 1, the paper)")
-    sw.add_argument("--backend", default="heyoka", help="heyoka (default), scipy, exact or rk4")
+    sw.add_argument("--backend", default="auto", help="auto (default: exact for a linear flange law with numba, "
+                                                      "else heyoka), heyoka, scipy, exact or rk4")
     sw.add_argument("--tol", type=float, help="heyoka tolerance")
     sw.add_argument("--dt", type=float, help="rk4 step")
     sw.add_argument("--out", metavar="FILE.nc|FILE.csv",
@@ -108,7 +109,7 @@ def run(args) -> int:
     n = int(ds["status"].size)
     failed = int((ds["status"] != 0).sum())
     print(f"sweep: {n} points ({' x '.join(f'{k}[{ds.sizes[k]}]' for k in grid)}), {args.duration:g} s each, "
-          f"backend {args.backend}: {wall:.2f} s wall, {failed} failed")
+          f"backend {ds.attrs['backend_used'] or args.backend}: {wall:.2f} s wall, {failed} failed")
     table = ds[["mean_flange_force", "impacts", "sticks", "status"]].to_dataframe().reset_index()
     with pandas_display():
         print(table.head(args.rows).to_string(index=False))
@@ -146,7 +147,8 @@ def _plot_sweep(ds, dims: list, path: str) -> None:
     unit = ds[x_dim].attrs.get("units", "")
     ax.set_xlabel(f"{ds[x_dim].attrs.get('long_name', x_dim)} [{unit}]" if unit else x_dim)
     ax.set_ylabel("mean flange force, both flanges [N]")
-    ax.set_title(f"sweep: {ds.attrs.get('duration', 0):g} s per point, backend {ds.attrs.get('backend', '')}",
+    ax.set_title(f"sweep: {ds.attrs.get('duration', 0):g} s per point, backend "
+                 f"{ds.attrs.get('backend_used') or ds.attrs.get('backend', '')}",
                  fontsize=9)
     ax.grid(alpha=0.3)
     if len(combos) > 1 or combos[0]:

@@ -378,8 +378,12 @@ def load_bifurcation(store):
 
 
 def plot_bifurcation(ds, variable: str = "x", *, ax=None, onset=None, onset_label: str = "contact onset",
-                     markersize: float = 1.0):
+                     markersize: float = 1.0, base=None):
     """The classic diagram: every recorded section point against the parameter.
+
+    With ``variable="x"`` the flanges are drawn where the member has them
+    (:func:`impactosc.results.draw_flanges`), following the parameter when it moves them
+    (a drive's ``guide_offset``); an absent flange is not drawn.
 
     Parameters
     ----------
@@ -389,6 +393,24 @@ def plot_bifurcation(ds, variable: str = "x", *, ax=None, onset=None, onset_labe
     ax : matplotlib.axes.Axes, optional
     onset : float or sequence of float, optional
         Parameter values to mark with a vertical line (e.g. a contact onset).
+    markersize : float
+        Size of the section points.
+    base : Oscillator or TapeDrive, optional
+        The study's base, for the flanges; default: read back from ``ds.attrs["base"]`` (its
+        repr, parsed, never evaluated). Without either, no flanges are drawn.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Examples
+    --------
+    >>> from impactosc import Oscillator
+    >>> from impactosc.dynamics import bifurcation_diagram, plot_bifurcation
+    >>> osc = Oscillator(0.3, 0.8, 0.05, flange="rigid", restitution=0.8, gap_upper=0.6)
+    >>> ds = bifurcation_diagram(osc, "F", [0.2, 0.4], transient_periods=20, record_periods=5, x0=0.0,
+    ...                          executor="serial", progress=False)
+    >>> ax = plot_bifurcation(ds)   # the rigid wall at X = 0.6, the lower flange at -1
     """
     from .._util.optional import require_matplotlib
 
@@ -411,11 +433,61 @@ def plot_bifurcation(ds, variable: str = "x", *, ax=None, onset=None, onset_labe
         for k, o in enumerate(np.atleast_1d(onset)):
             ax.axvline(float(o), color="C2", lw=1.0, ls="--", label=onset_label if k == 0 else None)
     if variable == "x":
-        for edge in (-1.0, 1.0):
-            ax.axhline(edge, color="0.6", lw=0.8, ls=":")
+        _draw_flanges_along(ax, ds, parameter, p, base)
     units = ds[parameter].attrs.get("units", "")
     ax.set_xlabel(f"{parameter}" + (f" [{units}]" if units not in ("", "1") else ""))
     ax.set_ylabel("X on the section" if variable == "x" else "V on the section")
-    if len(ds["direction"]) > 1 or onset is not None:
+    if ax.get_legend_handles_labels()[0]:  # directions, onsets, flanges
         ax.legend(fontsize=8, markerscale=6)
     return ax
+
+
+def _draw_flanges_along(ax, ds, parameter: str, values: np.ndarray, base) -> None:
+    """The flanges of the member at every value of the diagram (where the model accepts it)."""
+    from ..results import draw_flanges
+
+    base = _base_of(ds) if base is None else check_base(base)
+    if base is None:
+        return
+    members, along = [], []
+    for value in values:
+        try:
+            members.append(oscillator_of(with_parameter(base, parameter, float(value))))
+        except (TypeError, ValueError):  # a value the model refuses has status -2 and no points
+            continue
+        along.append(float(value))
+    if members:
+        draw_flanges(ax, members, along=np.array(along))
+
+
+def _base_of(ds):
+    """The base of the diagram rebuilt from ``ds.attrs["base"]``, or None where it cannot be.
+
+    The attribute is the base's repr: ``Oscillator(F=..., ...)`` or ``TapeDrive(...)``. It is
+    parsed, not evaluated (a netCDF file may come from anywhere): a call of one of the two
+    classes whose arguments are literals (numbers, strings, tuples, ``inf`` and ``nan``).
+    """
+    import ast
+
+    from ..model import Oscillator, TapeDrive
+
+    classes = {"Oscillator": Oscillator, "TapeDrive": TapeDrive}
+    try:
+        call = ast.parse(str(ds.attrs.get("base", "")), mode="eval").body
+        if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id in classes):
+            return None
+
+        def literal(node):
+            if isinstance(node, ast.Name) and node.id in ("inf", "nan"):
+                return float(node.id)
+            if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) and isinstance(node.operand, ast.Name):
+                return -literal(node.operand)
+            if isinstance(node, ast.Tuple | ast.List):
+                return tuple(literal(e) for e in node.elts)
+            return ast.literal_eval(node)
+
+        args = [literal(a) for a in call.args]
+        kwargs = {k.arg: literal(k.value) for k in call.keywords if k.arg is not None}
+        return classes[call.func.id](*args, **kwargs)
+    except (SyntaxError, ValueError, TypeError):
+        return None

@@ -87,8 +87,13 @@ class Section:
         return int(math.floor(self.t[0] / self.period + 1e-9)) if self.t.size else 0
 
     def plot(self, ax=None, **scatter):
-        """The section in the ``(X, V)`` plane, flange positions dashed."""
+        """The section in the ``(X, V)`` plane, the flanges dashed where the member has them.
+
+        ``scatter`` options go to ``Axes.scatter``; the flanges come from
+        :func:`impactosc.results.draw_flanges` (an absent flange is not drawn).
+        """
         from .._util.optional import require_matplotlib
+        from ..results import draw_flanges
 
         plt = require_matplotlib()
 
@@ -96,8 +101,7 @@ class Section:
             _, ax = plt.subplots(figsize=(5, 4))
         opts = {"s": 6, "c": "C0"} | scatter
         ax.scatter(self.x, self.v, **opts)
-        for edge in (-1.0, 1.0):
-            ax.axvline(edge, color="0.6", lw=0.8, ls="--")
+        draw_flanges(ax, self.oscillator, axis="x", label=False)
         ax.set_xlabel("X = x/L")
         ax.set_ylabel("V = dX/dLambda")
         ax.set_title(f"{self.kind} section ({len(self)} points)", fontsize=10)

@@ -30,7 +30,7 @@ from ..model._tape import TapeDrive
 if TYPE_CHECKING:  # pandas and xarray are imported by the functions that build frames
     import pandas as pd
 
-__all__ = ["SolutionFramesMixin", "Units", "units_of", "events_frame", "impacts_frame", "to_dataframe",
+__all__ = ["SolutionFramesMixin", "Units", "units_of", "events_frame", "impacts_frame", "to_dataframe", "draw_flanges",
            "resample", "plot_run", "to_si", "SIResults", "BYTES_PER_SAMPLE"]
 
 TABLES = ("events", "impacts")
@@ -348,7 +348,68 @@ def to_si(sol, drive: TapeDrive) -> SIResults:
 # -- plot ---------------------------------------------------------------------------------
 #: How each event kind is marked: (marker, colour).
 EVENT_MARKERS = {"contact_start": (">", "tab:red"), "contact_end": ("<", "darkred"), "reversal": ("x", "0.4"),
-                 "stick": ("o", "tab:blue"), "release": ("^", "tab:green")}
+                 "stick": ("o", "tab:blue"), "release": ("^", "tab:green"), "impact": ("v", "tab:red"),
+                 "chatter": ("*", "darkred")}
+#: Line style of a flange in every figure.
+FLANGE_STYLE = {"color": "tab:red", "lw": 0.8, "ls": "--"}
+
+
+def draw_flanges(ax, osc, *, axis: str = "y", scale: float = 1.0, along=None, label: bool = True) -> None:
+    """Draw the flanges of ``osc`` where they are: at ``X = -gap_lower`` and ``X = +gap_upper``.
+
+    One helper for every figure that shows the flanges (:func:`plot_run`,
+    :func:`~impactosc.results.plot_solution`, :func:`~impactosc.dynamics.plot_bifurcation`,
+    :meth:`~impactosc.dynamics.Section.plot`): the positions come from
+    :attr:`Oscillator.flanges <impactosc.Oscillator.flanges>`, and an absent flange
+    (``gap = None``/``inf``, a one-sided stop) is not drawn.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    osc : Oscillator or sequence of Oscillator
+        The member; with ``along``, one member per abscissa (the flanges may move with a
+        parameter, e.g. a tape drive's ``guide_offset``).
+    axis : {"y", "x"}
+        The axis that shows the position ``X``: ``"y"`` draws horizontal lines (a time series,
+        a bifurcation diagram), ``"x"`` vertical ones (a phase plane).
+    scale : float
+        Multiplies ``X`` (e.g. the clearance in micrometres for a plot in SI units).
+    along : array_like, optional
+        Abscissae of the members in ``osc`` (only with ``axis="y"``): the flanges are drawn
+        as lines through ``(along[i], flange of osc[i])``.
+    label : bool
+        Label the lines for a legend (rigid wall or spring flange, and its position).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from impactosc import Oscillator
+    >>> from impactosc.results import draw_flanges
+    >>> fig, ax = plt.subplots()
+    >>> draw_flanges(ax, Oscillator(0.5, 1.1, 0.01, 1e4, gap_lower=1.5, gap_upper=0.5))
+    """
+    if axis not in ("x", "y"):
+        raise ValueError(f"axis must be 'x' or 'y' (the axis that shows X), got {axis!r}")
+    members = list(osc) if along is not None else [osc]
+    if along is not None and (axis != "y" or len(members) != len(along)):
+        raise ValueError("along needs axis='y' and one member of osc per abscissa")
+    law = "rigid wall" if members[0].rigid else "flange"
+    for side in (1, -1):
+        positions = np.array([m.flanges[(side + 1) // 2] for m in members], dtype=float) * scale
+        if not np.any(np.isfinite(positions)):
+            continue  # this flange is absent
+        name = "upper" if side == 1 else "lower"
+        text = None
+        if label:
+            fixed = np.all(positions == positions[0])
+            text = f"{name} {law}" + (f" (X = {positions[0] / scale:g})" if fixed else "")
+        style = FLANGE_STYLE | {"label": text}
+        if along is not None and not np.all(positions == positions[0]):
+            ax.plot(along, positions, **style)
+        elif axis == "y":
+            ax.axhline(positions[0], **style)
+        else:
+            ax.axvline(positions[0], **style)
 
 
 def plot_run(sol, drive: TapeDrive | None = None, *, n_samples: int = 4000, kinds=EVENT_KINDS, path=None):
@@ -370,8 +431,9 @@ def plot_run(sol, drive: TapeDrive | None = None, *, n_samples: int = 4000, kind
     Returns
     -------
     matplotlib.figure.Figure
-        Two axes: position against time with the flanges (``|X| = 1``) dashed, and the
-        phase plane (position, velocity) with the flanges as vertical lines.
+        Two axes: position against time with the flanges dashed where they are
+        (:func:`draw_flanges`; a rigid wall's impacts and chatters marked like the other
+        events), and the phase plane (position, velocity) with the flanges as vertical lines.
     """
     from .._util.optional import require_matplotlib
 
@@ -391,9 +453,8 @@ def plot_run(sol, drive: TapeDrive | None = None, *, n_samples: int = 4000, kind
     fig, (ax_t, ax_p) = plt.subplots(2, 1, figsize=(9, 7.5), constrained_layout=True)
     ax_t.plot(lam * ts, x * xs, lw=0.8, color="k", label="position")
     ax_p.plot(x * xs, v * u.velocity, lw=0.6, color="k", label="trajectory")
-    for side in (1, -1):
-        ax_t.axhline(side * xs, color="tab:red", lw=0.8, ls="--", label="flange |X| = 1" if side == 1 else None)
-        ax_p.axvline(side * xs, color="tab:red", lw=0.8, ls="--", label="flange |X| = 1" if side == 1 else None)
+    draw_flanges(ax_t, sol.oscillator, scale=xs)
+    draw_flanges(ax_p, sol.oscillator, axis="x", scale=xs, label=False)
     for kind in kinds:
         sel = ev[ev["kind"] == kind]
         if len(sel):

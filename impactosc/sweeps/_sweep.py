@@ -47,7 +47,7 @@ import numpy as np
 import xarray as xr
 
 from .._util import validation as _v
-from ..backends import get_backend
+from ..backends import get_backend, resolve_backend
 from ..backends._simulate import simulate
 from ..model._tape import BENDING_OPTIONS, FIELD_UNITS, TapeDrive
 from ..runner import check_executor, check_store_path, point_key, run_points
@@ -104,8 +104,10 @@ def _check_options(backend: str, x0, v0, options: dict) -> tuple[float, float, d
     v0 = _v.real("v0", v0)
     if "record" in options:
         raise ValueError("sweep() always runs simulate(..., record='stats'); do not pass record")
-    run = get_backend(backend)  # an unknown or uninstalled backend fails here, not at every point
     backend_options = {k: v for k, v in options.items() if k != "max_events"}
+    get_backend(backend)  # an unknown name fails here, not at every point
+    # "auto" with options: the backend they are for (it does not depend on the member then).
+    run = get_backend(resolve_backend(backend, None, backend_options) if backend_options else backend)
     if "max_events" in options:
         _v.integer("max_events", options["max_events"])
     try:
@@ -144,7 +146,8 @@ def _probe_options(plan: dict) -> None:
         return
     without = run({})
     if without is None or (type(without), str(without)) != (type(error), str(error)):
-        raise type(error)(f"sweep options {options} rejected by backend {plan['backend']!r} (a short run of the "
+        chosen = resolve_backend(plan["backend"], drive.oscillator(), options)
+        raise type(error)(f"sweep options {options} rejected by backend {chosen!r} (a short run of the "
                           f"first point raised; nothing was run): {error}") from None
 
 
@@ -182,7 +185,7 @@ def _point_label(point: dict) -> str:
 # ---------------------------------------------------------------------------------------
 # Public API
 # ---------------------------------------------------------------------------------------
-def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str = "heyoka", executor=None,
+def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str = "auto", executor=None,
           progress: bool = True, store=None, x0: float = 0.95, v0: float = 0.0, **simulate_options) -> xr.Dataset:
     """Simulate every point of a grid of tape-drive parameters; results in SI units as a Dataset.
 
@@ -204,7 +207,12 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
     duration : float
         Simulated time per point in seconds (> 0). The paper averages over 1 s.
     backend : str
-        Backend of :func:`impactosc.simulate` (default ``"heyoka"``).
+        Backend of :func:`impactosc.simulate`. The default ``"auto"`` runs each point on the
+        fastest backend that runs its member (:func:`impactosc.backends.resolve_backend`):
+        ``"exact"`` for the linear flange laws with numba installed (the paper's drive: the
+        same forces as ``"heyoka"``, several times faster), else ``"heyoka"``; with backend
+        options, the backend they are for (``tol``: heyoka). The Dataset's
+        ``backend_used`` attribute says which ran.
     executor : None, "serial", "dask", concurrent.futures.Executor or dask.distributed.Client
         Where the points run. ``None`` (default): a local pool of one process per CPU
         (loky's), kept for the next sweep; it needs no ``if __name__ == "__main__":`` guard
@@ -240,8 +248,9 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
         ``Omega``, ``beta``, ``K`` of each point, ``simulated_time`` (s), ``status`` (int32,
         see the module docstring) and ``message`` (str). Counts are float64 so that a
         failed point can be NaN. ``attrs`` hold the base drive's fields (``base_<field>``),
-        ``duration`` (s), ``backend``, ``x0``, ``v0``, ``simulate_options`` (JSON) and
-        ``impactosc_version``.
+        ``duration`` (s), ``backend`` (as asked, e.g. ``"auto"``), ``backend_used`` (the
+        backends that ran the points, comma-separated), ``x0``, ``v0``,
+        ``simulate_options`` (JSON) and ``impactosc_version``.
 
     Raises
     ------
@@ -273,6 +282,8 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
     >>> ds = sweep(TapeDrive(), {"pack_diameter": [0.05, 0.07, 0.09], "speed": [4.0, 8.0]},
     ...            duration=0.01, progress=False)                        # doctest: +SKIP
     >>> ds.mean_flange_force.sel(speed=4.0)                              # doctest: +SKIP
+    >>> ds.attrs["backend"], ds.attrs["backend_used"]                    # doctest: +SKIP
+    ('auto', 'exact')
     """
     plan = _plan(base, grid, duration, backend, x0, v0, simulate_options)
     check_executor(executor)
@@ -369,12 +380,14 @@ def _plan(base, grid, duration, backend, x0, v0, options) -> dict:
     grid = _check_grid(grid)
     x0, v0, options = _check_options(backend, x0, v0, options)
     settings_ = _settings(base, duration, backend, x0, v0, options)
-    points, unique, invalid = [], {}, {}
+    points, unique, invalid, used = [], {}, {}, set()
     names = list(grid)
     for combo in itertools.product(*(v.tolist() for v in grid.values())):
         point = dict(zip(names, combo, strict=True))
         try:
-            fields = _drive_fields(_resolve(base, point))
+            drive = _resolve(base, point)
+            fields = _drive_fields(drive)
+            used.add(resolve_backend(backend, drive.oscillator(), [k for k in options if k != "max_events"]))
         except (TypeError, ValueError) as exc:
             # An invalid drive is known here already: recorded without a task (and without a store file).
             key = "invalid:" + _point_label(point)
@@ -384,7 +397,8 @@ def _plan(base, grid, duration, backend, x0, v0, options) -> dict:
             unique[key] = fields
         points.append((point, key))
     return {"grid": grid, "points": points, "unique": unique, "invalid": invalid, "settings": settings_,
-            "base": base, "duration": duration, "backend": backend, "x0": x0, "v0": v0, "options": options}
+            "base": base, "duration": duration, "backend": backend, "backend_used": ", ".join(sorted(used)),
+            "x0": x0, "v0": v0, "options": options}
 
 
 def _assemble(plan: dict, results: dict) -> xr.Dataset:
@@ -411,7 +425,8 @@ def _assemble(plan: dict, results: dict) -> xr.Dataset:
     coords = {k: (k, v, attrs(*FIELD_UNITS[k])) for k, v in grid.items()}
     base = plan["base"]
     ds_attrs = {f"base_{f}": _attr_value(getattr(base, f)) for f in _FIELDS}
-    ds_attrs.update(duration=plan["duration"], duration_units="s", backend=plan["backend"], x0=plan["x0"],
+    ds_attrs.update(duration=plan["duration"], duration_units="s", backend=plan["backend"],
+                    backend_used=plan["backend_used"], x0=plan["x0"],
                     v0=plan["v0"], simulate_options=json.dumps(plan["options"], sort_keys=True, default=repr),
                     impactosc_version=_version())
     return xr.Dataset(data, coords=coords, attrs=ds_attrs)
