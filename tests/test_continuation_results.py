@@ -113,6 +113,16 @@ def test_a_saved_branch_of_a_one_sided_stop_with_harmonics(tmp_path):
     assert again.base == osc and math.isinf(again.base.gap_lower)
 
 
+def test_an_empty_branch_of_a_drive_saves_and_loads(tmp_path):
+    drive = io.TapeDrive(runout_harmonics=((2, 0.1, 0.3),), flange_sides="upper", static_friction=0.3)
+    empty = Branch(("speed",), 1, [], [], -1, "no start", ((-1, "no start"),), drive, "heyoka",
+                   options={"tol": np.float64(1e-15)})
+    empty.save(tmp_path / "empty.nc")
+    again = Branch.load(tmp_path / "empty.nc")
+    assert again.base == drive and len(again) == 0 and again.options == {"tol": 1e-15}
+    assert (again.status, again.ends) == (-1, ((-1, "no start"),))
+
+
 def test_a_file_that_is_no_branch_is_refused(tmp_path):
     import xarray as xr
 
