@@ -154,8 +154,12 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
             from ._boundary import boundary
 
             if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
+                located = start.context[0]
                 for name, pair in limits.items():
-                    check_study_parameter(start.context[0].base, name, _limits_pair(name, pair))
+                    pair = _limits_pair(name, pair)
+                    check_study_parameter(located.base, name, pair)
+                    _range_backend(located.base, name, pair, backend or located.backend,
+                                   {**located.options, **options})
 
             with _progress(progress, f"boundary in {', '.join(map(str, parameter))}") as on_point:
                 settings = dataclasses.replace(settings, on_point=on_point)
