@@ -161,6 +161,15 @@ def test_restart_from_a_branch_point_and_from_a_loaded_one(den_hartog_branch, tm
     assert np.allclose(again.values("Omega"), other.values("Omega"), atol=1e-9)
 
 
+def test_restart_from_a_labelled_point_in_another_parameter(den_hartog_branch):
+    gr = den_hartog_branch.point("GR1")
+    other = continuation(gr, "Omega", (1.45, 1.55), max_points=30)
+    # the orbit grazes (both flanges: it is symmetric) at the start: the new branch locates it again
+    again = other.find("grazing")
+    assert again and abs(again[0].parameters["Omega"] - OMEGA) < 1e-9, other.summary()
+    assert other.base.F == pytest.approx(gr.parameter, rel=1e-15)
+
+
 def test_the_auto_style_table(den_hartog_branch):
     br = den_hartog_branch
     rows = br.table()

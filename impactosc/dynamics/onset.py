@@ -517,7 +517,7 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
                         message=(f"contact {side} {parameter} = {value:.12g}: the followed branch ({followed}) "
                                  f"{'grazes' if not touching else 'leaves'} the flange there ({onset.label}: "
                                  f"{onset.message}), {'stable' if stable else a.stability} just before{polished}"),
-                        stable=stable, branch=br, **head)
+                        stable=stable, branch=br.adopted(), **head)
 
 
 def _up_to(br, onset, forward: bool, model):

@@ -126,6 +126,8 @@ class SpecialPoint:
     context: Any = field(default=None, repr=False)  #: (problem, node, extra): what continues it
     #: The flange a grazing touches, as saved in a file (a loaded point has no ``context``).
     saved_flange: str = field(default="", repr=False)
+    #: The branch the point was located on (set by :func:`continuation` and :meth:`Branch.load`).
+    branch: Any = field(default=None, repr=False, compare=False)
 
     @property
     def parameter(self) -> float:
@@ -430,7 +432,7 @@ class Branch:
 
     def adopted(self) -> Branch:
         """The branch with every point knowing it (:attr:`BranchPoint.branch`): each point a start of its own."""
-        for p in self.points:
+        for p in (*self.points, *self.special):
             object.__setattr__(p, "branch", self)
         return self
 
