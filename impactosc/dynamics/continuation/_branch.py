@@ -244,7 +244,7 @@ class Branch:
         return self.points[int(key)]
 
     def model(self, key):
-        """The model (Oscillator or TapeDrive, like :attr:`base`) at the point ``key`` (see :meth:`point`)."""
+        """The model (Oscillator or TapeDrive, like ``base``) at the point ``key`` (see :meth:`point`)."""
         from .._common import with_parameter
 
         m = self.base
