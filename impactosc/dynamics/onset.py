@@ -456,8 +456,9 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
             return failed(-1, f"the orbit did not converge again on the model with inert flanges: {orb.message}")
     forward = start == "lo"
     try:
+        # no bar of its own: an onset is one step of a chart (whose bar counts the points) or of a script
         br = continuation(orb, parameter, (lo, hi), base=follow_base, backend=backend,
-                          direction="forward" if forward else "backward", **settings, **options)
+                          direction="forward" if forward else "backward", progress=False, **settings, **options)
     except (RuntimeError, FloatingPointError) as exc:
         return failed(-1, f"the continuation failed: {type(exc).__name__}: {exc}")
     specials = br.special if forward else list(reversed(br.special))
