@@ -71,6 +71,13 @@ def test_a_branch_in_the_upper_gap_grazes_at_den_hartogs_amplitude():
     assert clear and all(abs(p.parameters["gap_upper"] - p.upper_margin - amplitude) < 1e-9 for p in clear)
     gr = [s for s in br.find("grazing") if s.flange == "upper"]
     assert gr and abs(gr[0].parameter - amplitude) < 1e-9, br.summary()
+    # the figure's max X is measured from each point's own flange: the amplitude, whatever the gap
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    ax = br.plot(y="max_x")
+    drawn = np.fmax(*(line.get_ydata() for line in ax.get_lines()[:2]))
+    on_clear = np.array([p.upper_margin > 0 for p in br.points])
+    assert np.allclose(drawn[on_clear], amplitude, atol=1e-9)
 
 
 def test_oscillator_replace_changes_fields_and_names_unknown_ones():
