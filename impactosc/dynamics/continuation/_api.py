@@ -398,10 +398,16 @@ def _vetted(problem: MapProblem, f: Found, nodes: list[Node], settings: Settings
     if not all(map(math.isfinite, (va, vb, vf))) or va * vb >= 0.0 or pa == pb:
         return f
     slope = abs(vb - va) / abs(pb - pa)
-    if abs(vf) <= SMOOTH_CROSSING_TEST or abs(vf) <= slope * max(f.accuracy, 1e-12 * max(1.0, abs(pa))):
+
+    def on_its_zero(value: float, accuracy: float) -> bool:
+        return abs(value) <= SMOOTH_CROSSING_TEST or abs(value) <= slope * max(accuracy, 1e-12 * max(1.0, abs(pa)))
+
+    if on_its_zero(vf, f.accuracy):
         return f
     again = _locate_in_parameter(problem, a, b, test, settings)
-    if again is not None:
+    # a corrector at a fixed parameter may land on another orbit near a branch point: the point found
+    # must itself lie on the zero of the test function
+    if again is not None and on_its_zero(float(again[0].info.tests[test]), again[1]):
         f.node, f.accuracy = again
         f.extra = {**f.extra, "test": f"{test} (in the parameter)"}
         return f
