@@ -71,6 +71,13 @@ def test_a_branch_in_the_upper_gap_grazes_at_den_hartogs_amplitude():
     assert clear and all(abs(p.parameters["gap_upper"] - p.upper_margin - amplitude) < 1e-9 for p in clear)
     gr = [s for s in br.find("grazing") if s.flange == "upper"]
     assert gr and abs(gr[0].parameter - amplitude) < 1e-9, br.summary()
+    # the figure's max X is measured from each point's own flange: the amplitude, whatever the gap
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    ax = br.plot(y="max_x")
+    drawn = np.fmax(*(line.get_ydata() for line in ax.get_lines()[:2]))
+    on_clear = np.array([p.upper_margin > 0 for p in br.points])
+    assert np.allclose(drawn[on_clear], amplitude, atol=1e-9)
 
 
 def test_oscillator_replace_changes_fields_and_names_unknown_ones():
@@ -113,6 +120,16 @@ def test_a_saved_branch_of_a_one_sided_stop_with_harmonics(tmp_path):
     assert again.base == osc and math.isinf(again.base.gap_lower)
 
 
+def test_an_empty_branch_of_a_drive_saves_and_loads(tmp_path):
+    drive = io.TapeDrive(runout_harmonics=((2, 0.1, 0.3),), flange_sides="upper", static_friction=0.3)
+    empty = Branch(("speed",), 1, [], [], -1, "no start", ((-1, "no start"),), drive, "heyoka",
+                   options={"tol": np.float64(1e-15)})
+    empty.save(tmp_path / "empty.nc")
+    again = Branch.load(tmp_path / "empty.nc")
+    assert again.base == drive and len(again) == 0 and again.options == {"tol": 1e-15}
+    assert (again.status, again.ends) == (-1, ((-1, "no start"),))
+
+
 def test_a_file_that_is_no_branch_is_refused(tmp_path):
     import xarray as xr
 
@@ -149,6 +166,15 @@ def test_restart_from_a_branch_point_and_from_a_loaded_one(den_hartog_branch, tm
     again = continuation(loaded.points[5], "Omega", (1.45, 1.55), max_points=40)
     assert len(again) == len(other)
     assert np.allclose(again.values("Omega"), other.values("Omega"), atol=1e-9)
+
+
+def test_restart_from_a_labelled_point_in_another_parameter(den_hartog_branch):
+    gr = den_hartog_branch.point("GR1")
+    other = continuation(gr, "Omega", (1.45, 1.55), max_points=30)
+    # the orbit grazes (both flanges: it is symmetric) at the start: the new branch locates it again
+    again = other.find("grazing")
+    assert again and abs(again[0].parameters["Omega"] - OMEGA) < 1e-9, other.summary()
+    assert other.base.F == pytest.approx(gr.parameter, rel=1e-15)
 
 
 def test_the_auto_style_table(den_hartog_branch):

@@ -106,6 +106,17 @@ def test_item5_a_range_beyond_the_exact_members_runs_on_heyoka_and_says_so():
         continuation(orb, "exponent", (1.0, 1.5), backend="exact")
 
 
+def test_item5_a_boundary_leaving_the_exact_members_is_refused():
+    fc = dy.den_hartog_onset(1.5, 0.1)
+    orb = dy.periodic_orbit(io.Oscillator(0.8 * fc, 1.5, 0.1, 24.0), guess=(-0.7891869048001374, 0.16283153617831878),
+                            backend="exact")
+    br = continuation(orb, "F", (0.8 * fc, 1.1 * fc), direction="forward", stop_at=("grazing",))
+    gr = br.find("grazing")[0]
+    assert br.backend == "exact"
+    with pytest.raises(ValueError, match="does not run every member of the range of exponent"):
+        continuation(gr, ("F", "exponent"), {"exponent": (1.0, 1.5)})
+
+
 def test_issue26_item6_onset_never_says_clear_all_the_way_from_a_branch_that_stopped(monkeypatch):
     package = importlib.import_module("impactosc.dynamics.continuation")
     real = package.continuation

@@ -30,7 +30,8 @@ def add_onset_options(p) -> None:
     s.add_argument("--method", choices=("continuation", "transient"), default="continuation",
                    help="continuation (default): follow the branch of the orbit at the --start end (through "
                         "--guess, or reached by a transient) to its first contact onset; transient: the search on "
-                        "transients of earlier versions")
+                        "transients of earlier versions, status 0 only where the orbit at the contact-free end of "
+                        "its final bracket grazes (2: a jump between attractors or an unsettled transient)")
     s.add_argument("--guess", nargs=2, type=float, metavar=("X", "V"),
                    help="continuation: (X, V) on the section near the orbit to follow (default: a transient "
                         "from --x0 --v0)")

@@ -406,33 +406,11 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
     settings = {k: options.pop(k) for k in CONTINUATION_SETTINGS if k in options}
     settings.setdefault("locate_tol", LOCATE_TOL)
     lo, hi = _check_study(base, parameter, bracket)
-    if start not in ("lo", "hi"):
-        raise ValueError(f"start must be 'lo' or 'hi' (the end of the bracket the followed orbit is taken at), "
-                         f"got {start!r}")
-    n = 1 if orbit is None else _v.integer("orbit", orbit)
-    tol = 1e-12 * max(abs(lo), abs(hi)) if tol is None else _v.positive("tol", tol)
-    tp = 100 if transient_periods is None else transient_periods
-    if (isinstance(tp, bool) or not isinstance(tp, numbers.Integral | float) or not math.isfinite(tp)
-            or tp != int(tp) or tp < 0):
-        raise ValueError(f"transient_periods must be a whole number >= 0 with method='continuation', got {tp!r}")
-    tp = int(tp)
+    n, tol, tp = _continuation_arguments(start, orbit, tol, transient_periods, lo, hi)
     p0 = lo if start == "lo" else hi
     model = with_parameter(base, parameter, p0)
-    osc = oscillator_of(model)
-    backend = _default_backend(osc, backend, options)
-    if guess is not None:
-        try:
-            gx, gv = guess
-        except (TypeError, ValueError):
-            raise TypeError(f"guess must be a pair (X, V) on the section, got {guess!r}") from None
-        gx, gv = check_start(osc, n * forcing_period(osc), gx, gv, names=("guess[0]", "guess[1]"))
-        orb = periodic_orbit(model, n, guess=(gx, gv), backend=backend, **options)
-        followed = f"the period-{n} orbit through the guess (X, V) = ({gx!r}, {gv!r}) at {parameter} = {p0!r}"
-    else:
-        x0, v0 = check_start(osc, (tp + n) * forcing_period(osc), x0, v0)
-        orb = periodic_orbit(model, n, x0=x0, v0=v0, transient_periods=tp, backend=backend, **options)
-        followed = (f"the period-{n} orbit reached at {parameter} = {p0!r} by a transient of {tp} forcing periods "
-                    f"from (x0, v0) = ({x0!r}, {v0!r})")
+    backend = _default_backend(oscillator_of(model), backend, options)
+    orb, followed = _start_orbit(model, parameter, p0, n, guess, tp, x0, v0, backend, options)
     head = dict(parameter=parameter, method="continuation", start=start, followed=followed)
 
     def failed(status, message, branch=None, evaluations=0):
@@ -456,53 +434,29 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
             return failed(-1, f"the orbit did not converge again on the model with inert flanges: {orb.message}")
     forward = start == "lo"
     try:
+        # no bar of its own: an onset is one step of a chart (whose bar counts the points) or of a script
         br = continuation(orb, parameter, (lo, hi), base=follow_base, backend=backend,
-                          direction="forward" if forward else "backward", **settings, **options)
+                          direction="forward" if forward else "backward", progress=False, **settings, **options)
     except (RuntimeError, FloatingPointError) as exc:
         return failed(-1, f"the continuation failed: {type(exc).__name__}: {exc}")
-    specials = br.special if forward else list(reversed(br.special))
-    onset = None
-    for s in specials:
-        if s.kind == "fold":
-            return failed(2, f"the followed branch ({followed}) folds back at {parameter} = {s.parameter!r} before "
-                             f"it {'stops touching' if touching else 'touches'} a flange: it has no contact onset "
-                             f"in the bracket", br, len(br.points))
-        test = (s.context[2] or {}).get("test") if s.context else None
-        if s.kind == "grazing" and test in ("upper_margin", "lower_margin", "end"):
-            if not touching or _contact_free_beyond(br, s, forward):
-                onset = s
-                break
+    onset, fold = _first_onset(br, touching, forward)
+    if fold is not None:
+        return failed(2, f"the followed branch ({followed}) folds back at {parameter} = {fold.parameter!r} before "
+                         f"it {'stops touching' if touching else 'touches'} a flange: it has no contact onset "
+                         f"in the bracket", br, len(br.points))
     if onset is None:
-        end = br.ends[-1] if br.ends else (br.status, br.message)
-        far = hi if forward else lo
-        reached = br.points[-1 if forward else 0].parameter if br.points else p0
-        if end[0] in (0, 2) and abs(reached - far) > 1e-9 * max(1.0, abs(far)):
-            return failed(-1, f"the followed branch ({followed}) stopped at {parameter} = {reached!r}, short of the "
-                              f"end of the bracket {far!r}, without touching a flange ({len(br.points)} points; "
-                              f"{end[1]}): no onset found, none ruled out beyond", br, len(br.points))
-        if end[0] in (0, 2):
-            where = "touches a flange" if touching else "stays clear of the flanges"
-            return failed(1, f"no contact onset in [{lo!r}, {hi!r}]: the followed branch ({followed}) {where} all "
-                             f"the way ({len(br.points)} points; {end[1]})", br, len(br.points))
-        return failed(-1, f"the continuation stopped before an onset: {end[1]}", br, len(br.points))
+        return failed(*_no_onset(br, followed, touching, lo if forward else hi, hi if forward else lo), br,
+                      len(br.points))
     a, _ = _neighbours(br, onset, forward)
     n_points = len(br.points)
-    value = onset.parameter
-    polished = ""
+    value, polished = onset.parameter, ""
     if not touching or onset.accuracy > tol or (onset.context[2] or {}).get("test") == "end":
-        # always polished from the contact-free side: continuation's corrector stops at a residual of
-        # its own tol, and where M - I is nearly singular that leaves the orbit (hence the grazing)
-        # farther off than tol
         try:
-            value, step, z, note = _polish(_shadow(model), parameter, onset, n, tol, backend, options)
+            br, onset, polished = _polished(br, onset, _shadow(model), n, tol, backend, options)
         except (RuntimeError, ValueError, FloatingPointError) as exc:
             return failed(-1, f"the grazing found near {parameter} = {onset.parameter!r} could not be located to "
                               f"tol = {tol:g}: {exc}", br, n_points)
-        polished = f"; polished to {note}"
-        new = dataclasses.replace(onset, parameters={**onset.parameters, parameter: value}, x=float(z[0]),
-                                  v=float(z[1]), accuracy=step)
-        br = dataclasses.replace(br, special=[new if s is onset else s for s in br.special])
-        onset = new
+        value = onset.parameter
     if not touching:
         br = _up_to(br, onset, forward, model)
     direction = (1 if forward else -1) * (-1 if touching else 1)
@@ -517,7 +471,88 @@ def _continuation_onset(base, parameter, bracket, guess, start, orbit, tol, tran
                         message=(f"contact {side} {parameter} = {value:.12g}: the followed branch ({followed}) "
                                  f"{'grazes' if not touching else 'leaves'} the flange there ({onset.label}: "
                                  f"{onset.message}), {'stable' if stable else a.stability} just before{polished}"),
-                        stable=stable, branch=br, **head)
+                        stable=stable, branch=br.adopted(), **head)
+
+
+def _continuation_arguments(start, orbit, tol, transient_periods, lo: float, hi: float) -> tuple[int, float, int]:
+    """``(n, tol, transient_periods)`` of ``method="continuation"``, checked, with their defaults."""
+    if start not in ("lo", "hi"):
+        raise ValueError(f"start must be 'lo' or 'hi' (the end of the bracket the followed orbit is taken at), "
+                         f"got {start!r}")
+    n = 1 if orbit is None else _v.integer("orbit", orbit)
+    tol = 1e-12 * max(abs(lo), abs(hi)) if tol is None else _v.positive("tol", tol)
+    tp = 100 if transient_periods is None else transient_periods
+    if (isinstance(tp, bool) or not isinstance(tp, numbers.Integral | float) or not math.isfinite(tp)
+            or tp != int(tp) or tp < 0):
+        raise ValueError(f"transient_periods must be a whole number >= 0 with method='continuation', got {tp!r}")
+    return n, tol, int(tp)
+
+
+def _start_orbit(model, parameter, p0, n: int, guess, tp: int, x0, v0, backend, options):
+    """``(PeriodicOrbit, description)``: the orbit contact_onset follows, through ``guess`` or after a transient."""
+    from .shooting import periodic_orbit
+
+    osc = oscillator_of(model)
+    if guess is not None:
+        try:
+            gx, gv = guess
+        except (TypeError, ValueError):
+            raise TypeError(f"guess must be a pair (X, V) on the section, got {guess!r}") from None
+        gx, gv = check_start(osc, n * forcing_period(osc), gx, gv, names=("guess[0]", "guess[1]"))
+        orb = periodic_orbit(model, n, guess=(gx, gv), backend=backend, **options)
+        return orb, f"the period-{n} orbit through the guess (X, V) = ({gx!r}, {gv!r}) at {parameter} = {p0!r}"
+    x0, v0 = check_start(osc, (tp + n) * forcing_period(osc), x0, v0)
+    orb = periodic_orbit(model, n, x0=x0, v0=v0, transient_periods=tp, backend=backend, **options)
+    return orb, (f"the period-{n} orbit reached at {parameter} = {p0!r} by a transient of {tp} forcing periods "
+                 f"from (x0, v0) = ({x0!r}, {v0!r})")
+
+
+def _first_onset(br, touching: bool, forward: bool):
+    """``(onset, fold)``: the first contact onset along the followed direction, or the fold that comes first."""
+    for s in (br.special if forward else list(reversed(br.special))):
+        if s.kind == "fold":
+            return None, s
+        test = (s.context[2] or {}).get("test") if s.context else None
+        if s.kind == "grazing" and test in ("upper_margin", "lower_margin", "end"):
+            if not touching or _contact_free_beyond(br, s, forward):
+                return s, None
+    return None, None
+
+
+def _no_onset(br, followed: str, touching: bool, near: float, far: float) -> tuple[int, str]:
+    """``(status, message)`` of a followed branch without an onset: clear (or touching) all the way, or stopped short.
+
+    "All the way" only when the branch reached the far end of the bracket; a branch that
+    stopped before it rules nothing out beyond its last point.
+    """
+    parameter = br.names[0]
+    end = br.ends[-1] if br.ends else (br.status, br.message)
+    forward = far >= near
+    reached = br.points[-1 if forward else 0].parameter if br.points else near
+    if end[0] not in (0, 2):
+        return -1, f"the continuation stopped before an onset: {end[1]}"
+    if abs(reached - far) > 1e-9 * max(1.0, abs(far)):
+        return -1, (f"the followed branch ({followed}) stopped at {parameter} = {reached!r}, short of the end of the "
+                    f"bracket {far!r}, without touching a flange ({len(br.points)} points; {end[1]}): no onset "
+                    "found, none ruled out beyond")
+    where = "touches a flange" if touching else "stays clear of the flanges"
+    lo, hi = min(near, far), max(near, far)
+    return 1, (f"no contact onset in [{lo!r}, {hi!r}]: the followed branch ({followed}) {where} all the way "
+               f"({len(br.points)} points; {end[1]})")
+
+
+def _polished(br, onset, shadow, n: int, tol: float, backend, options):
+    """``(branch, onset, note)`` with the onset moved to the zero of the clearance of the contact-free orbits.
+
+    Always done from the contact-free side: continuation's corrector stops at a residual of
+    its own tol, and where ``M - I`` is nearly singular that leaves the orbit (hence the
+    grazing) farther off than ``tol``.
+    """
+    parameter = br.names[0]
+    value, step, z, note = _polish(shadow, parameter, onset, n, tol, backend, options)
+    new = dataclasses.replace(onset, parameters={**onset.parameters, parameter: value}, x=float(z[0]), v=float(z[1]),
+                              accuracy=step)
+    return dataclasses.replace(br, special=[new if s is onset else s for s in br.special]), new, f"; polished to {note}"
 
 
 def _up_to(br, onset, forward: bool, model):

@@ -54,9 +54,10 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     ----------
     start : PeriodicOrbit, BranchPoint, SpecialPoint or (float, float)
         * a converged :class:`PeriodicOrbit` (from :func:`periodic_orbit`): the branch through it;
-        * a :class:`BranchPoint` of a branch (``branch.points[i]``, also of a loaded one): the
-          branch through that point's orbit, in any parameter (a restart); for a labelled
-          point use ``branch.orbit(label)``;
+        * a :class:`BranchPoint` of a branch (``branch.points[i]``, also of a loaded one), or a
+          :class:`SpecialPoint` other than a period doubling with ``parameter`` one name: the
+          branch through that point's orbit, in any parameter (a restart; ``branch.point(key)``
+          finds a point by label or index);
         * a ``(X, V)`` guess on the section (``base`` required): Newton at the base's
           parameter value first;
         * a :class:`SpecialPoint` of a branch with ``parameter`` a pair of names: the
@@ -145,32 +146,12 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     settings = _settings(step, min_step, max_step, max_points, tol, max_iter, locate, locate_tol, stop_at)
     if direction not in _DIRECTIONS:
         raise ValueError(f"direction must be one of {', '.join(_DIRECTIONS)}, got {direction!r}")
-    if isinstance(start, SpecialPoint):
-        if not isinstance(start.context, tuple) or len(start.context) != 3 or start.context[0] is None:
-            raise ValueError(f"the SpecialPoint {start.label!r} carries no context (it was built by hand or loaded "
-                             "from a file): only a point located by continuation() can be followed as a boundary or "
-                             "switched at; restart from its orbit instead, continuation(branch.orbit(label), ...)")
-        if isinstance(parameter, tuple | list):
-            from ._boundary import boundary
-
-            if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
-                for name, pair in limits.items():
-                    check_study_parameter(start.context[0].base, name, _limits_pair(name, pair))
-
-            with _progress(progress, f"boundary in {', '.join(map(str, parameter))}") as on_point:
-                settings = dataclasses.replace(settings, on_point=on_point)
-                return _adopt(boundary(start, tuple(parameter), limits, settings, backend, options),
-                              start.context[0])
-        if start.kind != "period_doubling":
-            raise ValueError(f"a branch switch starts at a period_doubling point, got a {start.kind!r} point; give "
-                             "two parameters to follow this point as a boundary")
-        with _progress(progress, f"period-2 branch in {parameter}") as on_point:
-            settings = dataclasses.replace(settings, on_point=on_point)
-            return _adopt(_switch(start, parameter, limits, settings, max_points), start.context[0])
+    if isinstance(start, SpecialPoint) and (isinstance(parameter, tuple | list) or start.kind == "period_doubling"):
+        return _from_special(start, parameter, limits, settings, backend, options, progress, max_points)
     if isinstance(parameter, tuple | list):
         raise TypeError("two parameters need a SpecialPoint start (a located point to follow as a boundary), got "
                         f"{type(start).__name__}")
-    if isinstance(start, BranchPoint):
+    if isinstance(start, BranchPoint | SpecialPoint):
         start, base, backend, options = _restart(start, base, backend, options)
     problem, z0, note = _problem_from(start, parameter, limits, base, backend, options)
     lo, hi = check_limits(parameter, limits, problem.values()[0])
@@ -180,6 +161,30 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     if note:
         branch = dataclasses.replace(branch, message=f"{branch.message}; {note}")
     return _adopt(branch, problem)
+
+
+def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, backend, options, progress,
+                  max_points: int) -> Branch:
+    """A located point followed as a boundary (two parameters), or the branch switch at a period doubling."""
+    if not isinstance(start.context, tuple) or len(start.context) != 3 or start.context[0] is None:
+        raise ValueError(f"the SpecialPoint {start.label!r} carries no context (it was built by hand or loaded "
+                         "from a file): only a point located by continuation() can be followed as a boundary or "
+                         "switched at; restart from its orbit instead, continuation(branch.orbit(label), ...)")
+    located = start.context[0]
+    if isinstance(parameter, tuple | list):
+        from ._boundary import boundary
+
+        if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
+            for name, pair in limits.items():
+                pair = _limits_pair(name, pair)
+                check_study_parameter(located.base, name, pair)
+                _range_backend(located.base, name, pair, backend or located.backend, {**located.options, **options})
+        with _progress(progress, f"boundary in {', '.join(map(str, parameter))}") as on_point:
+            settings = dataclasses.replace(settings, on_point=on_point)
+            return _adopt(boundary(start, tuple(parameter), limits, settings, backend, options), located)
+    with _progress(progress, f"period-2 branch in {parameter}") as on_point:
+        settings = dataclasses.replace(settings, on_point=on_point)
+        return _adopt(_switch(start, parameter, limits, settings, max_points), located)
 
 
 @contextmanager
@@ -204,12 +209,12 @@ def _adopt(branch: Branch, problem: MapProblem) -> Branch:
     return branch.adopted()
 
 
-def _restart(point: BranchPoint, base, backend, options):
-    """``(PeriodicOrbit, base, backend, options)`` of a branch point, to start a new branch there."""
+def _restart(point: BranchPoint | SpecialPoint, base, backend, options):
+    """``(PeriodicOrbit, base, backend, options)`` of a branch's point, to start a new branch there."""
     branch = point.branch
     if branch is None:
-        raise ValueError("this BranchPoint belongs to no branch (built by hand): give a PeriodicOrbit start, e.g. "
-                         "periodic_orbit(model, guess=(x, v))")
+        raise ValueError(f"this {type(point).__name__} belongs to no branch (built by hand): give a PeriodicOrbit "
+                         "start, e.g. periodic_orbit(model, guess=(x, v))")
     here = branch.model(point)
     if base is None:
         base = here
@@ -393,10 +398,16 @@ def _vetted(problem: MapProblem, f: Found, nodes: list[Node], settings: Settings
     if not all(map(math.isfinite, (va, vb, vf))) or va * vb >= 0.0 or pa == pb:
         return f
     slope = abs(vb - va) / abs(pb - pa)
-    if abs(vf) <= SMOOTH_CROSSING_TEST or abs(vf) <= slope * max(f.accuracy, 1e-12 * max(1.0, abs(pa))):
+
+    def on_its_zero(value: float, accuracy: float) -> bool:
+        return abs(value) <= SMOOTH_CROSSING_TEST or abs(value) <= slope * max(accuracy, 1e-12 * max(1.0, abs(pa)))
+
+    if on_its_zero(vf, f.accuracy):
         return f
     again = _locate_in_parameter(problem, a, b, test, settings)
-    if again is not None:
+    # a corrector at a fixed parameter may land on another orbit near a branch point: the point found
+    # must itself lie on the zero of the test function
+    if again is not None and on_its_zero(float(again[0].info.tests[test]), again[1]):
         f.node, f.accuracy = again
         f.extra = {**f.extra, "test": f"{test} (in the parameter)"}
         return f

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ._problem import MapEvaluation, MapProblem
+from ._sensitivity import flange_gap
 
 __all__ = ["Settings", "Corrected", "correct", "tangent", "scaled", "unscaled"]
 
@@ -78,6 +79,16 @@ def tangent(rows: np.ndarray, previous=None) -> np.ndarray:
     return t / np.linalg.norm(t)
 
 
+def _walls(problem: MapProblem, u) -> tuple[float, float]:
+    """Distances of the rigid walls at the iterate's parameters (a gap or offset may be free)."""
+    _, params = unscaled(problem, u)
+    try:
+        osc = problem.section(params)
+    except ValueError:
+        return problem.walls
+    return flange_gap(osc, -1), flange_gap(osc, 1)
+
+
 def correct(problem: MapProblem, u_pred: np.ndarray, constraint: np.ndarray, settings: Settings,
             extra=None, max_distance: float = math.inf) -> Corrected | str:
     """Newton on ``[G; extra; constraint . (u - u_pred)] = 0`` from ``u_pred``.
@@ -90,9 +101,10 @@ def correct(problem: MapProblem, u_pred: np.ndarray, constraint: np.ndarray, set
     last_step = math.inf
     rigid = problem.rigid
     for it in range(settings.max_iter + 1):
-        if rigid and not -problem.walls[0] <= u[0] <= problem.walls[1]:
+        lower, upper = _walls(problem, u) if rigid else (math.inf, math.inf)
+        if rigid and not -lower <= u[0] <= upper:
             u = u.copy()  # no state lies beyond a rigid wall: the iterate rests on it
-            u[0] = min(max(u[0], -problem.walls[0]), problem.walls[1])
+            u[0] = min(max(u[0], -lower), upper)
         z, params = unscaled(problem, u)
         ev = problem.evaluate(z, params)
         if not ev.ok:

@@ -126,6 +126,8 @@ class SpecialPoint:
     context: Any = field(default=None, repr=False)  #: (problem, node, extra): what continues it
     #: The flange a grazing touches, as saved in a file (a loaded point has no ``context``).
     saved_flange: str = field(default="", repr=False)
+    #: The branch the point was located on (set by :func:`continuation` and :meth:`Branch.load`).
+    branch: Any = field(default=None, repr=False, compare=False)
 
     @property
     def parameter(self) -> float:
@@ -242,7 +244,7 @@ class Branch:
         return self.points[int(key)]
 
     def model(self, key):
-        """The model (Oscillator or TapeDrive, like :attr:`base`) at the point ``key`` (see :meth:`point`)."""
+        """The model (Oscillator or TapeDrive, like ``base``) at the point ``key`` (see :meth:`point`)."""
         from .._common import with_parameter
 
         m = self.base
@@ -430,7 +432,7 @@ class Branch:
 
     def adopted(self) -> Branch:
         """The branch with every point knowing it (:attr:`BranchPoint.branch`): each point a start of its own."""
-        for p in self.points:
+        for p in (*self.points, *self.special):
             object.__setattr__(p, "branch", self)
         return self
 
@@ -447,55 +449,9 @@ class Branch:
         **style
             Passed to ``Axes.plot`` (e.g. ``color``).
         """
-        from ..._util.optional import require_matplotlib
+        from ._plot import plot_branch
 
-        plt = require_matplotlib()
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4))
-        p = self.values()
-        yy = self._ordinate(y)
-        stable = self.stable
-        color = style.pop("color", "C0")
-        for flag, ls in ((True, "-"), (False, "--")):
-            # a point is drawn in the style of its own stability and of its neighbours', so each run
-            # reaches the next one and the line has no gaps where the stability changes
-            own = stable == flag
-            near = own.copy()
-            near[1:] |= own[:-1]
-            near[:-1] |= own[1:]
-            ax.plot(p, np.where(near, yy, np.nan), ls=ls, color=color, lw=1.4, **style)
-        for i, s in enumerate(self.special):
-            py = np.interp(s.parameter, p, yy) if s.index < 0 else self._special_ordinate(s, y)
-            ax.plot([s.parameter], [py], "o", ms=5, mfc="white", mec="k", zorder=5)
-            ax.annotate(s.label, (s.parameter, py), xytext=(4, 6 + 8 * (i % 3)), textcoords="offset points",
-                        fontsize=8)
-        ax.set_xlabel(self.names[0])
-        ax.set_ylabel({"x": "X on the section", "v": "V on the section", "max_x": "max X over the orbit"}[y])
-        return ax
-
-    def _ordinate(self, y: str) -> np.ndarray:
-        if y == "x":
-            return self.x
-        if y == "v":
-            return self.v
-        if y == "max_x":
-            from .._common import oscillator_of
-            from ._sensitivity import flange_gap
-
-            osc = oscillator_of(self.base)
-            gap = flange_gap(osc, 1)
-            # a spring flange's margin is minus the penetration, a rigid one's minus the impact speed
-            return np.array([gap if (osc.rigid and p.upper_margin < 0) else gap - p.upper_margin
-                             for p in self.points])
-        raise ValueError(f"y must be 'x', 'v' or 'max_x', got {y!r}")
-
-    def _special_ordinate(self, s: SpecialPoint, y: str) -> float:
-        if y == "x":
-            return s.x
-        if y == "v":
-            return s.v
-        i = min(max(s.index, 0), len(self.points) - 1)
-        return float(self._ordinate(y)[i])
+        return plot_branch(self, ax, y, **style)
 
     def overlay(self, diagram, ax=None, **style):
         """Draw the branch over a :func:`~impactosc.dynamics.bifurcation_diagram` Dataset (its ``x`` points)."""

@@ -21,9 +21,20 @@ __all__ = ["FORMAT", "to_dataset", "from_dataset"]
 FORMAT = "impactosc.Branch/1"
 
 
+def _plain(value):
+    """A NumPy scalar or array as the Python number or list JSON writes (``json.dumps(default=...)``)."""
+    if isinstance(value, np.generic | np.ndarray):
+        return value.tolist()
+    raise TypeError(f"{value!r} of type {type(value).__name__} cannot be saved in a branch file")
+
+
+def _dumps(value) -> str:
+    return json.dumps(value, default=_plain)
+
+
 def _model_json(model) -> str:
     fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.init}
-    return json.dumps({"class": type(model).__name__, "fields": fields})
+    return _dumps({"class": type(model).__name__, "fields": fields})
 
 
 def _model_from_json(text: str):
@@ -58,7 +69,7 @@ def to_dataset(branch):
     ds = branch.to_xarray()
     points = branch.points
     ds["signature_json"] = ("point", np.array([_signature_json(p.signature) for p in points], dtype=str))
-    ds["tests_json"] = ("point", np.array([json.dumps(p.tests) for p in points], dtype=str))
+    ds["tests_json"] = ("point", np.array([_dumps(p.tests) for p in points], dtype=str))
     ds["collapsed"] = ("point", np.array([p.collapsed for p in points], dtype=np.int8))
     special = [{"kind": s.kind, "label": s.label, "parameters": s.parameters, "x": s.x, "v": s.v,
                 "multipliers": _complex(s.multipliers), "before": _signature_json(s.before),
@@ -67,9 +78,9 @@ def to_dataset(branch):
                for s in branch.special]
     ds.attrs.update({
         "format": FORMAT, "names": json.dumps(list(branch.names)), "model_json": _model_json(branch.base),
-        "options_json": json.dumps(branch.options), "section_phase": float(branch.section_phase),
+        "options_json": _dumps(branch.options), "section_phase": float(branch.section_phase),
         "ends_json": json.dumps([[int(s), str(m)] for s, m in branch.ends]),
-        "special_json": json.dumps(special),
+        "special_json": _dumps(special),
     })
     return ds
 
