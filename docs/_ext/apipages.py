@@ -355,13 +355,30 @@ def _build_parser(package: str = PACKAGE) -> argparse.ArgumentParser:
     raise ImportError(f"no build_parser() in {package}.cli or its modules")
 
 
+def _subcommand_table(parser: argparse.ArgumentParser, package: str) -> str:
+    """A table of the subcommands and their one-line help, each linked to its section."""
+    rows = []
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            rows = [(sub.dest, " ".join((sub.help or "").split())) for sub in action._get_subactions()]
+    lines = [".. list-table::", "   :header-rows: 1", "   :widths: 1 4", "", "   * - subcommand", "     - what it does"]
+    for name, text in rows:
+        lines += [f"   * - :ref:`{package} {name} <{package}-{name}>`", f"     - {text}"]
+    return "\n".join(lines) + "\n"
+
+
 def cli_page(package: str = PACKAGE) -> str:
+    """The command line's page: its subcommands in a table, then every ``--help``, read from the parser."""
     parser = _build_parser(package)
     parser.prog = package
-    parts = [_title("Command line"), f".. automodule:: {package}.cli\n   :no-index:\n",
+    parts = [_title("Command line"),
+             f"``{package} <subcommand> [options]``, also ``python -m {package}``. Every subcommand "
+             "is listed here from the parser itself, with its ``--help`` below.\n",
+             _subcommand_table(parser, package),
              _literal(parser.format_help())]
     for name, sub in _subcommands(parser).items():
         sub.prog = f"{package} {name}"
+        parts.append(f".. _{package}-{name}:\n")
         parts.append(_title(f"{package} {name}").replace("=", "-"))
         parts.append(_literal(sub.format_help()))
     return "\n".join(parts)
