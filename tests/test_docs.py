@@ -174,12 +174,13 @@ def test_command_line_page_shows_every_subcommand(site):
     from impactosc.cli import build_parser
 
     text = (site.html / "api" / "cli.html").read_text(encoding="utf-8")
+    table = text.split("<table", 1)[1].split("</table>", 1)[0] if "<table" in text else ""
     subcommands = apipages._subcommands(build_parser())  # the registry, not a list written here
     assert {"simulate", "sweep", "paper", "demo", "bifurcation", "orbit", "onset", "chart"} <= set(subcommands)
     for sub in subcommands:
         assert f"impactosc {sub}" in text, f"the command-line page lacks impactosc {sub}"
         assert f'id="impactosc-{sub}"' in text, f"the command-line page has no section for impactosc {sub}"
-        assert f'href="#impactosc-{sub}"' in text, f"the command-line page's table does not list impactosc {sub}"
+        assert f'href="#impactosc-{sub}"' in table, f"the command-line page's table does not list impactosc {sub}"
 
 
 # -- the front pages --------------------------------------------------------------------------
