@@ -42,6 +42,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",  # a [source] link beside every documented object
     "sphinx-mathjax-offline",  # MathJax from the site itself: the equations need no network
     "sphinx_design",  # the gallery's cards
     "numpydoc",
