@@ -167,8 +167,15 @@ def test_api_titles_are_short_names_and_summaries_whole_sentences(site):
 def test_a_public_module_without_a_topic_stops_the_build():
     modules = apipages.public_modules()
     apipages.assign_topics(modules, apitopics.TOPICS, apitopics.INTERNAL)  # today's package: covered
-    with pytest.raises(apipages.TopicError, match=r"in no topic.*impactosc\.dynamics\.brand_new"):
-        apipages.assign_topics([*modules, "impactosc.dynamics.brand_new"], apitopics.TOPICS, apitopics.INTERNAL)
+    with pytest.raises(apipages.TopicError, match=r"in no topic.*impactosc\.brand_new"):
+        apipages.assign_topics([*modules, "impactosc.brand_new"], apitopics.TOPICS, apitopics.INTERNAL)
+    # A new module of a documented subpackage is documented in its parent's topic, without an
+    # edit of the topics; one of an internal module is internal.
+    home = apipages.assign_topics([*modules, "impactosc.model.brand_new", "impactosc.dynamics.brand_new.deeper",
+                                   "impactosc.runner.brand_new"], apitopics.TOPICS, apitopics.INTERNAL)
+    assert home["impactosc.model.brand_new"] == "Simulation"
+    assert home["impactosc.dynamics.brand_new.deeper"] == "Dynamics toolkit"
+    assert "impactosc.runner.brand_new" not in home
     with pytest.raises(apipages.TopicError, match="not a public module"):
         apipages.assign_topics(modules, [*apitopics.TOPICS, {"title": "x", "blurb": "", "modules": ["impactosc.gone"]}],
                                apitopics.INTERNAL)

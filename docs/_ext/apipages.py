@@ -4,9 +4,10 @@ No name is listed by hand, so a name added to the package appears in the documen
 without editing ``docs/``. What ``conf.py`` lists is the *topics*: ``api_topics``, each a
 title, a sentence and the public modules it covers, and ``api_internal``, the public-looking
 modules that are internals of the library (documented on the architecture page, not in the
-reference). A public module (no part of its dotted name starts with ``_``) that is in no
-topic and not internal stops the build: a new module cannot be left out silently. A topic's
-``pending`` modules (``fnmatch`` patterns) are documented once they exist.
+reference). A new module of a documented subpackage takes its parent's topic; a public
+module (no part of its dotted name starts with ``_``) left in no topic and not internal (a
+new subpackage of the package itself) stops the build: it cannot be left out silently. A
+topic's ``pending`` modules (``fnmatch`` patterns) are documented once they exist.
 
 What this extension writes, and what it leaves to ``sphinx.ext.autosummary``:
 
@@ -137,9 +138,12 @@ def assign_topics(modules: list[str], topics: list[dict], internal: list[str],
                   package: str = PACKAGE) -> dict[str, str]:
     """Public module -> the title of its topic, for every module of ``modules`` not internal.
 
-    Raises `TopicError` naming every public module that is in no topic and not in
-    ``internal`` (a new module must be given a topic), every module that two topics claim,
-    and every module a topic lists (not as pending) that does not exist.
+    A module that no topic lists takes the topic of its nearest ancestor below the package
+    (``impactosc.model.hybrid`` that of ``impactosc.model``), or is internal with an internal
+    ancestor: a new module of a documented subpackage is documented without an edit here.
+    Raises `TopicError` naming every public module left without a topic (a new subpackage of
+    the package itself must be given one, or be listed as internal), every module that two
+    topics claim, and every module a topic lists (not as pending) that does not exist.
     """
     existing = set(modules) | {package}
     home: dict[str, str] = {}
@@ -157,7 +161,18 @@ def assign_topics(modules: list[str], topics: list[dict], internal: list[str],
     for modname in internal:
         if modname in home:
             problems.append(f"{modname} is internal and in topic {home[modname]!r}")
-    orphans = sorted(existing - set(home) - set(internal))
+    explicit = dict(home)
+    for modname in sorted(existing - set(home) - set(internal)):
+        parts = modname.split(".")
+        for i in range(len(parts) - 1, 1, -1):  # its ancestors, nearest first, the package excluded
+            ancestor = ".".join(parts[:i])
+            if ancestor in internal:
+                break  # an internal module's submodule is internal too
+            if ancestor in explicit:
+                home[modname] = explicit[ancestor]
+                break
+    orphans = sorted(m for m in existing - set(home) - set(internal)
+                     if not any(m.startswith(i + ".") for i in internal))
     if orphans:
         problems.append("public modules in no topic of docs/conf.py's api_topics (give each a topic, or "
                         "list it in api_internal if it is not for users): " + ", ".join(orphans))
