@@ -35,7 +35,7 @@ QUICK = os.environ.get("IMPACTOSC_QUICK", "1") == "1"
 print("impactosc", io.__version__, "| quick mode" if QUICK else "| full mode")
 
 
-def show(text, width=72):
+def show(text, width=64):
     """Print a summary with its long lines wrapped to the width of the page's column."""
     for line in text.splitlines():
         indent = " " * (len(line) - len(line.lstrip()) + 4)
