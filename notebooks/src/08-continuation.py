@@ -36,10 +36,14 @@ print("impactosc", io.__version__, "| quick mode" if QUICK else "| full mode")
 
 
 def show(text, width=64):
-    """Print a summary with its long lines wrapped to the width of the page's column."""
-    for line in text.splitlines():
+    """Print a summary with its sentences wrapped to the width of the page's column (a table
+    after its first blank line is printed as it is)."""
+    prose, blank, table = text.partition("\n\n")
+    for line in prose.splitlines():
         indent = " " * (len(line) - len(line.lstrip()) + 4)
         print(textwrap.fill(line, width, subsequent_indent=indent))
+    if blank:
+        print("\n" + table)
 
 # %% [markdown]
 # ## 1. A one-sided rigid stop: branches over the brute-force diagram
