@@ -27,6 +27,7 @@ os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), os.environ.g
 
 import apitopics  # noqa: E402
 from numpydoc.xref import DEFAULT_LINKS  # noqa: E402
+from sphinx.ext import autosummary  # noqa: E402
 
 import impactosc  # noqa: E402
 
@@ -41,6 +42,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",  # a [source] link beside every documented object
     "sphinx-mathjax-offline",  # MathJax from the site itself: the equations need no network
     "sphinx_design",  # the gallery's cards
     "numpydoc",
@@ -95,6 +97,11 @@ numpydoc_xref_param_type = True
 # Types named in "Parameters"/"Returns" link to the package's own pages.
 numpydoc_xref_aliases = {name: name for name in _PLAIN_TYPES}
 numpydoc_xref_aliases.update({name: f"impactosc.{name}" for name in impactosc.__all__})
+# autosummary's tables show a name's first sentence, and a period followed by a space ends a
+# sentence unless it closes one of these abbreviations: the docstrings cite "the paper's eq. 3"
+# and "Fig. 7", which must not end the summary at "eq.".
+autosummary.WELL_KNOWN_ABBREVIATIONS = (*autosummary.WELL_KNOWN_ABBREVIATIONS,
+                                         "eq.", "Eq.", "eqs.", "Eqs.", "Fig.", "Figs.", "fig.", "sec.", "ch.")
 numpydoc_xref_ignore = {"optional", "default", "of", "or", "and", "the", "a", "an", "shape", "with", "each", "per"}
 
 # -- notebooks (myst-nb) -------------------------------------------------------------------
@@ -132,7 +139,11 @@ def _kernel_for_this_interpreter() -> str:
     # cell outputs) would otherwise fill the build log.
     spec = {"argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}", "--log-level=ERROR"],
             "display_name": "impactosc docs kernel", "language": "python",
-            "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline"}}
+            "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline",
+                    # tqdm.auto, imported by the library's progress bars (shown or not), warns
+                    # "IProgress not found" in a kernel without ipywidgets, with the path of the
+                    # building machine's tqdm; the site has no widgets to show anyway.
+                    "PYTHONWARNINGS": "ignore:IProgress not found"}}
     (spec_dir / "kernel.json").write_text(json.dumps(spec))
     return str(root)
 
@@ -154,7 +165,7 @@ html_show_sourcelink = False
 # Pages without sub-pages: no empty "Section Navigation" column beside them.
 html_sidebars = {page: [] for page in ("install", "gallery", "theory", "architecture", "changelog")}
 html_static_path = ["_static"]
-html_css_files = ["gallery.css"]
+html_css_files = ["gallery.css", "site.css"]
 
 # -- known defects outside docs/ -------------------------------------------------------------
 # Each entry drops exactly one kind of warning at one place (see _ext/knownwarnings.py). They

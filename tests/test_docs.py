@@ -41,10 +41,11 @@ import apipages  # noqa: E402
 import apitopics  # noqa: E402  (the topics of the API reference: conf.py's api_topics)
 
 # Figures wider than this (in CSS pixels: the PNG's width, or the width it is displayed at)
-# are shrunk into the page's column (~730 px) until their labels are unreadable.
-MAX_FIGURE_WIDTH = 960
-# The notebooks whose figures are sized for the column (the others: see the report of the docs work).
-SIZED_NOTEBOOKS = ("02-events-vs-rk4", "06-dynamics", "07-model-family", "08-continuation")
+# are shrunk into the page's column (~730 px) until their labels are unreadable: a 9-inch
+# figure at the inline backend's 100 dpi, with its tight bounding box.
+MAX_FIGURE_WIDTH = 920
+# The notebook whose subject includes the sweeps' progress bar (the others must not leave one).
+SHOWS_PROGRESS_BARS = ("04-sweeps-at-scale",)
 
 
 @dataclass
@@ -101,6 +102,13 @@ def test_every_name_in_all_has_a_page(site):
             f"the package page does not list {name}")
 
 
+def _module_pages(site) -> list[Path]:
+    """The package's page and every module's page."""
+    return [site.html / "api" / "generated" / "impactosc.html",
+            *(site.html / "api" / "modules" / f"{m}.html"
+              for m in apipages.documented_modules(apitopics.TOPICS, apitopics.INTERNAL))]
+
+
 def test_every_documented_module_and_its_names_have_pages(site):
     modules = apipages.documented_modules(apitopics.TOPICS, apitopics.INTERNAL)
     assert {"impactosc.model", "impactosc.results", "impactosc.backends.heyoka", "impactosc.dynamics"} <= set(modules)
@@ -137,16 +145,39 @@ def test_api_index_is_by_topic_and_every_entry_has_a_description(site):
     assert len(rows) > 50
     empty = [re.sub(r"<[^>]+>", "", name) for name, desc in rows if not re.sub(r"<[^>]+>", "", desc).strip()]
     assert not empty, f"API index entries without a description: {empty}"
-    for page in (site.html / "api" / "modules").glob("*.html"):
+    for page in _module_pages(site):
         headings = re.findall(r'<p class="rubric">(.*?)</p>', page.read_text(encoding="utf-8"), flags=re.S)
         assert all("<code" not in h for h in headings), f"{page.name}: code in a rubric heading (it breaks the line)"
+
+
+def test_api_titles_are_short_names_and_summaries_whole_sentences(site):
+    """A name's page is titled by the name itself (the dotted path is on its signature line),
+    so no title runs out of the column; no table summary ends at an abbreviation."""
+    page = site.html / "api" / "generated" / "impactosc.dynamics.continuation.SpecialPoint.html"
+    title = re.search(r"<h1>(.*?)<a class=\"headerlink\"", page.read_text(encoding="utf-8"), flags=re.S)
+    assert title and re.sub(r"<[^>]+>", "", title.group(1)).strip() == "SpecialPoint"
+    cut = []
+    for page in [site.html / "api" / "index.html", *_module_pages(site)]:
+        text = page.read_text(encoding="utf-8")
+        for desc in re.findall(r"<tr[^>]*>\s*<td><p>.*?</p></td>\s*<td><p>(.*?)</p></td>", text, flags=re.S):
+            desc = re.sub(r"<[^>]+>", "", desc).strip()
+            if re.search(r"\b(eq|Eq|eqs|Fig|Figs|fig|sec|ch)\.$", desc):
+                cut.append(f"{page.name}: {desc}")
+    assert not cut, f"summaries cut at an abbreviation: {cut[:5]}"
 
 
 def test_a_public_module_without_a_topic_stops_the_build():
     modules = apipages.public_modules()
     apipages.assign_topics(modules, apitopics.TOPICS, apitopics.INTERNAL)  # today's package: covered
-    with pytest.raises(apipages.TopicError, match=r"in no topic.*impactosc\.dynamics\.brand_new"):
-        apipages.assign_topics([*modules, "impactosc.dynamics.brand_new"], apitopics.TOPICS, apitopics.INTERNAL)
+    with pytest.raises(apipages.TopicError, match=r"in no topic.*impactosc\.brand_new"):
+        apipages.assign_topics([*modules, "impactosc.brand_new"], apitopics.TOPICS, apitopics.INTERNAL)
+    # A new module of a documented subpackage is documented in its parent's topic, without an
+    # edit of the topics; one of an internal module is internal.
+    home = apipages.assign_topics([*modules, "impactosc.model.brand_new", "impactosc.dynamics.brand_new.deeper",
+                                   "impactosc.runner.brand_new"], apitopics.TOPICS, apitopics.INTERNAL)
+    assert home["impactosc.model.brand_new"] == "Simulation"
+    assert home["impactosc.dynamics.brand_new.deeper"] == "Dynamics toolkit"
+    assert "impactosc.runner.brand_new" not in home
     with pytest.raises(apipages.TopicError, match="not a public module"):
         apipages.assign_topics(modules, [*apitopics.TOPICS, {"title": "x", "blurb": "", "modules": ["impactosc.gone"]}],
                                apitopics.INTERNAL)
@@ -159,11 +190,13 @@ def test_command_line_page_shows_every_subcommand(site):
     from impactosc.cli import build_parser
 
     text = (site.html / "api" / "cli.html").read_text(encoding="utf-8")
+    table = text.split("<table", 1)[1].split("</table>", 1)[0] if "<table" in text else ""
     subcommands = apipages._subcommands(build_parser())  # the registry, not a list written here
     assert {"simulate", "sweep", "paper", "demo", "bifurcation", "orbit", "onset", "chart"} <= set(subcommands)
     for sub in subcommands:
         assert f"impactosc {sub}" in text, f"the command-line page lacks impactosc {sub}"
         assert f'id="impactosc-{sub}"' in text, f"the command-line page has no section for impactosc {sub}"
+        assert f'href="#impactosc-{sub}"' in table, f"the command-line page's table does not list impactosc {sub}"
 
 
 # -- the front pages --------------------------------------------------------------------------
@@ -185,6 +218,25 @@ def test_landing_page_shows_the_whole_library_with_a_picture_each(site):
     assert len(cards) >= 9 and len(pictures) >= len(cards), (len(cards), len(pictures))
     for src in pictures:
         assert (page.parent / src).stat().st_size > 5000, f"{src} is not a figure"
+
+
+def _readme_tour() -> list[str]:
+    """The code lines of the README's short tour (its first Python block)."""
+    block = re.search(r"## A short tour\s+```python\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+    assert block, "the README has no short tour"
+    return [line for line in block.group(1).splitlines() if line.strip()]
+
+
+def test_landing_page_shows_the_readme_tour_and_every_way_on(site):
+    import html as html_lib
+
+    page = (site.html / "index.html").read_text(encoding="utf-8")
+    code = html_lib.unescape(re.sub(r"<[^>]+>", "", page))
+    for line in _readme_tour():
+        assert line in code, f"the landing page lacks the README tour's line {line!r}"
+    where = page.split('id="where-to-go-next"')[1]
+    for topic in ("continuation", "theory.html", "api/cli.html", "tutorials.html", "install.html"):
+        assert topic in where, f"'Where to go next' does not lead to {topic}"
 
 
 def test_gallery_shows_every_figure_of_the_notebooks(site):
@@ -209,6 +261,19 @@ def test_install_page_explains_every_extra_and_the_make_targets(site):
     for target in ("make test", "make test-fast", "make demo", "make docs"):
         assert target in text, target
     assert impactosc.__version__ in text and "whl" in text
+    # the command to paste names the wheel that `python -m build` writes
+    assert f"dist/impactosc-{impactosc.__version__}-py3-none-any.whl[fast,plot]" in text
+
+
+def test_no_page_shows_an_unreplaced_substitution(site):
+    pages = [p for p in site.html.rglob("*.html") if p.relative_to(site.html).parts[0] not in ("_static", "_modules")]
+    shown = []
+    for page in pages:
+        text = re.sub(r"<[^>]+>", "", page.read_text(encoding="utf-8"))
+        found = re.search(r"\{\{\s*\w+\s*\}\}", text)
+        if found:
+            shown.append(f"{page.relative_to(site.html)}: {found.group(0)}")
+    assert not shown, shown
 
 
 def test_math_is_served_by_the_site(site):
@@ -277,10 +342,10 @@ def _png_width(data: str) -> int:
     return struct.unpack(">I", base64.b64decode(data)[16:20])[0]
 
 
-@pytest.mark.parametrize("stem", SIZED_NOTEBOOKS)
-def test_notebook_figures_fit_the_column_and_no_progress_bar_is_left(site, stem):
+@pytest.mark.parametrize("stem", [p.stem for p in NOTEBOOKS])
+def test_notebook_figures_fit_the_column_and_no_progress_bar_or_warning_is_left(site, stem):
     nb = nbformat.read(site.executed / "notebooks" / f"{stem}.ipynb", as_version=4)
-    wide, bars = [], []
+    wide, bars, warned = [], [], []
     for i, cell in enumerate(c for c in nb.cells if c.cell_type == "code"):
         for out in cell.outputs:
             data = out.get("data", {})
@@ -289,10 +354,25 @@ def test_notebook_figures_fit_the_column_and_no_progress_bar_is_left(site, stem)
                 width = int(shown) if shown else _png_width(data["image/png"])
                 if width > MAX_FIGURE_WIDTH:
                     wide.append(f"code cell {i}: {width} px")
-            if out.output_type == "stream" and re.search(r"\d+%\|", out.text):
+            if out.output_type == "stream" and re.search(r"\d+%\|", out.text) and stem not in SHOWS_PROGRESS_BARS:
                 bars.append(f"code cell {i}: {out.text.splitlines()[0][:80]!r}")
+            # a warning on the page shows the building machine's paths and tells the reader nothing
+            if out.output_type == "stream" and re.search(r"\w+Warning:", out.text):
+                warned.append(f"code cell {i}: {re.search(r'.*Warning:.*', out.text).group(0)[:120]!r}")
     assert not wide, f"{stem}: figures wider than {MAX_FIGURE_WIDTH} px: {wide}"
     assert not bars, f"{stem}: progress bars on the page: {bars}"
+    assert not warned, f"{stem}: warnings on the page: {warned}"
+
+
+def test_continuation_summaries_fit_the_page(site):
+    """The branch summaries of the continuation notebook are printed wrapped: no line runs
+    past the output column (~90 characters) to be cut off."""
+    nb = nbformat.read(site.executed / "notebooks" / "08-continuation.ipynb", as_version=4)
+    printed = [line for cell in nb.cells if cell.cell_type == "code" for out in cell.outputs
+               if out.output_type == "stream" for line in out.text.splitlines()]
+    assert any(line.startswith("branch of period-1 orbits") for line in printed)
+    long = [line for line in printed if len(line) > 90]
+    assert not long, f"{len(long)} lines longer than 90 characters, e.g. {long[0][:120]!r}"
 
 
 def test_markdown_outputs_are_rendered_not_shown_as_text(site):
@@ -336,6 +416,17 @@ def test_theory_page_covers_the_model(site):
     for heading in ("The model", "the modes", "Guards and events", "The stick test", "The energy identity",
                     "What each backend guarantees"):
         assert heading in text
+    assert "one-sided stop" in text and "gap_lower=None" in text
+
+
+def test_theory_page_covers_the_dynamics(site):
+    text = (site.html / "theory.html").read_text(encoding="utf-8")
+    for heading in ("Dynamics: periodic orbits, stability and bifurcations", "The stroboscopic map",
+                    "Shooting and saltation matrices", "Floquet multipliers", "Pseudo-arclength continuation",
+                    "Special points and their test functions", "Grazing and its square-root singularity"):
+        assert f"{heading}<a class=\"headerlink\"" in text, f"the theory page has no section {heading!r}"
+    for label in ("LP", "BP", "PD", "NS", "GR", "ST", "SC"):  # every kind of special point
+        assert f"<td><p>{label}</p></td>" in text, label
 
 
 # -- links -------------------------------------------------------------------------------------

@@ -4,20 +4,27 @@ No name is listed by hand, so a name added to the package appears in the documen
 without editing ``docs/``. What ``conf.py`` lists is the *topics*: ``api_topics``, each a
 title, a sentence and the public modules it covers, and ``api_internal``, the public-looking
 modules that are internals of the library (documented on the architecture page, not in the
-reference). A public module (no part of its dotted name starts with ``_``) that is in no
-topic and not internal stops the build: a new module cannot be left out silently. A topic's
-``pending`` modules (``fnmatch`` patterns) are documented once they exist.
+reference). A new module of a documented subpackage takes its parent's topic; a public
+module (no part of its dotted name starts with ``_``) left in no topic and not internal (a
+new subpackage of the package itself) stops the build: it cannot be left out silently. A
+topic's ``pending`` modules (``fnmatch`` patterns) are documented once they exist.
 
-* ``api/index.rst``: the reference's front page, one section per topic: its modules and its
-  names, each with the first line of its documentation (a name without one is a warning);
-* ``api/generated/impactosc.rst``: the package page, one autosummary entry (and so one page)
-  per name in ``impactosc.__all__``;
-* ``api/modules/<module>.rst``: one page per documented module, with a page for every name
-  in its ``__all__`` that is not re-exported at the top level, and links to the top-level
-  pages of those that are;
-* ``api/cli.rst``: the ``--help`` of the command line and of each of its subcommands.
+What this extension writes, and what it leaves to ``sphinx.ext.autosummary``:
 
-The files are written when the extension is set up, before autosummary scans the sources
+* ``api/index.rst`` (written here): the reference's front page, one section per topic: an
+  autosummary table of its modules, whose ``:toctree:`` makes autosummary write each
+  module's page from ``_templates/autosummary/module.rst`` (and puts them in the navigation
+  under the topic's title), then each module's names, each with its first sentence;
+* ``api/generated/<module>.rst`` (autosummary): a module's page. The template lists the
+  names documented there in a table whose ``:toctree:`` has autosummary write a page per
+  name (``class.rst``, ``base.rst``), and links to the others. What each page lists is
+  computed here (``autosummary_context["api_pages"]``, :func:`page_context`): a name
+  re-exported at the top level is documented once, as ``impactosc.<name>``, and a name a
+  subpackage re-exports from a public submodule once, with that submodule;
+* ``api/cli.rst`` (written here): the command line's subcommands and their ``--help``, read
+  from its parser (the docs extra has no argparse extension).
+
+The files are written when the configuration is read, before autosummary scans the sources
 for its stubs, and are git-ignored. Stale pages of removed names are deleted first.
 
 A name re-exported at the top level is documented once, as ``impactosc.<name>``. The
@@ -42,6 +49,7 @@ from pathlib import Path
 from numpydoc.docscrape import NumpyDocString
 from sphinx.application import Sphinx
 from sphinx.errors import ExtensionError, PycodeError
+from sphinx.ext.autosummary.generate import AutosummaryRenderer
 from sphinx.pycode import ModuleAnalyzer
 from sphinx.util import logging as sphinx_logging
 
@@ -50,6 +58,7 @@ logger = sphinx_logging.getLogger(__name__)
 PACKAGE = "impactosc"
 GENERATED = Path("api", "generated")
 MODULES = Path("api", "modules")
+MODULE_TEMPLATE = "autosummary/module.rst"  # in docs/_templates
 CLI_PAGE = Path("api", "cli.rst")
 INDEX_PAGE = Path("api", "index.rst")
 
@@ -129,9 +138,12 @@ def assign_topics(modules: list[str], topics: list[dict], internal: list[str],
                   package: str = PACKAGE) -> dict[str, str]:
     """Public module -> the title of its topic, for every module of ``modules`` not internal.
 
-    Raises `TopicError` naming every public module that is in no topic and not in
-    ``internal`` (a new module must be given a topic), every module that two topics claim,
-    and every module a topic lists (not as pending) that does not exist.
+    A module that no topic lists takes the topic of its nearest ancestor below the package
+    (``impactosc.model.hybrid`` that of ``impactosc.model``), or is internal with an internal
+    ancestor: a new module of a documented subpackage is documented without an edit here.
+    Raises `TopicError` naming every public module left without a topic (a new subpackage of
+    the package itself must be given one, or be listed as internal), every module that two
+    topics claim, and every module a topic lists (not as pending) that does not exist.
     """
     existing = set(modules) | {package}
     home: dict[str, str] = {}
@@ -149,7 +161,18 @@ def assign_topics(modules: list[str], topics: list[dict], internal: list[str],
     for modname in internal:
         if modname in home:
             problems.append(f"{modname} is internal and in topic {home[modname]!r}")
-    orphans = sorted(existing - set(home) - set(internal))
+    explicit = dict(home)
+    for modname in sorted(existing - set(home) - set(internal)):
+        parts = modname.split(".")
+        for i in range(len(parts) - 1, 1, -1):  # its ancestors, nearest first, the package excluded
+            ancestor = ".".join(parts[:i])
+            if ancestor in internal:
+                break  # an internal module's submodule is internal too
+            if ancestor in explicit:
+                home[modname] = explicit[ancestor]
+                break
+    orphans = sorted(m for m in existing - set(home) - set(internal)
+                     if not any(m.startswith(i + ".") for i in internal))
     if orphans:
         problems.append("public modules in no topic of docs/conf.py's api_topics (give each a topic, or "
                         "list it in api_internal if it is not for users): " + ", ".join(orphans))
@@ -169,10 +192,12 @@ def _title(text: str) -> str:
     return f"{text}\n{'=' * len(text)}\n"
 
 
-def _autosummary(names: list[str], toctree: str | None) -> str:
+def _autosummary(names: list[str], toctree: str | None = None, caption: str | None = None) -> str:
     lines = [".. autosummary::"]
     if toctree is not None:
         lines.append(f"   :toctree: {toctree}")
+    if caption is not None:
+        lines.append(f"   :caption: {caption}")
     lines.append("   :nosignatures:")
     lines.append("")
     lines.extend(f"   {name}" for name in names)
@@ -188,71 +213,43 @@ def documented_at(modname: str, name: str, package: str = PACKAGE) -> tuple[str,
     module, top = importlib.import_module(modname), importlib.import_module(package)
     obj = getattr(module, name)
     if inspect.ismodule(obj):
-        return f"api/modules/{obj.__name__}", f"module-{obj.__name__}"
+        return f"{MODULES.as_posix()}/{obj.__name__}", f"module-{obj.__name__}"
     if modname == package or _reexported(module, name, top):
-        return f"api/generated/{package}.{name}", f"{package}.{name}"
+        return f"{GENERATED.as_posix()}/{package}.{name}", f"{package}.{name}"
     home = _from_submodule(module, name)
     if home is not None:
         return documented_at(home, name, package)
-    return f"api/generated/{modname}.{name}", f"{modname}.{name}"
+    return f"{GENERATED.as_posix()}/{modname}.{name}", f"{modname}.{name}"
 
 
-def _members(module: types.ModuleType, names: list[str]) -> str:
-    """Autosummary tables of ``names``: own pages for objects, links for modules."""
-    objects = [n for n in names if not inspect.ismodule(getattr(module, n, None))]
-    modules = [n for n in names if n not in objects]  # relative to the page's current module
-    parts = []
-    if objects:
-        toctree = "." if module.__name__ == PACKAGE else "../generated"
-        parts.append(_autosummary(objects, toctree=toctree))
-    if modules:  # documented on their module pages, in the "Modules" section
-        parts.append(".. rubric:: Modules\n")
-        parts.append(_autosummary(modules, toctree=None))
-    return "\n".join(parts)
+def page_context(modname: str, package: str = PACKAGE) -> dict:
+    """What the page of module ``modname`` lists (read by ``_templates/autosummary/module.rst``).
 
-
-def package_page(package: str = PACKAGE) -> str:
-    top = importlib.import_module(package)
-    parts = [
-        _title(f"The ``{package}`` package"),
-        f".. automodule:: {package}\n",
-        f".. currentmodule:: {package}\n",
-        f"Every name in ``{package}.__all__``, importable as ``{package}.<name>``:\n",
-        _members(top, toplevel_names(package)),
-    ]
-    return "\n".join(parts)
-
-
-def module_page(modname: str, package: str = PACKAGE) -> str:
-    module = importlib.import_module(modname)
-    top = importlib.import_module(package)
+    ``own``: the names documented on pages of their own from here (for the package, all of
+    ``__all__``); ``modules``: the modules its ``__all__`` names; ``toplevel``: the names it
+    shares with the package, documented as ``impactosc.<name>``; ``from_submodules``: the
+    names a subpackage re-exports from one of its public submodules, documented there
+    (written relative to ``modname``, as autosummary wants them).
+    """
+    module, top = importlib.import_module(modname), importlib.import_module(package)
     names = public_names(module)
-    homes = {n: _from_submodule(module, n) for n in names}
-    own = [n for n in names if not _reexported(module, n, top) and homes[n] is None]
-    shared = [n for n in names if _reexported(module, n, top)]
-    # relative to the page's current module (autosummary refuses the module's own prefix)
-    from_submodules = [f"~{homes[n][len(modname) + 1:]}.{n}" for n in names
-                       if homes[n] is not None and not _reexported(module, n, top)]
-    parts = [_title(f"``{modname}``")]
-    # ``impactosc.simulate`` and ``impactosc.sweep`` are modules *and* the functions the
-    # package re-exports under the same dotted name: registering the module as well would
-    # be a duplicate object description, so such a module page is not indexed.
+    modules = [n for n in names if inspect.ismodule(getattr(module, n, None))]
+    objects = [n for n in names if n not in modules]
+    if modname == package:
+        own, shared, homes = objects, [], {}
+    else:
+        homes = {n: _from_submodule(module, n) for n in objects}
+        own = [n for n in objects if not _reexported(module, n, top) and homes[n] is None]
+        shared = [n for n in objects if _reexported(module, n, top)]
+    # ``impactosc.<x>`` may be a module *and* a function the package re-exports under the same
+    # dotted name: registering the module as well would be a duplicate object description.
     shadowed = modname.count(".") == 1 and not inspect.ismodule(getattr(top, modname.rsplit(".", 1)[-1], module))
-    parts.append(f".. automodule:: {modname}" + ("\n   :no-index:\n" if shadowed else "\n"))
-    parts.append(f".. currentmodule:: {modname}\n")
-    if own:
-        parts.append(".. rubric:: Defined here\n")
-        parts.append(_members(module, own))
-    # Rubrics are short plain text (the theme sets inline code in a rubric as a block).
-    if shared:
-        parts.append(".. rubric:: Documented at the top level\n")
-        parts.append(f"Importable from ``{package}`` itself as well, and documented as ``{package}.<name>``:\n")
-        parts.append(_autosummary([f"~{package}.{n}" for n in shared], toctree=None))
-    if from_submodules:
-        parts.append(".. rubric:: From its submodules\n")
-        parts.append(f"Importable as ``{modname}.<name>``, and documented with the submodule that defines it:\n")
-        parts.append(_autosummary(from_submodules, toctree=None))
-    return "\n".join(parts)
+    return {"fullname": modname, "package": modname == package, "top": package, "own": own,
+            # where autosummary writes the pages of the names documented here
+            "toctree": "." if modname == package else f"../{GENERATED.name}", "modules": modules, "toplevel": shared,
+            "from_submodules": [f"~{homes[n][len(modname) + 1:]}.{n}" for n in objects
+                                if homes.get(n) is not None and n not in shared],
+            "no_index": shadowed}
 
 
 def _first_line(text: str | None) -> str:
@@ -355,31 +352,53 @@ def _build_parser(package: str = PACKAGE) -> argparse.ArgumentParser:
     raise ImportError(f"no build_parser() in {package}.cli or its modules")
 
 
+def _subcommand_table(parser: argparse.ArgumentParser, package: str) -> str:
+    """A table of the subcommands and their one-line help, each linked to its section."""
+    rows = []
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            rows = [(sub.dest, " ".join((sub.help or "").split())) for sub in action._get_subactions()]
+    lines = [".. list-table::", "   :header-rows: 1", "   :widths: 1 4", "", "   * - subcommand", "     - what it does"]
+    for name, text in rows:
+        lines += [f"   * - :ref:`{package} {name} <{package}-{name}>`", f"     - {text}"]
+    return "\n".join(lines) + "\n"
+
+
 def cli_page(package: str = PACKAGE) -> str:
+    """The command line's page: its subcommands in a table, then every ``--help``, read from the parser."""
     parser = _build_parser(package)
     parser.prog = package
-    parts = [_title("Command line"), f".. automodule:: {package}.cli\n   :no-index:\n",
+    parts = [_title("Command line"),
+             f"``{package} <subcommand> [options]``, also ``python -m {package}``. Every subcommand "
+             "is listed here from the parser itself, with its ``--help`` below.\n",
+             _subcommand_table(parser, package),
              _literal(parser.format_help())]
     for name, sub in _subcommands(parser).items():
         sub.prog = f"{package} {name}"
+        parts.append(f".. _{package}-{name}:\n")
         parts.append(_title(f"{package} {name}").replace("=", "-"))
         parts.append(_literal(sub.format_help()))
     return "\n".join(parts)
 
 
-def write_pages(srcdir: Path, topics: list[dict], internal: list[str], package: str = PACKAGE) -> list[Path]:
-    """(Re)write every generated page under ``srcdir``; returns the files written.
+def write_pages(app: Sphinx, topics: list[dict], internal: list[str], package: str = PACKAGE) -> list[Path]:
+    """(Re)write every generated page under the source folder; returns the files written.
 
-    Raises `TopicError` when the topics do not cover the public modules (see `assign_topics`).
+    The package's and the modules' pages are ``_templates/autosummary/module.rst`` rendered
+    by autosummary's own renderer with :func:`page_context`; their autosummary tables then
+    have autosummary write a page per name. Raises `TopicError` when the topics do not cover
+    the public modules (see `assign_topics`).
     """
+    srcdir = Path(app.srcdir)
     home = assign_topics(public_modules(package), topics, internal, package)
-    for folder in (GENERATED, MODULES):
+    for folder in (GENERATED, MODULES):  # stale pages of removed names and modules go
         shutil.rmtree(srcdir / folder, ignore_errors=True)
         (srcdir / folder).mkdir(parents=True)
+    renderer = AutosummaryRenderer(app)
     written = {srcdir / INDEX_PAGE: index_page(topics, home, package),
-               srcdir / GENERATED / f"{package}.rst": package_page(package)}
+               srcdir / GENERATED / f"{package}.rst": renderer.render(MODULE_TEMPLATE, page_context(package, package))}
     for modname in sorted(m for m in home if m != package):
-        written[srcdir / MODULES / f"{modname}.rst"] = module_page(modname, package)
+        written[srcdir / MODULES / f"{modname}.rst"] = renderer.render(MODULE_TEMPLATE, page_context(modname, package))
     written[srcdir / CLI_PAGE] = cli_page(package)
     for path, text in written.items():
         path.write_text(text, encoding="utf-8")
@@ -571,7 +590,7 @@ def internal_reference(app: Sphinx, env, node, contnode):
 
 def _on_config_inited(app: Sphinx, config) -> None:
     try:
-        write_pages(Path(app.srcdir), config.api_topics, config.api_internal)
+        write_pages(app, config.api_topics, config.api_internal)
     except TopicError as exc:
         raise ExtensionError(f"apipages: {exc}") from exc
     missing = undocumented(documented_modules(config.api_topics, config.api_internal))

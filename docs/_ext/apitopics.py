@@ -1,8 +1,10 @@
 """The topics of the API reference (read by ``conf.py`` and by tests/test_docs.py).
 
 Every public module of ``impactosc`` (no part of its dotted name starts with ``_``) is in
-exactly one topic's ``modules`` or in ``INTERNAL``; a module in neither stops the build
-(``_ext/apipages.py``), so a new module cannot be left out of the reference silently.
+exactly one topic's ``modules`` or in ``INTERNAL``, or below one that is: a new module of a
+documented subpackage takes its parent's topic. A new subpackage of ``impactosc`` itself in
+neither stops the build (``_ext/apipages.py``), so it cannot be left out of the reference
+silently.
 ``pending`` lists ``fnmatch`` patterns of modules that are documented once they exist. A
 ``blurb`` is reStructuredText.
 """

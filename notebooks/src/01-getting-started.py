@@ -168,7 +168,7 @@ plt.close(fig)
 t = np.union1d(np.linspace(0.0, sol.t_final, 3000), ev.t)
 x, v = sol.sample(t)
 
-fig, ax = plt.subplots(figsize=(10, 3.8))
+fig, ax = plt.subplots(figsize=(9, 3.6))
 ax.plot(t, x, color="k", lw=0.8, label="X(Λ)")
 for side in (-1, 1):
     ax.axhline(side, color="tab:red", ls="--", lw=0.8)
@@ -191,7 +191,7 @@ plt.show()
 s0, r0 = sticks.t[0], rel.t[rel.t > sticks.t[0]][0]
 tz = np.linspace(s0 - 1.0, r0 + 1.0, 800)
 xz, vz = sol.sample(tz)
-fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.5), constrained_layout=True)
+fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.4), constrained_layout=True)
 a1.plot(tz, xz, color="k")
 a1.axvspan(s0, r0, color="tab:blue", alpha=0.2, label="stuck")
 a1.set_xlabel("Λ [-]")
@@ -213,7 +213,7 @@ plt.show()
 # contact oscillation.
 
 # %%
-fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6), constrained_layout=True)
 a1.plot(x, v, color="k", lw=0.6)
 a1.axvline(1.0, color="tab:red", ls="--", lw=0.8)
 a1.axvline(-1.0, color="tab:red", ls="--", lw=0.8)
@@ -233,7 +233,7 @@ plt.show()
 
 # %%
 tf = np.linspace(0.0, sol.t_final, 20000)
-fig, ax = plt.subplots(figsize=(10, 3))
+fig, ax = plt.subplots(figsize=(9, 3))
 ax.plot(tf, sol.flange_force(tf), color="tab:red", lw=0.7)
 ax.axhline(sol.mean_flange_force(), color="k", ls=":", label=f"mean = {sol.mean_flange_force():.4f} kL")
 ax.set_xlabel("nondimensional time Λ [-]")
@@ -324,7 +324,7 @@ t_ms = 10.0 if QUICK else 50.0
 sol_ms = io.simulate(osc_drive, drive.seconds_to_lambda(t_ms * 1e-3))
 lam = np.linspace(0.0, sol_ms.t_final, 20000)
 x_ms, _ = sol_ms.sample(lam)
-fig, ax = plt.subplots(figsize=(10, 3.5))
+fig, ax = plt.subplots(figsize=(9, 3.4))
 ax.plot(drive.lambda_to_seconds(lam) * 1e3, x_ms * L_um, color="k", lw=0.4, label="tape edge x(t)")
 for side in (-1, 1):
     ax.axhline(side * L_um, color="tab:red", ls="--", lw=0.8, label="flange" if side == 1 else None)

@@ -175,7 +175,7 @@ print(f"{'5 pi':>26} = {5 * math.pi:.15f}")
 # spurious "reversals", drifting towards `X = 0`.
 
 # %%
-fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(9.2, 3.6), constrained_layout=True)
+fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(9, 3.6), constrained_layout=True)
 tt = np.linspace(0.0, t_c, 4000)
 tail = tt[tt > 5 * math.pi]
 colors = ["k", "tab:blue", "tab:red", "tab:orange"]
@@ -246,7 +246,7 @@ xs, _ = gr[f"RK4, dt = {coarse}"].sample(ts)
 print("step ends:", ", ".join(f"{t:.1f}" for t in ts))
 print("exact X − 1 there:", ", ".join(f"{d:.2e}" for d in ex.sample(ts)[0] - 1.0))
 
-fig, (a1, a2) = plt.subplots(1, 2, figsize=(9.2, 3.8), constrained_layout=True)
+fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.8), constrained_layout=True)
 a1.plot(tz, xz - 1.0, color="k", label="exact X − 1")
 a1.plot(ts, xs - 1.0, "o", color="tab:red", label=f"RK4 step ends, dt = {coarse}")
 a1.axhline(0.0, color="tab:gray", ls="--", lw=0.8, label="flange")

@@ -124,7 +124,7 @@ for name, alt in ALTERNATIVES.items():
 
 # %%
 D = np.linspace(drive.hub_diameter, drive.full_pack_diameter, 200)
-fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4), constrained_layout=True)
+fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6), constrained_layout=True)
 a1.plot(D * 1e3, [drive.runout_at(d) * 1e6 for d in D], color="k", label="linear law (TapeDrive)")
 a1.plot([D[0] * 1e3, D[-1] * 1e3], [60, 180], "o", color="tab:red", label="paper: ~60 um (hub), ~180 um (full)")
 a1.set_xlabel("supply pack diameter D [mm]")
@@ -197,7 +197,7 @@ def fig7_axes(ds, title, factor=1.0, unit="N"):
 def fig8_axes(ds, title, factor=1.0, unit="N"):
     """Fig. 8 layout: one panel per speed, one line per T sin(theta/2)."""
     speeds = ds["speed"].values
-    fig, axes = plt.subplots(1, len(speeds), figsize=(4.6 * len(speeds), 4), sharey=True, constrained_layout=True,
+    fig, axes = plt.subplots(1, len(speeds), figsize=(9, 3.8), sharey=True, constrained_layout=True,
                              squeeze=False)
     axes = axes[0]
     cmap = plt.get_cmap("viridis")
@@ -264,7 +264,7 @@ print(f"ring-down estimate {worst.lambda_to_seconds(ring_down) * 1e3:.0f} ms; ma
       f"{t_show * 1e3:g} ms: {np.abs(x).max():.4f}, after the ring-down: {np.abs(x[late]).max():.4f} "
       f"(F + beta = {worst.F + worst.beta:.4f}); {sol.contact_entries()} contacts, {sol.counts['stick']} sticks")
 L_um = worst.clearance * 1e6
-fig, ax = plt.subplots(figsize=(10, 3.8))
+fig, ax = plt.subplots(figsize=(9, 3.6))
 ax.plot(worst.lambda_to_seconds(lam) * 1e3, x * L_um, lw=0.5, color="k", label="tape position x")
 ax.plot(worst.lambda_to_seconds(lam) * 1e3, worst.oscillator().forcing(lam) * L_um, color="tab:orange",
         label="run-out forcing F_a / k")
@@ -413,7 +413,7 @@ pt = io.TapeDrive.from_t_sin_half_theta(0.1, **{**ALTERNATIVES["plate_bending_ai
 sb = io.simulate(pt.oscillator(), pt.seconds_to_lambda(0.5))
 lam = np.linspace(0.0, sb.t_final, 8000)
 xb, _ = sb.sample(lam)
-fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True, constrained_layout=True)
+fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, constrained_layout=True)
 a1.plot(pt.lambda_to_seconds(lam) * 1e3, xb * pt.clearance * 1e6, color="k", lw=0.8, label="tape position x")
 a1.plot(pt.lambda_to_seconds(lam) * 1e3, pt.oscillator().forcing(lam) * pt.clearance * 1e6, color="tab:orange",
         lw=0.8, label="run-out forcing F_a / k")

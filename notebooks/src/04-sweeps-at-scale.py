@@ -162,7 +162,7 @@ print("base clearance:", loaded.attrs["base_clearance"], "m")
 loaded = loaded.assign_coords(D_mm=("pack_diameter", loaded["pack_diameter"].values * 1e3))
 loaded["D_mm"].attrs.update(long_name="supply pack diameter D", units="mm")
 
-fig, axes = plt.subplots(1, 3, figsize=(14, 4), constrained_layout=True)
+fig, axes = plt.subplots(1, 3, figsize=(8.5, 3.4), constrained_layout=True)
 loaded["mean_flange_force"].plot.line(x="D_mm", hue="speed", marker="o", ax=axes[0])
 loaded["impact_rate"].plot.line(x="D_mm", hue="speed", marker="o", ax=axes[1], add_legend=False)
 loaded["F"].sel(speed=4.0).plot.line(x="D_mm", marker="o", ax=axes[2], label="F = run-out / L")

@@ -55,7 +55,7 @@ hits = dy.event_section(contact, n_points, "contact_start", side=1, transient_pe
 print(f"{len(strobe)} stroboscopic points, {len(hits)} upper-flange contacts over {n_points} periods")
 print("period of the stroboscopic sequence:", dy.detect_period(strobe.x, strobe.v, tol=1e-2))
 
-fig, axes = plt.subplots(1, 2, figsize=(9.2, 3.8))
+fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
 strobe.plot(ax=axes[0])
 axes[1].scatter(hits.phase, hits.v, s=6)
 axes[1].set_xlabel("forcing phase at contact [rad]")
@@ -110,7 +110,7 @@ print(orbit.summary())
 print(f"amplitude: closed form {A:.15f}, shooting {np.abs(orbit.events.x).max():.15f}")
 print(f"multipliers: closed form {np.round(mu, 12)}\n             shooting    {np.round(orbit.multipliers, 12)}")
 
-fig, axes = plt.subplots(1, 2, figsize=(9.2, 3.8))
+fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
 orbit.plot(ax=axes[0])
 orbit3.plot(ax=axes[1])
 plt.tight_layout()

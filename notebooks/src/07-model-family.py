@@ -37,6 +37,8 @@ from dataclasses import replace
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
+from IPython.display import display
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
@@ -108,7 +110,7 @@ print(f"largest difference: {np.max(np.abs(ev.t - [t for t, _ in turns])):.1e} i
 
 # %%
 t = np.linspace(0.0, t_end, 4000)
-fig, ax = plt.subplots(figsize=(9.2, 4))
+fig, ax = plt.subplots(figsize=(9, 4))
 colors = {"Coulomb friction only": "tab:blue", "viscous damping only": "tab:green", "friction + damping": "k"}
 for name, sol in runs_1.items():
     x, _ = sol.sample(t)
@@ -178,7 +180,7 @@ for name, sol in runs_2.items():
           f"X({tau[0]:g} after) = {x_tau[0]:.6e} (leading term {expected:.6e})")
 
 # %%
-fig, axd = plt.subplot_mosaic("AA;BC", figsize=(9.2, 7.5))  # fits the page column
+fig, axd = plt.subplot_mosaic("AA;BC", figsize=(9, 7.5))  # fits the page column
 axes = [axd["A"], axd["B"], axd["C"]]
 ax = axes[0]
 t = np.linspace(0.0, 20.0, 3000)
@@ -324,7 +326,7 @@ print(f"releases at {np.round(releases, 6)}; closed form {np.round(expected, 6)}
 # releases printed above agree with `Lambda_k` to the largest difference shown.
 
 # %% tags=["gallery"]
-fig, axes = plt.subplots(2, 1, figsize=(9.2, 8), gridspec_kw={"height_ratios": [1, 1.2]})
+fig, axes = plt.subplots(2, 1, figsize=(9, 8), gridspec_kw={"height_ratios": [1, 1.2]})
 ax = axes[0]
 ax.semilogy(times, speeds, "-", color="0.6", lw=0.8, label="closed form (arc series)")
 ax.semilogy(hits.start, hits.entry_velocity, "o", ms=4, color="tab:blue",
@@ -425,7 +427,7 @@ for name, sol in runs_4.items():
           f"(-{math.sqrt(v0 * v0 - 1):.12f})")
 
 # %%
-fig, axes = plt.subplots(2, 1, figsize=(9.2, 7.5))
+fig, axes = plt.subplots(2, 1, figsize=(9, 7.5))
 d = np.linspace(0.0, 0.034, 300)
 for (name, osc), color in zip(laws.items(), ("tab:blue", "tab:red"), strict=True):
     c = contacts[name]
@@ -519,7 +521,7 @@ print(f"200 um clearance: {sol_tight.contact_entries(1)} upper / {sol_tight.cont
 
 # %%
 t_ms = drive.lambda_to_seconds(lam) * 1e3
-fig, axes = plt.subplots(3, 1, figsize=(9.2, 8), sharex=True)
+fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
 axes[0].plot(t_ms, osc.forcing(lam) * L * 1e6, color="tab:orange", label="run-out with harmonics (forcing F_a(t)/k)")
 axes[0].plot(t_ms, fundamental.forcing(lam) * L * 1e6, color="0.5", ls=":", label="fundamental only")
 axes[0].set_ylabel("run-out [um]")
@@ -584,16 +586,17 @@ energy_runs = {
     "run-out harmonics\n(section 5, 200 um)": sol_tight,
 }
 terms = ["forcing work", "- friction", "- damping", "- impact loss", "energy change"]
-print(f"{'run':40s} {'forcing':>10} {'friction':>10} {'damping':>10} {'impacts':>10} {'E change':>10} "
-      f"{'residual/scale':>14}")
+rows = []
 for name, sol in energy_runs.items():
     bal = sol.energy_balance()
-    print(f"{name.replace(chr(10), ' '):40s} {bal['forcing_work']:10.5f} {bal['friction_work']:10.5f} "
-          f"{bal['damping_work']:10.5f} {bal['impact_loss']:10.5f} {bal['energy_end'] - bal['energy_start']:10.5f} "
-          f"{bal['residual'] / bal['scale']:14.1e}")
+    rows.append({"run": name.replace(chr(10), " "), "forcing": bal["forcing_work"], "friction": bal["friction_work"],
+                 "damping": bal["damping_work"], "impacts": bal["impact_loss"],
+                 "E change": bal["energy_end"] - bal["energy_start"],
+                 "residual / scale": f"{bal['residual'] / bal['scale']:.1e}"})
+display(pd.DataFrame(rows).set_index("run").round(5))
 
 # %%
-fig, axes = plt.subplots(2, 3, figsize=(9.2, 8))
+fig, axes = plt.subplots(2, 3, figsize=(9, 8))
 axes = axes.ravel()
 for ax in axes[len(energy_runs):]:
     ax.axis("off")
