@@ -17,8 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
+from ._grazing import Crossing, approaching, cross
 from ._points import MARGIN_TESTS, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
-from ._problem import MapProblem
+from ._problem import UNSUPPORTED, MapProblem
 
 __all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
 
@@ -82,11 +83,26 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
     h = settings.step
     jumped_last = False
     h_good = h  # the last step that succeeded: the scale of a jump across a grazing
+    previous = None  # the point before ``node`` (where the branch came from)
+    tried_crossing = -1  # the number of points when a crossing last failed (tried again only on a failed step)
     while True:
         if len(nodes) >= max_points:
             return nodes, found, 1, f"stopped after max_points = {max_points} points"
+        side = 0 if extra is not None or tried_crossing == len(nodes) else approaching(problem, previous, node, h)
+        if side:
+            crossed = cross(problem, node, side, h, settings)
+            if isinstance(crossed, Crossing):
+                new, graze = _crossed(problem, node, crossed, direction, len(nodes) - 1)
+                found.append(graze)
+                nodes.append(new)
+                previous, node, t = node, new, new.t
+                jumped_last = False
+                continue
+            tried_crossing = len(nodes)
         u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
         result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
+        if isinstance(result, str) and UNSUPPORTED in result:
+            return nodes, found, -1, f"the branch stops where its backend cannot go on: {result}"
         turn = 1.0
         if isinstance(result, Corrected):
             new = _advance(problem, node, result, t, direction, extra)
@@ -94,6 +110,17 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
         if not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None):
             why = result if not isinstance(result, Corrected) else (
                 f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, turn)))):.0f} degrees")
+            if extra is None and tried_crossing != -2 - len(nodes):
+                side = approaching(problem, previous, node, h, failed=True)
+                if side:
+                    tried_crossing = -2 - len(nodes)
+                    crossed = cross(problem, node, side, h_good, settings)
+                    if isinstance(crossed, Crossing):
+                        new, graze = _crossed(problem, node, crossed, direction, len(nodes) - 1)
+                        found.append(graze)
+                        nodes.append(new)
+                        previous, node, t = node, new, new.t
+                        continue
             h *= 0.5
             if h < settings.min_step:
                 jumped = None
@@ -124,7 +151,22 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
             h = min(h * 1.5, settings.max_step)
         elif result.iterations >= 5:
             h = max(h * 0.6, settings.min_step)
-        node, t = new, new.t
+        previous, node, t = node, new, new.t
+
+
+def _crossed(problem, node: Node, crossed: Crossing, direction: int, index: int):
+    """The first point past a crossed grazing, and the grazing as a located point (:mod:`._grazing`)."""
+    far = crossed.far
+    chord = far.u - node.u
+    chord = chord / np.linalg.norm(chord)
+    graze_arc = node.arclength + direction * float(np.linalg.norm(crossed.grazing_u - node.u))
+    new = make_node(problem, far, chord, graze_arc + direction * float(np.linalg.norm(far.u - crossed.grazing_u)))
+    gnode = Node(crossed.grazing_u, chord, Corrected(crossed.grazing_u, crossed.grazing_ev, 0), crossed.grazing_info,
+                 graze_arc)
+    test = "upper_margin" if crossed.side > 0 else "lower_margin"
+    graze = Found("grazing", gnode, node.info.signature, new.info.signature, crossed.accuracy, crossed.message,
+                  index, {"test": test, "side": crossed.side, "case": crossed.case, "virtual": True})
+    return new, graze
 
 
 def _advance(problem, node: Node, result: Corrected, t, direction: int, extra) -> Node:
