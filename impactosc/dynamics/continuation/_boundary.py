@@ -3,9 +3,12 @@
 The unknowns are ``(X, V, p1, p2)``; the equations ``P^n(z; p) - z = 0`` and the point's
 defining test function ``psi(z, p) = 0`` (:mod:`._points`), with a pseudo-arclength
 constraint: a curve in the ``(p1, p2)`` plane. A grazing's test is the distance
-``1 - max X`` (``1 + min X``) of the contact-free orbit from the flange; its gradient is
-exact, read off the Jacobian and the parameter sensitivity at the extreme of ``X``
-(a velocity zero, where the time of the extreme does not matter to first order). The
+``gap - max X`` (``gap + min X``) of the contact-free orbit from the flange, on the orbits
+of the model with that flange taken away (:meth:`MapProblem.virtual`): they are smooth
+through the grazing, for a rigid flange too, where the real orbit's map has a square-root
+term and every impacting orbit has ``max X = gap``. Its gradient is exact, read off the
+Jacobian and the parameter sensitivity at the extreme of ``X`` (a velocity zero, where the
+time of the extreme does not matter to first order). The
 other tests (stick margin, ``det(M -+ I)``) are differentiated by central differences of
 the test along the map's own derivatives, each a map evaluation.
 """
@@ -16,21 +19,18 @@ import math
 
 import numpy as np
 
-from .._common import check_parameter, oscillator_of, parameter_value
+from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
+from ._grazing import grazing_test
 from ._points import SMOOTH_TESTS, point_info
 from ._problem import MapProblem
-from ._sensitivity import flange_gap
 
 __all__ = ["boundary"]
 
 #: Kinds of special point that have a boundary in two parameters.
 BOUNDARY_KINDS = ("grazing", "stick_onset", "fold", "period_doubling", "neimark_sacker")
 _FD_STEP = 1e-7
-#: Where the orbit that touches a flange exactly has no Jacobian (it sticks or impacts there),
-#: a grazing boundary is traced this far (in X) off the flange on the contact-free side.
-GRAZING_OFFSET = 1e-9
 
 
 def boundary(point, names: tuple, limits, settings: Settings, backend, options):
@@ -50,16 +50,21 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     curve = MapProblem(here, names, problem.n, problem.section_phase, backend or problem.backend,
                        options or problem.options)
     test = extra_info.get("margin", extra_info.get("test", point.kind))  # an end: the margin of its flange
+    if isinstance(test, tuple | list) or test not in _TESTS:
+        # located by a change of the event signature: the test of its kind
+        test = _grazed_side(point) if point.kind == "grazing" else {"stick_onset": "stick_margin"}.get(point.kind,
+                                                                                                       point.kind)
+    if test in ("upper_margin", "lower_margin"):
+        # the grazing is where the contact-free orbit touches the flange: a regular zero of gap - max X on
+        # the orbits with that flange taken away, whichever side the point was located from
+        curve = curve.virtual(1 if test == "upper_margin" else -1)
     z0 = np.array([point.x, point.v])
     u0 = scaled(curve, z0, curve.values())
     fix = np.zeros_like(u0)
     fix[3] = 1.0  # the second parameter held at its value: solve for the first
     curve.limit_events(problem.orbit_events or 0)
-    for offset in (0.0, GRAZING_OFFSET) if test in ("upper_margin", "lower_margin") else (0.0,):
-        extra = _extra(curve, test, offset)
-        result = correct(curve, u0, fix, settings, extra=extra)
-        if isinstance(result, Corrected) or "not differentiable" not in result:
-            break
+    extra = _extra(curve, test)
+    result = correct(curve, u0, fix, settings, extra=extra)
     if not isinstance(result, Corrected):
         return assemble(curve, [], [], [(-1, f"the {point.kind} point could not be solved in {names}: {result}")], 0)
     start = make_node(curve, result, None, 0.0, extra)
@@ -71,11 +76,18 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra)
     nodes = list(reversed(back[0])) + [start] + fwd[0]
     ends = [tuple(back[2:]), tuple(fwd[2:])]
-    if offset:
-        note = (f" (traced {offset:g} in X off the flange, on the contact-free side: the orbit that touches it exactly "
-                "sticks or impacts there, where the map has no Jacobian)")
-        ends = [(status, message + note) for status, message in ends]
     return assemble(curve, nodes, [], ends, len(back[0]))
+
+
+#: The test functions a boundary solves (a margin of :mod:`._points` or a smooth test).
+_TESTS = ("upper_margin", "lower_margin", "stick_margin") + SMOOTH_TESTS
+
+
+def _grazed_side(point) -> str:
+    """The margin of the flange a grazing point touches (from its contacts before and after)."""
+    sides = {side for (kind, side), _ in tuple(point.before) + tuple(point.after)
+             if kind in ("impact", "contact_start", "chatter")}
+    return "lower_margin" if sides == {-1} else "upper_margin"
 
 
 def _bounds(names, limits, here):
@@ -88,22 +100,10 @@ def _bounds(names, limits, here):
             for name in names]
 
 
-def _extra(curve: MapProblem, test: str, offset: float = 0.0):
-    """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: ``offset`` off the flange)."""
-    scales = np.asarray(curve.scales)
+def _extra(curve: MapProblem, test: str):
+    """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: on the virtual orbits)."""
     if test in ("upper_margin", "lower_margin"):
-        upper = test == "upper_margin"
-        gap = flange_gap(oscillator_of(curve.base), 1 if upper else -1)
-
-        def grazing(ev, u):
-            rec = ev.recorder
-            x, row, sig = rec.top if upper else rec.bottom
-            sign = -1.0 if upper else 1.0
-            psi = gap + sign * x - offset
-            grad = sign * np.concatenate([np.asarray(row, float), np.asarray(sig, float) * scales])
-            return np.array([psi]), grad[None, :]
-
-        return grazing
+        return grazing_test(curve, 1 if test == "upper_margin" else -1)
 
     def value(ev):
         info = point_info(curve, ev)

@@ -34,7 +34,7 @@ import numpy as np
 
 from .._common import oscillator_of
 from ..saltation import vector_field
-from ._arclength import Corrected, Settings, correct, jacobian_rows, unscaled
+from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
 from ._points import PointInfo, point_info
 from ._problem import MapProblem
 
@@ -225,16 +225,22 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings):
 def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
     """The first point of the branch's own family a step ``h`` from the grazing along ``direction``."""
     why = "no step tried"
-    for factor in (1.0, 0.5, 2.0, 0.25, 4.0):
-        step = factor * h
+    step = 2.0 * h
+    while step > settings.min_step:
+        step *= 0.5
         result = correct(problem, u_g + step * direction, direction, settings, max_distance=2.0 * step + 1e-9)
         if not isinstance(result, Corrected):
             why = result
             continue
         m = margin(point_info(problem, result.ev), side)
-        if (m < 0.0) == want_contact:
-            return result
-        why = f"the corrected point lies on the wrong side of the grazing (margin {m:.3g})"
+        if (m < 0.0) != want_contact:
+            why = f"the corrected point lies on the wrong side of the grazing (margin {m:.3g})"
+            continue
+        t_far = tangent(jacobian_rows(problem, result.ev), direction)
+        if (result.u[2] - u_g[2]) * direction[2] < 0.0 or t_far[2] * direction[2] < 0.0:
+            why = "a fold lies within the step"  # the family turned back in the parameter: locate it normally
+            continue
+        return result
     return f"no orbit was found beyond the grazing: {why}"
 
 
