@@ -157,8 +157,8 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
 def _crossed(problem, node: Node, crossed: Crossing, direction: int, index: int):
     """The first point past a crossed grazing, and the grazing as a located point (:mod:`._grazing`)."""
     far = crossed.far
-    chord = far.u - node.u
-    chord = chord / np.linalg.norm(chord)
+    chord = far.u - crossed.grazing_u  # away from the grazing along the far family (not from ``node``: at a
+    chord = chord / np.linalg.norm(chord)  # nonsmooth fold the parameter turns back there)
     graze_arc = node.arclength + direction * float(np.linalg.norm(crossed.grazing_u - node.u))
     new = make_node(problem, far, chord, graze_arc + direction * float(np.linalg.norm(far.u - crossed.grazing_u)))
     gnode = Node(crossed.grazing_u, chord, Corrected(crossed.grazing_u, crossed.grazing_ev, 0), crossed.grazing_info,

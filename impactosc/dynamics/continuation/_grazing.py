@@ -36,7 +36,7 @@ from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
 from ._points import PointInfo, point_info
-from ._problem import MapProblem
+from ._problem import MapEvaluation, MapProblem
 
 __all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin"]
 
@@ -44,6 +44,8 @@ __all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin"]
 #: grazing hands over to :func:`cross` once its next step would reach it.
 NEAR = 0.05
 _NEWTON_STEPS = 12
+#: The first step (scaled arclength) tried from a grazing into the family beyond it.
+FAR_STEP = 0.01
 
 
 @dataclasses.dataclass(eq=False)
@@ -52,7 +54,7 @@ class Crossing:
 
     side: int
     grazing_u: np.ndarray  #: the grazing's unknowns (z, scaled parameters) on the virtual family
-    grazing_ev: object  #: the virtual map's evaluation there
+    grazing_ev: MapEvaluation  #: the virtual map's evaluation there
     grazing_info: PointInfo
     accuracy: float  #: last Newton correction of the first parameter at the grazing
     far: Corrected  #: the first point beyond, corrected on the branch's own problem
@@ -201,8 +203,14 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings):
         went = np.sign(far[1]) if not isinstance(far, str) else 0.0
         far = far[0] if not isinstance(far, str) else far
     else:
-        far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
-        went = -np.sign(t_free[2])
+        # a stiff spring flange: near its grazing the contacting orbits are close to those of an elastic
+        # impact (e = 1), whose family is regular in the impact formulation; smaller stiffness, the tangent
+        far = _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings)
+        if isinstance(far, str):
+            far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
+            went = -np.sign(t_free[2])
+        else:
+            far, went = far[0], np.sign(far[1])
     if isinstance(far, str):
         return far
     case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
@@ -225,7 +233,9 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings):
 def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
     """The first point of the branch's own family a step ``h`` from the grazing along ``direction``."""
     why = "no step tried"
-    step = 2.0 * h
+    # from a step the branch came with (not less than FAR_STEP: right past a stiff flange's grazing the map is
+    # steep and its orbits' contacts near-tangent, a corrector struggles there), halved when it fails
+    step = 2.0 * max(h, FAR_STEP)
     while step > settings.min_step:
         step *= 0.5
         result = correct(problem, u_g + step * direction, direction, settings, max_distance=2.0 * step + 1e-9)
@@ -262,7 +272,7 @@ def _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings):
     if abs(t_w[1]) < 1e-12:
         return "the impacting family leaves the grazing with zero impact speed (a degenerate grazing)"
     why = "no step tried"
-    step = 2.0 * h
+    step = 2.0 * max(h, FAR_STEP)
     while step > settings.min_step:
         step *= 0.5
         w_pred = w_g + step * t_w
@@ -290,7 +300,7 @@ def _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings):
         u_pred = np.concatenate([z, w[2:]])
         chord = u_pred - u_g
         chord /= np.linalg.norm(chord)
-        result = correct(problem, u_pred, chord, settings, max_distance=0.5 * step + 1e-9)
+        result = correct(problem, u_pred, chord, settings, max_distance=2.0 * step + 1e-9)
         if isinstance(result, Corrected) and margin(point_info(problem, result.ev), side) < 0.0:
             return result, float(t_w[2])
         why = result if isinstance(result, str) else "the corrected orbit does not hit the flange"

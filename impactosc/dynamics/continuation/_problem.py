@@ -236,7 +236,7 @@ class MapProblem:
 
 def without_flange(osc: Oscillator, side: int) -> Oscillator:
     """``osc`` with the flange on ``side`` taken away (its other flange, if any, kept as it is)."""
-    name = "gap_upper" if side > 0 else "gap_lower"
+    fields: dict[str, Any] = {"gap_upper" if side > 0 else "gap_lower": math.inf}
     if math.isinf(osc.gap(-side)):  # no flange left: the flange law's fields go back to their defaults
-        return dataclasses.replace(osc, **{name: None}, flange="spring", restitution=1.0, exponent=1.0, K=None)
-    return dataclasses.replace(osc, **{name: None})
+        fields.update(flange="spring", restitution=1.0, exponent=1.0, K=None)
+    return dataclasses.replace(osc, **fields)
