@@ -72,8 +72,13 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
         start.t = -start.t
     plain = Settings(settings.step, settings.min_step, settings.max_step, settings.max_points, settings.tol,
                      settings.max_iter, frozenset(), settings.locate_tol)
-    back = follow(curve, start, -1, bounds, plain, settings.max_points, extra)
-    fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra)
+    verify = _verifier(curve, extra, settings)
+    rejected = verify(result)
+    if rejected:
+        return assemble(curve, [], [], [(-1, f"the {point.kind} point solved in {names} was not verified: "
+                                             f"{rejected}")], 0)
+    back = follow(curve, start, -1, bounds, plain, settings.max_points, extra, verify)
+    fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
     nodes = list(reversed(back[0])) + [start] + fwd[0]
     ends = [tuple(back[2:]), tuple(fwd[2:])]
     return assemble(curve, nodes, [], ends, len(back[0]))
@@ -104,6 +109,8 @@ def _extra(curve: MapProblem, test: str):
     """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: on the virtual orbits)."""
     if test in ("upper_margin", "lower_margin"):
         return grazing_test(curve, 1 if test == "upper_margin" else -1)
+    if test == "stick_margin":
+        return stick_test(curve)
 
     def value(ev):
         info = point_info(curve, ev)
@@ -125,3 +132,82 @@ def _extra(curve: MapProblem, test: str):
         return np.array([psi]), grad[None, :]
 
     return differenced
+
+
+#: Relative step of the central differences of the net force in time and position (an algebraic expression).
+_FORCE_STEP = 1e-6
+
+
+def stick_test(curve: MapProblem):
+    """``extra(ev, u) -> (psi, row)``: the stick test ``beta_s - |f_net|`` at the velocity zero nearest to sticking.
+
+    The onset of sticking (the crossing-sliding bifurcation) is where the largest
+    ``beta_s - |f_net|`` over the velocity zeros of the sliding mass vanishes: negative while
+    every reversal slides on, positive once one of them sticks (the stick event's own test).
+    At a velocity zero ``X`` is stationary, so ``dX/du`` is the state's sensitivity there;
+    the zero's time moves by ``-dV/du / a`` (``a`` the acceleration before it), which moves
+    the forcing in ``f_net``; and ``f_net`` and ``beta_s`` depend on the parameters directly.
+    The gradient is exact up to the central differences of the algebraic ``f_net``.
+    """
+    scales = np.asarray(curve.scales)
+
+    def test(ev, u):
+        rec = ev.recorder
+        if not rec.turns:
+            return np.array([math.nan]), np.full((1, len(u)), math.nan)
+        osc = rec.osc
+        best = None
+        for t, x, mode, jac, sigma in rec.turns:
+            f = osc._net_force_scalar(t, x)
+            psi = osc.beta_s - abs(f)
+            if best is None or psi > best[0]:
+                best = (psi, t, x, mode, jac, sigma, f)
+        psi, t, x, mode, jac, sigma, f = best
+        a = osc._accel_scalar(t, x, 0.0, mode.region, mode.motion)
+        ht = _FORCE_STEP * max(1.0, abs(t))
+        hx = _FORCE_STEP * max(1.0, abs(x))
+        f_t = (osc._net_force_scalar(t + ht, x) - osc._net_force_scalar(t - ht, x)) / (2.0 * ht)
+        f_x = (osc._net_force_scalar(t, x + hx) - osc._net_force_scalar(t, x - hx)) / (2.0 * hx)
+        dx = np.concatenate([[jac[0], jac[1]], sigma[0] * scales])
+        dv = np.concatenate([[jac[2], jac[3]], sigma[1] * scales])
+        dt = -dv / a if a != 0.0 else np.full(len(u), math.nan)
+        df = f_t * dt + f_x * dx
+        sign = 1.0 if f >= 0.0 else -1.0
+        grad = -sign * df
+        for j, stencil in enumerate(rec.stencils):
+            direct = stencil.derivative(lambda m: m.beta_s - sign * m._net_force_scalar(t, x))
+            grad[2 + j] += direct * scales[j]
+        return np.array([psi]), grad[None, :]
+
+    return test
+
+
+#: A boundary point's defining equations must hold to this many times ``tol`` (no acceptance on the
+#: corrector's rounding floor), and its orbit, rerun on the model with every flange, must return to
+#: within this relative distance (a grazing orbit touches its flange there: a rigid one at a speed of
+#: the order of the rounding, whose impact moves the state by as much).
+VERIFY_TOL = 10.0
+VERIFY_ORBIT = 1e-6
+
+
+def _verifier(curve: MapProblem, extra, settings: Settings):
+    """``verify(corrected) -> str``: the point's equations re-evaluated, its orbit rerun on the real model."""
+    real = curve.virtual(0) if curve.stripped else curve
+
+    def verify(result) -> str:
+        ev = result.ev
+        z, params = unscaled(curve, result.u)
+        value = np.atleast_1d(extra(ev, result.u)[0])
+        size = max(1.0, float(np.linalg.norm(z)))
+        residual = float(np.linalg.norm(np.concatenate([ev.residual, value])))
+        if not residual <= VERIFY_TOL * settings.tol * size:
+            return f"its equations hold to {residual:.3g} only (tolerance {settings.tol:g})"
+        rerun = real.evaluate(z, params)
+        if not rerun.ok:
+            return f"its orbit could not be rerun: {rerun.failure}"
+        miss = float(np.linalg.norm(rerun.residual))
+        if not miss <= VERIFY_ORBIT * size:
+            return f"its orbit, rerun, misses its start by {miss:.3g}"
+        return ""
+
+    return verify

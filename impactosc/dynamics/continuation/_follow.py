@@ -66,12 +66,14 @@ def make_node(problem: MapProblem, corrected: Corrected, previous_t, arclength: 
 
 
 def follow(problem: MapProblem, start: Node, direction: int, limits, settings: Settings, max_points: int,
-           extra=None):
+           extra=None, verify=None):
     """Follow the branch from ``start`` along ``direction * start.t``.
 
     ``limits`` is ``(lo, hi)`` of the first parameter, or a list of such pairs, one per free
     parameter (``-inf``/``inf`` for none); ``extra`` adds equations to the corrector (a
-    boundary's test function, :mod:`._boundary`). Returns ``(nodes, found, status,
+    boundary's test function, :mod:`._boundary`); ``verify(corrected) -> str`` checks a
+    corrected point before it is accepted ("" to accept, else why not: the step is then
+    shortened as after a failed corrector). Returns ``(nodes, found, status,
     message)``: the accepted points after ``start``, the located special points (``Found``,
     ``index`` counted in ``nodes`` with ``start`` as -1).
     """
@@ -101,6 +103,9 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
             tried_crossing = len(nodes)
         u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
         result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
+        if verify is not None and isinstance(result, Corrected):
+            rejected = verify(result)
+            result = f"the point was not verified: {rejected}" if rejected else result
         if isinstance(result, str) and UNSUPPORTED in result:
             return nodes, found, -1, f"the branch stops where its backend cannot go on: {result}"
         turn = 1.0

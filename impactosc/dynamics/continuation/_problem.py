@@ -220,10 +220,13 @@ class MapProblem:
                           self.stripped)
 
     def virtual(self, side: int) -> MapProblem:
-        """The same problem with the flange on ``side`` taken away (contact-free orbits past its grazing)."""
+        """The same problem with the flange on ``side`` taken away (contact-free orbits past its grazing).
+
+        ``side = 0`` gives the problem with every flange back (the real model).
+        """
         out = copy.copy(self)
         out.stripped = int(side)
-        out.walls = tuple(math.inf if s == side else w for s, w in zip((-1, 1), self.walls, strict=True))
+        out.walls = tuple(math.inf if s == side else w for s, w in zip((-1, 1), self.flange_gaps, strict=True))
         return out
 
     def at_phase(self, section_phase: float) -> MapProblem:

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from ...engine._driver import AT_WALL, IMPACT, N_GUARDS, guard_gradient, guard_value
+from ...engine._driver import AT_WALL, IMPACT, N_GUARDS, REVERSAL, STICK, guard_gradient, guard_value
 from ..flow import transition_matrix, variational_transition
 from ..saltation import vector_field
 from ..tangent import TangentRecorder
@@ -121,6 +121,9 @@ class SensitivityRecorder(TangentRecorder):
         self.x_min = math.inf
         self.impact_speed = {1: math.inf, -1: math.inf}
         self.final_mode = None
+        #: Every velocity zero of a sliding mass (a reversal, or a stick): ``(t, x, mode before, state Jacobian,
+        #: sigma)`` just before it, where the stick test ``beta_s - |f_net|`` is decided (its exact gradient).
+        self.turns: list = []
 
     def begin(self, osc, t, x, v, mode):
         super().begin(osc, t, x, v, mode)
@@ -182,6 +185,8 @@ class SensitivityRecorder(TangentRecorder):
             self.bottom, self.bottom_t = (x, row, self.sigma[0].copy()), t
 
     def on_transition(self, t, mode_before, guard, mode_after, x_before, v_before, x_after, v_after, kind):
+        if kind in (REVERSAL, STICK) and mode_before.motion != 0 and self.singular is None:
+            self.turns.append((t, x_before, mode_before, self.jacobian, self.sigma.copy()))
         n_sal = len(self.saltations)
         super().on_transition(t, mode_before, guard, mode_after, x_before, v_before, x_after, v_after, kind)
         if kind == IMPACT:
