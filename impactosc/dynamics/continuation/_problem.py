@@ -126,12 +126,34 @@ class MapProblem:
 
     def section(self, params) -> Oscillator:
         """The model at ``params`` seen from its section (a run from time 0 is one map)."""
+        if isinstance(self.base, Oscillator) and "phase" not in self.names:
+            return self._oscillator_section(params)
         osc = oscillator_of(self.model(params))
         if self.stripped:
             osc = without_flange(osc, self.stripped)
         if "phase" in self.names:
             return advanced(osc, self._t_section)
         return advanced(osc, self._section_time(osc))
+
+    def _oscillator_section(self, params) -> Oscillator:
+        """:meth:`section` of an Oscillator base in one construction (the same member, validated once).
+
+        The parameters, the flange taken away and the forcing phases advanced to the section
+        are one ``dataclasses.replace``: an evaluation builds a dozen members (the parameter
+        stencils), and each construction validates every field.
+        """
+        base = self.base
+        changes: dict[str, Any] = {name: float(value) for name, value in zip(self.names, params, strict=True)}
+        if self.stripped:
+            changes.update(stripped_fields(base, self.stripped))
+        F, Omega = changes.get("F", base.F), changes.get("Omega", base.Omega)
+        if F != 0.0 and Omega != 0.0:
+            t = ((self.section_phase - base.phase) % (2.0 * math.pi)) / Omega
+            if t != 0.0:
+                two_pi = 2.0 * math.pi
+                changes["phase"] = math.fmod(base.phase + Omega * t, two_pi)
+                changes["harmonics"] = tuple((Fi, Om, math.fmod(ph + Om * t, two_pi)) for Fi, Om, ph in base.harmonics)
+        return dataclasses.replace(base, **changes)
 
     def span(self, osc: Oscillator) -> float:
         return periods_in(osc, None, self.n)[1]
@@ -239,7 +261,12 @@ class MapProblem:
 
 def without_flange(osc: Oscillator, side: int) -> Oscillator:
     """``osc`` with the flange on ``side`` taken away (its other flange, if any, kept as it is)."""
+    return dataclasses.replace(osc, **stripped_fields(osc, side))
+
+
+def stripped_fields(osc: Oscillator, side: int) -> dict[str, Any]:
+    """The fields that take the flange on ``side`` away from ``osc`` (:func:`without_flange`)."""
     fields: dict[str, Any] = {"gap_upper" if side > 0 else "gap_lower": math.inf}
     if math.isinf(osc.gap(-side)):  # no flange left: the flange law's fields go back to their defaults
         fields.update(flange="spring", restitution=1.0, exponent=1.0, K=None)
-    return dataclasses.replace(osc, **fields)
+    return fields
