@@ -113,3 +113,24 @@ def test_the_fold_curve_of_the_rigid_stop_is_the_closed_form():
     assert curve.status == 0, curve.message
     for p in curve.points:
         assert abs(p.parameters["F"] - cf.fold(p.parameters["Omega"], ZETA, E, 0.0)) < 1e-8
+
+
+@pytest.mark.parametrize("W", [1.3, 1.0])
+def test_the_fold_curve_ends_labelled_at_the_resonant_grazing(W):
+    # The fold F_fold = F_gr |P| / sqrt(P^2 + W^2 Q^2) (impact_closed_form) meets the grazing F_gr where
+    # Q = Phi_12(2 pi / W) = 0: sin(w_d 2 pi / W) = 0 with w_d = sqrt(1 - zeta^2), the nearest W = w_d (the square-root
+    # term of the grazing map vanishes there). issue 26: the fold curve stopped 2.7e-5 short of it, unlabelled.
+    orb = dy.periodic_orbit(io.Oscillator(0.3, W, 0.0, None, **RIGID), backend="exact", transient_periods=300)
+    br = dy.continuation(orb, "F", (0.02, 0.5), tol=1e-12)
+    fold = br.find("fold")[0]
+    curve = dy.continuation(fold, ("F", "Omega"), {"Omega": (0.9, 1.5)}, max_points=300)
+    assert curve.status == 0, curve.message
+    resonant = curve.find("resonant_grazing")
+    assert len(resonant) == 1, curve.summary()
+    w_d = math.sqrt(1.0 - ZETA * ZETA)
+    assert abs(resonant[0].parameters["Omega"] - w_d) < 1e-8
+    assert abs(resonant[0].parameters["F"] - cf.grazing_amplitude(w_d, ZETA)) < 1e-8
+    assert "ends at a resonant grazing" in curve.message
+    for p in curve.points:
+        assert abs(p.parameters["F"] - cf.fold(p.parameters["Omega"], ZETA, E, 0.0)) < 1e-9
+        assert p.parameters["Omega"] > w_d

@@ -23,6 +23,7 @@ from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
 from ._grazing import grazing_test
+from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
 from ._problem import MapProblem
 
@@ -59,6 +60,13 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
         # the orbits with that flange taken away, whichever side the point was located from
         curve = curve.virtual(1 if test == "upper_margin" else -1)
     z0 = np.array([point.x, point.v])
+    if point.kind == "fold" and curve.rigid:
+        # a fold of single-impact orbits: followed in the impact's phase and speed, through to zero speed
+        side = single_impact_side(curve, curve.evaluate(z0, curve.values()))
+        followed = fold_curve(curve, z0, curve.values(), side, bounds, settings) if side else "no single impact"
+        if not isinstance(followed, str):
+            nodes, found, ends, nb = followed
+            return assemble(curve, nodes, found, ends, nb)
     u0 = scaled(curve, z0, curve.values())
     fix = np.zeros_like(u0)
     fix[3] = 1.0  # the second parameter held at its value: solve for the first
