@@ -182,3 +182,19 @@ def test_the_rigid_stop_grazing_is_the_same_from_both_sides_at_several_frequenci
         g = below.find("grazing")
         assert g and abs(g[0].parameter - cf.grazing_amplitude(W, ZETA)) < 1e-10, below.summary()
         assert math.isfinite(g[0].x)
+
+
+def test_a_state_resting_on_a_rigid_wall_is_stable_not_marginal():
+    # issue 26: a constant push into the wall and a weak forcing: the mass rests on the wall all period, and every
+    # perturbation (off the wall: there is no other) falls back and comes to rest on it again. Multipliers 0, not 1.
+    osc = io.Oscillator.from_harmonics([(0.05, 0.8, 0.0), (2.0, 0.0, 0.0)], beta=0.0, zeta=0.05, flange="rigid",
+                                       restitution=0.5)
+    orb = dy.periodic_orbit(osc, backend="exact", transient_periods=100)
+    assert orb.status == 0 and orb.x == 1.0 and orb.v == 0.0
+    assert np.all(np.abs(orb.multipliers) == 0.0)
+    br = dy.continuation(orb, "F", (0.01, 0.09), max_points=20)
+    assert br.status == 0 and all(p.stability == "stable" for p in br.points)
+    problem = MapProblem(osc, ("F",), 1, 0.0, "exact", {})
+    for dz in ([-1e-6, 0.0], [0.0, -1e-6], [-1e-6, 1e-6]):  # the map is locally constant: every neighbour returns
+        image = problem.evaluate(np.array([1.0, 0.0]) + dz, (0.05,)).image
+        assert np.array_equal(image, [1.0, 0.0])
