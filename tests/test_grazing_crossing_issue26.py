@@ -198,3 +198,25 @@ def test_a_state_resting_on_a_rigid_wall_is_stable_not_marginal():
     for dz in ([-1e-6, 0.0], [0.0, -1e-6], [-1e-6, 1e-6]):  # the map is locally constant: every neighbour returns
         image = problem.evaluate(np.array([1.0, 0.0]) + dz, (0.05,)).image
         assert np.array_equal(image, [1.0, 0.0])
+
+
+def test_an_impact_crossing_the_section_is_a_border_not_the_end():
+    # issue 26: as the impact's time passes the section's, the state on the section jumps across the reset
+    # (from just after the impact to just before it); the corrector left the branch there (status -1)
+    F, phase = 0.5, 1.0
+    orb = dy.periodic_orbit(stop(F, 0.9), backend="exact", transient_periods=300, phase=phase)
+    br = dy.continuation(orb, "Omega", (0.5, 2.5), direction="forward", max_points=300, tol=1e-12)
+    assert br.status == 0, br.message
+    border = [s for s in br.find("border") if "crosses the section" in s.message]
+    assert len(border) == 1
+    assert any(p.x == pytest.approx(1.0) and p.v > 0 for p in br.points)  # just before the impact, past the border
+    for p in br.points:
+        if p.signature != ((("impact", 1), 1),):
+            continue
+        W = p.parameter
+        orbits = cf.orbits(F, W, ZETA, E, 0.0)
+        z = np.array([p.x, p.v])
+        states = [cf.section_state(F, W, ZETA, E, 0.0, o, phase / W) for o in orbits]
+        # the closed form's state at the section: after the impact if it falls exactly there
+        states += [np.array([1.0, -E * s[1]]) for s in states if abs(s[0] - 1.0) < 1e-6 and s[1] > 0]
+        assert min(float(np.linalg.norm(z - s)) for s in states) < 1e-8, (W, z)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
 from ._grazing import Crossing, approaching, cross
 from ._points import MARGIN_TESTS, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
@@ -87,6 +88,7 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
     h_good = h  # the last step that succeeded: the scale of a jump across a grazing
     previous = None  # the point before ``node`` (where the branch came from)
     tried_crossing = -1  # the number of points when a crossing last failed (tried again only on a failed step)
+    tried_section = -1  # the number of points when an impact on the section was last tried
     while True:
         if len(nodes) >= max_points:
             return nodes, found, 1, f"stopped after max_points = {max_points} points"
@@ -115,6 +117,16 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
         if not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None):
             why = result if not isinstance(result, Corrected) else (
                 f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, turn)))):.0f} degrees")
+            if extra is None and tried_section != len(nodes):
+                tried_section = len(nodes)
+                moved = _across_section(problem, node, t, h_good, settings, len(nodes) - 1)
+                if moved is not None:
+                    new, border = moved
+                    found.append(border)
+                    nodes.append(new)
+                    previous, node, t = node, new, new.t
+                    h = h_good
+                    continue
             if extra is None and tried_crossing != -2 - len(nodes):
                 side = approaching(problem, previous, node, h, failed=True)
                 if side:
@@ -157,6 +169,56 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
         elif result.iterations >= 5:
             h = max(h * 0.6, settings.min_step)
         previous, node, t = node, new, new.t
+
+
+#: A section state this close (relative) to a rigid wall, moving at a speed, is an impact on the section.
+AT_SECTION = 1e-6
+
+
+def _across_section(problem, node: Node, t, h: float, settings: Settings, index: int):
+    """The branch past an impact that crosses the section, or None.
+
+    As the impact's time passes the section's, the orbit goes on continuously but its state
+    on the section jumps across the impact's reset: from just after the impact (at the wall,
+    moving away at ``e v``) to just before it (at the wall, moving in at ``v``), or back. The
+    corrector cannot follow the jump; the state is mapped across the reset and corrected
+    with the parameter a step further.
+    """
+    if not problem.rigid:
+        return None
+    z = node.u[:2]
+    for side in (1, -1):
+        gap = problem.walls[(side + 1) // 2]
+        if not (math.isfinite(gap) and abs(side * z[0] - gap) <= AT_SECTION * max(1.0, gap) and z[1] != 0.0):
+            continue
+        e = float(oscillator_of(problem.model(unscaled(problem, node.u)[1])).restitution)
+        if side * z[1] < 0.0:  # after the impact: map back to before it
+            if e == 0.0:
+                return None
+            z_new = np.array([side * gap, -z[1] / e])
+        else:
+            z_new = np.array([side * gap, -e * z[1]])
+        for factor in (0.05, 0.2, 1.0):
+            u_pred = np.concatenate([z_new, node.u[2:] + factor * h * t[2:]])
+            row = np.zeros_like(u_pred)
+            row[2] = 1.0
+            result = correct(problem, u_pred, row, settings, max_distance=max(1.0, 2.0 * factor * h))
+            if not isinstance(result, Corrected) or not math.isfinite(result.u[0]):
+                continue
+            chord = result.u - node.u
+            chord[:2] = 0.0  # the state jumped: the branch goes on along the parameter
+            chord = t if not np.any(chord) else chord / np.linalg.norm(chord)
+            new = make_node(problem, result, chord, node.arclength + float(np.linalg.norm(result.u[2:] - node.u[2:])))
+            if np.dot(new.t[2:], t[2:]) < 0.0:
+                new.t = -new.t
+            moment = "after" if side * z[1] < 0.0 else "before"
+            border = Found("border", new, node.info.signature, new.info.signature, abs(result.u[2] - node.u[2])
+                           * problem.scales[0], f"the impact on the {'upper' if side > 0 else 'lower'} flange crosses "
+                           f"the section: the orbit goes on continuously, its state on the section jumps from just "
+                           f"{moment} the impact across the impact's reset", index,
+                           {"test": "section", "side": side})
+            return new, border
+    return None
 
 
 def _crossed(problem, node: Node, crossed: Crossing, direction: int, index: int):
