@@ -94,7 +94,7 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
             return nodes, found, 1, f"stopped after max_points = {max_points} points"
         side = 0 if extra is not None or tried_crossing == len(nodes) else approaching(problem, previous, node, h)
         if side:
-            crossed = cross(problem, node, side, h, settings)
+            crossed = cross(problem, node, side, h, settings, bounds[0])
             if isinstance(crossed, Crossing):
                 new, graze = _crossed(problem, node, crossed, direction, len(nodes) - 1)
                 found.append(graze)
@@ -131,7 +131,7 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
                 side = approaching(problem, previous, node, h, failed=True)
                 if side:
                     tried_crossing = -2 - len(nodes)
-                    crossed = cross(problem, node, side, h_good, settings)
+                    crossed = cross(problem, node, side, h_good, settings, bounds[0])
                     if isinstance(crossed, Crossing):
                         new, graze = _crossed(problem, node, crossed, direction, len(nodes) - 1)
                         found.append(graze)

@@ -46,6 +46,8 @@ NEAR = 0.05
 _NEWTON_STEPS = 12
 #: The first step (scaled arclength) tried from a grazing into the family beyond it.
 FAR_STEP = 0.01
+#: The farthest (scaled) a grazing located from a branch's last point may lie (besides ten steps).
+REACH = 0.2
 
 
 @dataclasses.dataclass(eq=False)
@@ -83,10 +85,18 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
         m0, m1 = margin(previous.info, side), margin(node.info, side)
         if not (math.isfinite(m0) and math.isfinite(m1)) or abs(m1) >= NEAR or abs(m1) >= abs(m0) or m0 * m1 <= 0:
             continue
+        if m1 < 0.0 and _contacts_on(node.info, side) != 1:
+            continue  # several contacts with that flange: not one about to vanish (taking the flange away is wrong)
         rate = abs(m1 - m0) / max(ds, 1e-300)
         if failed or abs(m1) <= 1.5 * h * rate:
             return side
     return 0
+
+
+def _contacts_on(info: PointInfo, side: int) -> int:
+    """How many impacts, contacts or chatters with the flange of ``side`` one map period has."""
+    return sum(count for (kind, s), count in info.signature
+               if s == side and kind in ("impact", "contact_start", "chatter"))
 
 
 def grazing_test(virtual: MapProblem, side: int):
@@ -175,8 +185,11 @@ class ImpactFormulation:
         return F, J, ev
 
 
-def cross(problem: MapProblem, node, side: int, h: float, settings: Settings):
-    """Cross the grazing of the flange on ``side`` from ``node``: a :class:`Crossing`, or a string saying why not."""
+def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bounds=None):
+    """Cross the grazing of the flange on ``side`` from ``node``: a :class:`Crossing`, or a string saying why not.
+
+    ``bounds`` are the ``(lo, hi)`` limits of the parameter: a grazing beyond them is not crossed.
+    """
     if len(problem.names) != 1:
         return "crossing a grazing is done on branches in one parameter"
     virtual = problem.virtual(side)
@@ -185,6 +198,12 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings):
     if isinstance(found, str):
         return f"the grazing could not be located on the contact-free orbits: {found}"
     u_g, ev_g, error = found
+    distance = float(np.linalg.norm(u_g - node.u))
+    if distance > max(10.0 * h, REACH):
+        return f"the grazing located is {distance:.3g} away from the branch's last point: not the one it reaches"
+    value = u_g[2] * problem.scales[0]
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        return f"the grazing lies beyond the limits, at {problem.names[0]} = {value!r}"
     rows = jacobian_rows(virtual, ev_g)
     _, row = grazing_test(virtual, side)(ev_g, u_g)
     t_v = np.linalg.svd(rows)[2][-1]
