@@ -80,6 +80,8 @@ def test_stick_onset_boundaries_run_their_whole_range_on_the_closed_form(W, star
     br = dy.continuation(orb, "F", (0.5 * den_hartog_stick_onset(W), Fc), max_points=300)
     onset = [s for s in br.find("stick_onset") if abs(s.parameter - BETA) > 1e-3]  # not the stuck state F < beta
     assert onset, br.summary()
+    # named for what it is (issue 26: not a generic "stick onset")
+    assert "crossing-sliding" in onset[0].message and onset[0].context[2]["bifurcation"] == "crossing-sliding"
     curve = dy.continuation(onset[0], ("F", "Omega"), {"Omega": (lo, hi)}, max_points=400)
     assert curve.status == 0, curve.message
     Om = curve.values("Omega")

@@ -220,3 +220,14 @@ def test_an_impact_crossing_the_section_is_a_border_not_the_end():
         # the closed form's state at the section: after the impact if it falls exactly there
         states += [np.array([1.0, -E * s[1]]) for s in states if abs(s[0] - 1.0) < 1e-6 and s[1] > 0]
         assert min(float(np.linalg.norm(z - s)) for s in states) < 1e-8, (W, z)
+
+
+def test_a_two_impact_orbit_is_not_crossed_by_taking_its_flange_away():
+    # an orbit with two impacts a period whose slower impact slows down: taking the flange away (the crossing of a
+    # single contact) found the contact-free grazing far below the limits, and the branch went there
+    osc = io.Oscillator.from_harmonics([(1.0, 0.8, 0.0), (0.5, 0.0, 0.0)], beta=0.0, zeta=ZETA, flange="rigid",
+                                       restitution=0.5, gap_lower=None)
+    orb = dy.periodic_orbit(osc, backend="exact", transient_periods=100)
+    br = dy.continuation(orb, "F", (0.5, 3.0), max_points=200)
+    assert all(0.5 <= p.parameter <= 3.0 for p in br.points)
+    assert all(0.5 <= s.parameter <= 3.0 for s in br.special)

@@ -446,7 +446,10 @@ def _found(problem, kind: str, node: Node, a: Node, width: float, index: int, te
     _, params = unscaled(problem, node.u)
     before, after = a.info.signature, node.info.signature
     message = _describe(kind, test, node, before, after)
-    return Found(kind, node, before, after, width * problem.scales[0], message, index, {"test": test})
+    extra = {"test": test}
+    if kind == "stick_onset":
+        extra["bifurcation"] = "crossing-sliding" if test == "stick_margin" else "sliding"
+    return Found(kind, node, before, after, width * problem.scales[0], message, index, extra)
 
 
 def _describe(kind: str, test: str, node: Node, before, after) -> str:
@@ -466,8 +469,13 @@ def _describe(kind: str, test: str, node: Node, before, after) -> str:
     if kind == "grazing":
         side = "upper" if test.startswith("upper") else "lower"
         return f"the orbit touches the {side} flange tangentially (a contact appears or vanishes)"
+    if kind == "stick_onset" and test == "signature":
+        return (f"the stuck segments change ({stick_counts(before)} to {stick_counts(after)} sticks a period) where no "
+                "reversal's stick test vanishes: a sliding bifurcation other than at a reversal (adding- or "
+                "switching-sliding, di Bernardo et al. 2008, ch. 8)")
     if kind == "stick_onset":
-        return "a reversal turns into a stick (the sliding bifurcation)"
+        return ("a reversal turns into a stick: a crossing-sliding bifurcation (the orbit's crossing of the switching "
+                "surface V = 0 becomes a segment that sticks on it; di Bernardo et al. 2008, ch. 8)")
     return f"the event signature changes from {_text(before)} to {_text(after)}"
 
 
