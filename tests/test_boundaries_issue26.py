@@ -136,3 +136,35 @@ def test_the_fold_curve_ends_labelled_at_the_resonant_grazing(W):
     for p in curve.points:
         assert abs(p.parameters["F"] - cf.fold(p.parameters["Omega"], ZETA, E, 0.0)) < 1e-9
         assert p.parameters["Omega"] > w_d
+
+
+def _pd_reference(W, near):
+    for which in (0, 1):
+        try:
+            return cf.period_doubling(W, ZETA, E, 0.0, near - 2e-3, near + 2e-3, which=which)
+        except (ValueError, IndexError):
+            continue
+    return None
+
+
+@pytest.mark.slow
+def test_the_period_doubling_curve_runs_between_two_resonant_grazings():
+    # The period doubling of the single-impact orbits, v det(S M + I) = 0, reaches zero impact speed where the
+    # square-root term vanishes too: Phi_12(2 pi / W) = 0, W = 2 w_d / k; from W = 0.8 the curve runs from k = 3
+    # to k = 2 and ends at both, labelled.
+    orb = dy.periodic_orbit(io.Oscillator(0.05, 0.8, 0.0, None, **RIGID), backend="exact", transient_periods=300)
+    br = dy.continuation(orb, "F", (0.02, 0.8), tol=1e-12)
+    pd = br.find("period_doubling")[0]
+    curve = dy.continuation(pd, ("F", "Omega"), {"Omega": (0.5, 2.5)}, max_points=300)
+    assert curve.status == 0, curve.message
+    w_d = math.sqrt(1.0 - ZETA * ZETA)
+    ends = sorted(s.parameters["Omega"] for s in curve.find("resonant_grazing"))
+    assert len(ends) == 2
+    assert abs(ends[0] - 2.0 * w_d / 3.0) < 1e-8 and abs(ends[1] - w_d) < 1e-8
+    checked = 0
+    for p in curve.points:
+        ref = _pd_reference(p.parameters["Omega"], p.parameters["F"])
+        if ref is not None:  # the closed form's bracket holds one period doubling (not next to the ends)
+            assert abs(p.parameters["F"] - ref) < 1e-9
+            checked += 1
+    assert checked > 10

@@ -60,10 +60,12 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
         # the orbits with that flange taken away, whichever side the point was located from
         curve = curve.virtual(1 if test == "upper_margin" else -1)
     z0 = np.array([point.x, point.v])
-    if point.kind == "fold" and curve.rigid:
-        # a fold of single-impact orbits: followed in the impact's phase and speed, through to zero speed
+    if point.kind in ("fold", "period_doubling") and curve.rigid:
+        # a fold or a period doubling of single-impact orbits: followed in the impact's phase and speed, through
+        # to zero speed
         side = single_impact_side(curve, curve.evaluate(z0, curve.values()))
-        followed = fold_curve(curve, z0, curve.values(), side, bounds, settings) if side else "no single impact"
+        followed = (fold_curve(curve, z0, curve.values(), side, bounds, settings, point.kind) if side
+                    else "no single impact")
         if not isinstance(followed, str):
             nodes, found, ends, nb = followed
             return assemble(curve, nodes, found, ends, nb)

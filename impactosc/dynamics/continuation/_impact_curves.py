@@ -1,4 +1,4 @@
-"""The fold curve of single-impact orbits of a rigid flange, followed in the impact's phase and speed.
+"""Fold and period-doubling curves of single-impact orbits of a rigid flange, in the impact's phase and speed.
 
 On the stroboscopic section the monodromy matrix of an impacting orbit grows like ``1/v``
 (``v`` the impact speed) and its fold test with it: a fold curve in two parameters crawls
@@ -10,7 +10,9 @@ extremal along it: where ``dR/d(psi, v)`` is singular,
 
     g(w) = det dR/d(psi, v) = 0,
 
-a smooth condition through ``v = 0`` as well. The fold curve is followed by
+a smooth condition through ``v = 0`` as well. A period doubling is where the monodromy
+``S M`` (``M`` of the flight from the wall back to it, ``S`` the impact's saltation matrix,
+``~1/v``) has a multiplier -1: ``v det(S M + I) = 0``, smooth through ``v = 0`` too. A curve is followed by
 pseudo-arclength on ``[R; g] = 0`` in ``w = (psi, v, s_1, s_2)``; where ``v`` reaches zero the
 fold meets the grazing: the **resonant grazing** point, where the square-root term of the
 grazing map vanishes (the forcing frequency a rational multiple of the damped natural one,
@@ -26,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from .._common import oscillator_of
 from ._arclength import Corrected, Settings, scaled
 from ._follow import Found, Node
 from ._grazing import ImpactFormulation, _newton, _section_state
@@ -35,6 +38,7 @@ from ._problem import MapProblem
 __all__ = ["single_impact_side", "fold_curve"]
 
 _FD = 1e-7
+_NAMES = {"fold": "fold", "period_doubling": "period doubling"}
 #: An orbit rerun from a point of the curve must return to within this relative distance.
 VERIFY_ORBIT = 1e-8
 
@@ -50,18 +54,39 @@ def single_impact_side(curve: MapProblem, ev) -> int:
     return impacts[0] if len(impacts) == 1 and not others else 0
 
 
-class _FoldSystem:
-    """``[R(w); g(w)]`` and its Jacobian (module docstring)."""
+class _CurveSystem:
+    """``[R(w); g(w)]`` and its Jacobian (module docstring); ``g`` the fold's or the period doubling's test."""
 
-    def __init__(self, virtual: MapProblem, side: int):
+    def __init__(self, virtual: MapProblem, side: int, kind: str):
         self.form = ImpactFormulation(virtual, side)
+        self.kind = kind
 
     def _g(self, w):
         out = self.form.residual(w)
         if isinstance(out, str):
             return out
         F, J, ev = out
-        return F, J, float(np.linalg.det(J[:, :2])), ev
+        if self.kind == "fold":
+            return F, J, float(np.linalg.det(J[:, :2])), ev
+        return F, J, self._period_doubling(w, ev), ev
+
+    def _period_doubling(self, w, ev) -> float:
+        """``v det(S M + I)``: smooth through ``v = 0`` (``S`` the impact's saltation matrix, ``M`` the free flight's).
+
+        ``S = [[-e, 0], [(a+ + e a-) / V-, -e]]`` with ``V- = side v``, so ``v S`` is regular and
+        ``v det(S M + I) = v (e^2 det M - e tr M + 1) + side (a+ + e a-) M_12``.
+        """
+        problem = self.form.virtual.at_phase(float(w[0]))
+        params = tuple(float(s * c) for s, c in zip(w[2:], problem.scales, strict=True))
+        sec = problem.section(params)
+        e = oscillator_of(self.form.virtual.model(params)).restitution
+        v, side, gap = float(w[1]), self.form.side, self.form.gap
+        span = problem.span(sec)
+        motion = side if v != 0.0 else -side
+        a_minus = sec._accel_scalar(span, side * gap, side * v, 0, motion)
+        a_plus = sec._accel_scalar(span, side * gap, -side * e * v, 0, -motion if v != 0.0 else -side)
+        M = ev.monodromy
+        return float(v * (e * e * np.linalg.det(M) - e * np.trace(M) + 1.0) + side * (a_plus + e * a_minus) * M[0, 1])
 
     def __call__(self, w):
         base = self._g(w)
@@ -79,14 +104,14 @@ class _FoldSystem:
         return np.concatenate([F, [g]]), np.vstack([J, grad[None, :]]), ev
 
 
-def fold_curve(curve: MapProblem, z0, params0, side: int, bounds, settings: Settings):
-    """Follow the fold through ``(z0, params0)`` in the impact formulation.
+def fold_curve(curve: MapProblem, z0, params0, side: int, bounds, settings: Settings, kind: str = "fold"):
+    """Follow the fold (or the period doubling, ``kind``) through ``(z0, params0)`` in the impact formulation.
 
     Returns ``(nodes, found, ends, start_index)`` for :func:`._assembly.assemble`, or a
     string saying why the start could not be solved.
     """
     virtual = curve.virtual(side)
-    system = _FoldSystem(virtual, side)
+    system = _CurveSystem(virtual, side, kind)
     start = _start(curve, virtual, z0, params0)
     if isinstance(start, str):
         return start
@@ -102,7 +127,7 @@ def fold_curve(curve: MapProblem, z0, params0, side: int, bounds, settings: Sett
     node0 = _node(curve, virtual, w0, solved[1], t0, 0.0)
     if isinstance(node0, str):
         return f"the fold's orbit was not verified: {node0}"
-    sides = [_follow(curve, virtual, system, w0, d * t0, d, bounds, settings) for d in (-1, 1)]
+    sides = [_follow(curve, virtual, system, w0, d * t0, d, bounds, settings, kind) for d in (-1, 1)]
     back, fwd = sides
     nodes = list(reversed(back[0])) + [node0] + fwd[0]
     nb = len(back[0])
@@ -161,7 +186,7 @@ def _node(curve: MapProblem, virtual: MapProblem, w, ev, t, arclength: float):
     return Node(u, np.concatenate([[0.0, 0.0], t[2:]]), Corrected(u, real, 0), point_info(curve, real), arclength)
 
 
-def _follow(curve, virtual, system, w0, t, direction: int, bounds, settings: Settings):
+def _follow(curve, virtual, system, w0, t, direction: int, bounds, settings: Settings, kind: str):
     """One direction of the fold curve: ``(nodes, found, (status, message))``."""
     nodes: list[Node] = []
     found: list[Found] = []
@@ -185,12 +210,12 @@ def _follow(curve, virtual, system, w0, t, direction: int, bounds, settings: Set
             continue
         w_new, ev = solved[0], solved[1]
         if w_new[1] < 0.0:  # the fold's impact speed reaches zero within the step: the resonant grazing
-            end = _resonant_grazing(curve, virtual, system, w, w_new, settings, len(nodes) - 1)
+            end = _resonant_grazing(curve, virtual, system, w, w_new, settings, len(nodes) - 1, kind)
             if isinstance(end, str):
                 return nodes, found, (-1, end)
             found.append(end)
-            return nodes, found, (0, "the fold curve ends at a resonant grazing (labelled): its orbit's impact "
-                                     "speed reaches zero, and the fold's continuation lies on inadmissible orbits")
+            return nodes, found, (0, f"the {_NAMES[kind]} curve ends at a resonant grazing (labelled): its orbit's "
+                                     "impact speed reaches zero, and its continuation lies on inadmissible orbits")
         t_new = _tangent(system, w_new, t)
         if isinstance(t_new, str):
             return nodes, found, (-1, t_new)
@@ -218,7 +243,7 @@ def _beyond(w, curve, bounds):
     return None
 
 
-def _resonant_grazing(curve, virtual, system, w_a, w_b, settings, index):
+def _resonant_grazing(curve, virtual, system, w_a, w_b, settings, index, kind):
     """The fold curve's point of zero impact speed between ``w_a`` and ``w_b``, as a located point."""
     row = np.zeros(len(w_a))
     row[1] = 1.0
@@ -239,9 +264,10 @@ def _resonant_grazing(curve, virtual, system, w_a, w_b, settings, index):
     node = Node(u, np.zeros(len(u)), Corrected(u, virtual_ev, 0), info, 0.0)
     side = virtual.stripped
     flange = "upper" if side > 0 else "lower"
-    message = (f"resonant grazing: the fold of the single-impact orbits meets the grazing of the {flange} flange "
-               f"(zero impact speed), where the square-root term of the grazing map vanishes (the period "
-               f"{period:.12g} of the forcing resonates with the damped free motion); the fold curve ends here")
+    message = (f"resonant grazing: the {_NAMES[kind]} of the single-impact orbits meets the grazing of the {flange} "
+               f"flange (zero impact speed), where the square-root term of the grazing map vanishes (the period "
+               f"{period:.12g} of the forcing resonates with the damped free motion); the {_NAMES[kind]} curve ends "
+               "here")
     accuracy = abs(float(error[2])) * curve.scales[0]
     return Found("resonant_grazing", node, (), (), accuracy, message, index,
                  {"test": "upper_margin" if side > 0 else "lower_margin", "side": side})
