@@ -231,3 +231,28 @@ def test_a_two_impact_orbit_is_not_crossed_by_taking_its_flange_away():
     br = dy.continuation(orb, "F", (0.5, 3.0), max_points=200)
     assert all(0.5 <= p.parameter <= 3.0 for p in br.points)
     assert all(0.5 <= s.parameter <= 3.0 for s in br.special)
+
+
+def test_a_grazing_stepped_over_is_located_as_a_regular_point():
+    # where one step goes past a grazing (no crossing was started), the margin's sign change is located on the
+    # contact-free orbits with the flange taken away, not by a regula falsi across the nonsmooth point
+    from impactosc.dynamics.continuation._api import _settings, _start_node
+    from impactosc.dynamics.continuation._follow import locate_between
+
+    W = 0.8
+    F_gr = cf.grazing_amplitude(W, ZETA)
+    problem = MapProblem(stop(0.36, W), ("F",), 1, 0.0, "exact", {})
+    settings = _settings(0.02, 1e-7, 0.1, 100, 1e-12, 8, True, 1e-12, ())
+    a = _start_node(problem, cf.free_state(0.36, W, ZETA, 0.0), settings)
+    impacting = cf.orbits(0.38, W, ZETA, E, 0.0)
+    b_problem = MapProblem(stop(0.38, W), ("F",), 1, 0.0, "exact", {}, scales=problem.scales)
+    b = None
+    for o in impacting:
+        b = _start_node(b_problem, cf.section_state(0.38, W, ZETA, E, 0.0, o), settings)
+        if not isinstance(b, str) and b.info.signature:
+            break
+    assert not isinstance(a, str) and not isinstance(b, str) and b.info.signature
+    t = (b.u - a.u) / np.linalg.norm(b.u - a.u)
+    found = [f for f in locate_between(problem, a, b, t, settings, 0) if f.kind == "grazing"]
+    assert len(found) == 1 and "regular point" in found[0].message
+    assert abs(found[0].node.u[2] * problem.scales[0] - F_gr) < 1e-10

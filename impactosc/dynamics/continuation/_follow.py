@@ -11,6 +11,7 @@ for a test function, bisection for the signature, each evaluation a corrected po
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -18,7 +19,7 @@ import numpy as np
 
 from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
-from ._grazing import Crossing, approaching, cross
+from ._grazing import Crossing, approaching, contacts_on, cross, locate
 from ._points import MARGIN_TESTS, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
 from ._problem import UNSUPPORTED, MapProblem
 
@@ -329,7 +330,8 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
             continue
         va, vb = _test_value(a.info, name), _test_value(b.info, name)
         if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
-            out.append(_illinois(problem, a, t, h, name, kind, va, vb, settings, index))
+            regular = _regular_grazing(problem, a, b, name, settings, index) if kind == "grazing" else None
+            out.append(regular or _illinois(problem, a, t, h, name, kind, va, vb, settings, index))
             out[-1].after = b.info.signature
     if same:
         for kind in SMOOTH_TESTS:
@@ -347,6 +349,41 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
           and _signature_kind(a.info.signature, b.info.signature) in settings.locate):
         out.append(_bisect_signature(problem, a, b, t, h, settings, index))
     return out
+
+
+def _regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, index: int):
+    """A grazing between ``a`` and ``b`` located as a regular point of the contact-free orbits, or None.
+
+    Where a step has gone past a grazing the margin's sign change is located on the
+    contact-free orbits with the flange taken away (:func:`._grazing.locate`), not by a
+    regula falsi across the nonsmooth point: only where one side of the step touches the
+    flange in one contact, and the grazing lies between the two points in the parameter.
+    """
+    side = 1 if name == "upper_margin" else -1
+    if len(problem.names) != 1 or problem.stripped:
+        return None
+    contact = a if _test_value(a.info, name) < 0.0 else b
+    if contacts_on(contact.info, side) != 1:
+        return None
+    free = b if contact is a else a
+    found = locate(problem.virtual(side), side, free.u, settings.tol)
+    if isinstance(found, str):
+        return None
+    u_g, ev_g, error = found
+    lo, hi = sorted((a.u[2], b.u[2]))
+    if not lo - 1e-12 <= u_g[2] <= hi + 1e-12:
+        return None
+    virtual = problem.virtual(side)
+    info = point_info(virtual, ev_g)
+    if problem.rigid:
+        info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
+                                   singular="the map is not differentiable at a grazing of a rigid flange")
+    node = Node(u_g, free.t, Corrected(u_g, ev_g, 0), info, a.arclength)
+    flange = "upper" if side > 0 else "lower"
+    return Found("grazing", node, a.info.signature, b.info.signature, abs(float(error[2])) * problem.scales[0],
+                 f"the orbit grazes the {flange} flange: located as a regular point of the contact-free orbits "
+                 "(gap - max X = 0) between two points of the branch", index,
+                 {"test": name, "side": side, "virtual": True})
 
 
 #: A located fold / PD / NS point whose critical multiplier is farther than this from +1 / -1 / the unit

@@ -38,7 +38,7 @@ from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, un
 from ._points import PointInfo, point_info
 from ._problem import MapEvaluation, MapProblem
 
-__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin"]
+__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate"]
 
 #: A flange margin (distance, penetration or impact speed) below which a branch moving towards the
 #: grazing hands over to :func:`cross` once its next step would reach it.
@@ -85,7 +85,7 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
         m0, m1 = margin(previous.info, side), margin(node.info, side)
         if not (math.isfinite(m0) and math.isfinite(m1)) or abs(m1) >= NEAR or abs(m1) >= abs(m0) or m0 * m1 <= 0:
             continue
-        if m1 < 0.0 and _contacts_on(node.info, side) != 1:
+        if m1 < 0.0 and contacts_on(node.info, side) != 1:
             continue  # several contacts with that flange: not one about to vanish (taking the flange away is wrong)
         rate = abs(m1 - m0) / max(ds, 1e-300)
         if failed or abs(m1) <= 1.5 * h * rate:
@@ -93,7 +93,7 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
     return 0
 
 
-def _contacts_on(info: PointInfo, side: int) -> int:
+def contacts_on(info: PointInfo, side: int) -> int:
     """How many impacts, contacts or chatters with the flange of ``side`` one map period has."""
     return sum(count for (kind, s), count in info.signature
                if s == side and kind in ("impact", "contact_start", "chatter"))
