@@ -11,15 +11,14 @@ for a test function, bisection for the signature, each evaluation a corrected po
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._common import oscillator_of
-from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
-from ._grazing import Crossing, approaching, contacts_on, cross, locate
+from ._arclength import Corrected, Settings, correct, unscaled
+from ._grazing import approaching
+from ._nodes import Found, Node, make_node
+from ._nonsmooth import across_section, regular_grazing, try_crossing
 from ._points import MARGIN_TESTS, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
 from ._problem import UNSUPPORTED, MapProblem
 
@@ -29,42 +28,9 @@ __all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
 MAX_TURN = 0.82
 #: Order of special points found between the same two points (for their labels).
 LABEL_ORDER = {"grazing": 0, "stick_onset": 1, "border": 2, "fold": 3, "branch_point": 4, "period_doubling": 5,
-               "neimark_sacker": 6}
+               "neimark_sacker": 6, "resonant_grazing": 7}
 #: A margin this close to zero (nondimensional) at a failed step: the branch ends at the grazing.
 GRAZING_NEAR = 1e-3
-
-
-@dataclass(eq=False)
-class Node:
-    """An accepted point: unknowns, tangent, evaluation and what it says."""
-
-    u: np.ndarray
-    t: np.ndarray
-    corrected: Corrected
-    info: PointInfo
-    arclength: float
-
-
-@dataclass(eq=False)
-class Found:
-    """A located special point before it becomes a :class:`~._branch.SpecialPoint`."""
-
-    kind: str
-    node: Node
-    before: tuple
-    after: tuple
-    accuracy: float
-    message: str
-    index: int
-    extra: dict = field(default_factory=dict)
-
-
-def make_node(problem: MapProblem, corrected: Corrected, previous_t, arclength: float, extra=None) -> Node:
-    rows = jacobian_rows(problem, corrected.ev)
-    if extra is not None:
-        rows = np.vstack([rows, extra(corrected.ev, corrected.u)[1]])
-    t = tangent(rows, previous_t)
-    return Node(corrected.u, t, corrected, point_info(problem, corrected.ev), arclength)
 
 
 def follow(problem: MapProblem, start: Node, direction: int, limits, settings: Settings, max_points: int,
@@ -88,57 +54,39 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
     jumped_last = False
     h_good = h  # the last step that succeeded: the scale of a jump across a grazing
     previous = None  # the point before ``node`` (where the branch came from)
-    tried_crossing = -1  # the number of points when a crossing last failed (tried again only on a failed step)
-    tried_section = -1  # the number of points when an impact on the section was last tried
+    tried = {"crossing": -1, "section": -1, "failed": -1}  # the point count when each was last tried
     while True:
         if len(nodes) >= max_points:
             return nodes, found, 1, f"stopped after max_points = {max_points} points"
-        side = 0 if extra is not None or tried_crossing == len(nodes) else approaching(problem, previous, node, h)
-        if side:
-            crossed = cross(problem, node, side, h, settings, bounds[0])
-            if isinstance(crossed, Crossing):
-                new, graze = _crossed(problem, node, crossed, direction, len(nodes) - 1)
-                found.append(graze)
-                nodes.append(new)
-                previous, node, t = node, new, new.t
-                jumped_last = False
-                continue
-            tried_crossing = len(nodes)
-        u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
-        result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
-        if verify is not None and isinstance(result, Corrected):
-            rejected = verify(result)
-            result = f"the point was not verified: {rejected}" if rejected else result
-        if isinstance(result, str) and UNSUPPORTED in result:
-            return nodes, found, -1, f"the branch stops where its backend cannot go on: {result}"
-        turn = 1.0
-        if isinstance(result, Corrected):
-            new = _advance(problem, node, result, t, direction, extra)
-            turn = float(np.dot(new.t, t))
-        if not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None):
+        side = 0 if extra is not None or tried["crossing"] == len(nodes) else approaching(problem, previous, node, h)
+        moved = try_crossing(problem, node, side, h, settings, bounds[0], direction, len(nodes) - 1) if side else None
+        tried["crossing"] = len(nodes) if side else tried["crossing"]
+        if moved is None:
+            u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
+            result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
+            if verify is not None and isinstance(result, Corrected):
+                rejected = verify(result)
+                result = f"the point was not verified: {rejected}" if rejected else result
+            if isinstance(result, str) and UNSUPPORTED in result:
+                return nodes, found, -1, f"the branch stops where its backend cannot go on: {result}"
+            turn = 1.0
+            if isinstance(result, Corrected):
+                new = _advance(problem, node, result, t, direction, extra)
+                turn = float(np.dot(new.t, t))
+            failed = not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None)
+            if failed and extra is None:
+                moved = _rescue(problem, previous, node, t, h, h_good, settings, bounds[0], direction, len(nodes),
+                                tried)
+        if moved is not None:
+            new, passed = moved
+            found.append(passed)
+            nodes.append(new)
+            previous, node, t, h = node, new, new.t, h_good
+            jumped_last = False
+            continue
+        if failed:
             why = result if not isinstance(result, Corrected) else (
                 f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, turn)))):.0f} degrees")
-            if extra is None and tried_section != len(nodes):
-                tried_section = len(nodes)
-                moved = _across_section(problem, node, t, h_good, settings, len(nodes) - 1)
-                if moved is not None:
-                    new, border = moved
-                    found.append(border)
-                    nodes.append(new)
-                    previous, node, t = node, new, new.t
-                    h = h_good
-                    continue
-            if extra is None and tried_crossing != -2 - len(nodes):
-                side = approaching(problem, previous, node, h, failed=True)
-                if side:
-                    tried_crossing = -2 - len(nodes)
-                    crossed = cross(problem, node, side, h_good, settings, bounds[0])
-                    if isinstance(crossed, Crossing):
-                        new, graze = _crossed(problem, node, crossed, direction, len(nodes) - 1)
-                        found.append(graze)
-                        nodes.append(new)
-                        previous, node, t = node, new, new.t
-                        continue
             h *= 0.5
             if h < settings.min_step:
                 jumped = None
@@ -165,76 +113,28 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
             return nodes, found, 0, f"stopped at the first {stop[0].kind} point, as asked (stop_at)"
         if at_limit is not None:
             return nodes, found, 0, f"reached the limit {at_limit[0]} = {at_limit[1]!r}"
-        if result.iterations <= 2:
+        iterations = result.iterations if isinstance(result, Corrected) else 3
+        if iterations <= 2:
             h = min(h * 1.5, settings.max_step)
-        elif result.iterations >= 5:
+        elif iterations >= 5:
             h = max(h * 0.6, settings.min_step)
         previous, node, t = node, new, new.t
 
 
-#: A section state this close (relative) to a rigid wall, moving at a speed, is an impact on the section.
-AT_SECTION = 1e-6
-
-
-def _across_section(problem, node: Node, t, h: float, settings: Settings, index: int):
-    """The branch past an impact that crosses the section, or None.
-
-    As the impact's time passes the section's, the orbit goes on continuously but its state
-    on the section jumps across the impact's reset: from just after the impact (at the wall,
-    moving away at ``e v``) to just before it (at the wall, moving in at ``v``), or back. The
-    corrector cannot follow the jump; the state is mapped across the reset and corrected
-    with the parameter a step further.
-    """
-    if not problem.rigid:
-        return None
-    z = node.u[:2]
-    for side in (1, -1):
-        gap = problem.walls[(side + 1) // 2]
-        if not (math.isfinite(gap) and abs(side * z[0] - gap) <= AT_SECTION * max(1.0, gap) and z[1] != 0.0):
-            continue
-        e = float(oscillator_of(problem.model(unscaled(problem, node.u)[1])).restitution)
-        if side * z[1] < 0.0:  # after the impact: map back to before it
-            if e == 0.0:
-                return None
-            z_new = np.array([side * gap, -z[1] / e])
-        else:
-            z_new = np.array([side * gap, -e * z[1]])
-        for factor in (0.05, 0.2, 1.0):
-            u_pred = np.concatenate([z_new, node.u[2:] + factor * h * t[2:]])
-            row = np.zeros_like(u_pred)
-            row[2] = 1.0
-            result = correct(problem, u_pred, row, settings, max_distance=max(1.0, 2.0 * factor * h))
-            if not isinstance(result, Corrected) or not math.isfinite(result.u[0]):
-                continue
-            chord = result.u - node.u
-            chord[:2] = 0.0  # the state jumped: the branch goes on along the parameter
-            chord = t if not np.any(chord) else chord / np.linalg.norm(chord)
-            new = make_node(problem, result, chord, node.arclength + float(np.linalg.norm(result.u[2:] - node.u[2:])))
-            if np.dot(new.t[2:], t[2:]) < 0.0:
-                new.t = -new.t
-            moment = "after" if side * z[1] < 0.0 else "before"
-            border = Found("border", new, node.info.signature, new.info.signature, abs(result.u[2] - node.u[2])
-                           * problem.scales[0], f"the impact on the {'upper' if side > 0 else 'lower'} flange crosses "
-                           f"the section: the orbit goes on continuously, its state on the section jumps from just "
-                           f"{moment} the impact across the impact's reset", index,
-                           {"test": "section", "side": side})
-            return new, border
+def _rescue(problem, previous, node: Node, t, h: float, h_good: float, settings: Settings, bounds, direction: int,
+            count: int, tried: dict):
+    """After a failed step: across an impact on the section, or across a grazing (each once per point), or None."""
+    if tried["section"] != count:
+        tried["section"] = count
+        moved = across_section(problem, node, t, h_good, settings, count - 1)
+        if moved is not None:
+            return moved
+    if tried["failed"] != count:
+        side = approaching(problem, previous, node, h, failed=True)
+        if side:
+            tried["failed"] = count
+            return try_crossing(problem, node, side, h_good, settings, bounds, direction, count - 1)
     return None
-
-
-def _crossed(problem, node: Node, crossed: Crossing, direction: int, index: int):
-    """The first point past a crossed grazing, and the grazing as a located point (:mod:`._grazing`)."""
-    far = crossed.far
-    chord = far.u - crossed.grazing_u  # away from the grazing along the far family (not from ``node``: at a
-    chord = chord / np.linalg.norm(chord)  # nonsmooth fold the parameter turns back there)
-    graze_arc = node.arclength + direction * float(np.linalg.norm(crossed.grazing_u - node.u))
-    new = make_node(problem, far, chord, graze_arc + direction * float(np.linalg.norm(far.u - crossed.grazing_u)))
-    gnode = Node(crossed.grazing_u, chord, Corrected(crossed.grazing_u, crossed.grazing_ev, 0), crossed.grazing_info,
-                 graze_arc)
-    test = "upper_margin" if crossed.side > 0 else "lower_margin"
-    graze = Found("grazing", gnode, node.info.signature, new.info.signature, crossed.accuracy, crossed.message,
-                  index, {"test": test, "side": crossed.side, "case": crossed.case, "virtual": True})
-    return new, graze
 
 
 def _advance(problem, node: Node, result: Corrected, t, direction: int, extra) -> Node:
@@ -330,7 +230,7 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
             continue
         va, vb = _test_value(a.info, name), _test_value(b.info, name)
         if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
-            regular = _regular_grazing(problem, a, b, name, settings, index) if kind == "grazing" else None
+            regular = regular_grazing(problem, a, b, name, settings, index) if kind == "grazing" else None
             out.append(regular or _illinois(problem, a, t, h, name, kind, va, vb, settings, index))
             out[-1].after = b.info.signature
     if same:
@@ -349,41 +249,6 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
           and _signature_kind(a.info.signature, b.info.signature) in settings.locate):
         out.append(_bisect_signature(problem, a, b, t, h, settings, index))
     return out
-
-
-def _regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, index: int):
-    """A grazing between ``a`` and ``b`` located as a regular point of the contact-free orbits, or None.
-
-    Where a step has gone past a grazing the margin's sign change is located on the
-    contact-free orbits with the flange taken away (:func:`._grazing.locate`), not by a
-    regula falsi across the nonsmooth point: only where one side of the step touches the
-    flange in one contact, and the grazing lies between the two points in the parameter.
-    """
-    side = 1 if name == "upper_margin" else -1
-    if len(problem.names) != 1 or problem.stripped:
-        return None
-    contact = a if _test_value(a.info, name) < 0.0 else b
-    if contacts_on(contact.info, side) != 1:
-        return None
-    free = b if contact is a else a
-    found = locate(problem.virtual(side), side, free.u, settings.tol)
-    if isinstance(found, str):
-        return None
-    u_g, ev_g, error = found
-    lo, hi = sorted((a.u[2], b.u[2]))
-    if not lo - 1e-12 <= u_g[2] <= hi + 1e-12:
-        return None
-    virtual = problem.virtual(side)
-    info = point_info(virtual, ev_g)
-    if problem.rigid:
-        info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
-                                   singular="the map is not differentiable at a grazing of a rigid flange")
-    node = Node(u_g, free.t, Corrected(u_g, ev_g, 0), info, a.arclength)
-    flange = "upper" if side > 0 else "lower"
-    return Found("grazing", node, a.info.signature, b.info.signature, abs(float(error[2])) * problem.scales[0],
-                 f"the orbit grazes the {flange} flange: located as a regular point of the contact-free orbits "
-                 "(gap - max X = 0) between two points of the branch", index,
-                 {"test": name, "side": side, "virtual": True})
 
 
 #: A located fold / PD / NS point whose critical multiplier is farther than this from +1 / -1 / the unit

@@ -30,8 +30,8 @@ import numpy as np
 
 from .._common import oscillator_of
 from ._arclength import Corrected, Settings, scaled
-from ._follow import Found, Node
 from ._grazing import ImpactFormulation, _newton, _section_state
+from ._nodes import Found, Node
 from ._points import point_info
 from ._problem import MapProblem
 
