@@ -108,3 +108,32 @@ def _bisect(g, lo: float, hi: float) -> float:
         if hi - lo <= 1e-15 * max(1.0, abs(hi)):
             break
     return 0.5 * (lo + hi)
+
+
+def section_state(F: float, W: float, zeta: float, e: float, c: float, orbit: dict, t_section: float = 0.0):
+    """``(X, V)`` at ``t_section`` (mod ``T``) of a single-impact orbit of :func:`orbits`.
+
+    After the impact at ``t_i`` the state is ``(1, -e v)``; the free part ``Y = X - X_p``
+    then evolves by the transition matrix until the section.
+    """
+    A, delta = particular(F, W, zeta)
+    T = 2.0 * math.pi / W
+    t_i = orbit["t_impact"]
+
+    def xp(t):
+        return np.array([c + A * math.cos(W * t - delta), -A * W * math.sin(W * t - delta)])
+
+    y0 = np.array([1.0, -e * orbit["v"]]) - xp(t_i)
+    tau = (t_section - t_i) % T
+    return xp(t_section) + transition(zeta, tau) @ y0
+
+
+def free_state(F: float, W: float, zeta: float, c: float, t_section: float = 0.0):
+    """``(X, V)`` at ``t_section`` of the contact-free periodic orbit ``c + A cos(W t - delta)``."""
+    A, delta = particular(F, W, zeta)
+    return np.array([c + A * math.cos(W * t_section - delta), -A * W * math.sin(W * t_section - delta)])
+
+
+def grazing_amplitude(W: float, zeta: float, c: float = 0.0) -> float:
+    """The amplitude at which the contact-free orbit touches the stop ``X = 1``: ``(1 - c)|1 - W^2 + 2 i zeta W|``."""
+    return (1.0 - c) * abs(complex(1.0 - W * W, 2.0 * zeta * W))

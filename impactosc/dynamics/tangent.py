@@ -86,6 +86,12 @@ class TangentRecorder(_Recorder):
             # depend on V0.
             self.jacobian = _COLLAPSE
             self.collapsed = True
+            if osc.rigid and mode.region != 0:
+                # At rest on a rigid wall that the net force pushes it into: a perturbation off the wall
+                # (the only one there is) falls back and comes to rest on it again after impacts that
+                # accumulate in a time ~ sqrt(perturbation), before anything else happens: the map is
+                # locally constant, its Jacobian zero (as after a chatter), not the identity in X.
+                self.jacobian = _ZERO
             self.held_start = held_by_static_friction(osc, t, x)
             if self.held_start is not None:
                 self.singular = self.held_start

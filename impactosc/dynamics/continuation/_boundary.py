@@ -3,9 +3,12 @@
 The unknowns are ``(X, V, p1, p2)``; the equations ``P^n(z; p) - z = 0`` and the point's
 defining test function ``psi(z, p) = 0`` (:mod:`._points`), with a pseudo-arclength
 constraint: a curve in the ``(p1, p2)`` plane. A grazing's test is the distance
-``1 - max X`` (``1 + min X``) of the contact-free orbit from the flange; its gradient is
-exact, read off the Jacobian and the parameter sensitivity at the extreme of ``X``
-(a velocity zero, where the time of the extreme does not matter to first order). The
+``gap - max X`` (``gap + min X``) of the contact-free orbit from the flange, on the orbits
+of the model with that flange taken away (:meth:`MapProblem.virtual`): they are smooth
+through the grazing, for a rigid flange too, where the real orbit's map has a square-root
+term and every impacting orbit has ``max X = gap``. Its gradient is exact, read off the
+Jacobian and the parameter sensitivity at the extreme of ``X`` (a velocity zero, where the
+time of the extreme does not matter to first order). The
 other tests (stick margin, ``det(M -+ I)``) are differentiated by central differences of
 the test along the map's own derivatives, each a map evaluation.
 """
@@ -16,21 +19,19 @@ import math
 
 import numpy as np
 
-from .._common import check_parameter, oscillator_of, parameter_value
+from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
+from ._grazing import grazing_test
+from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
 from ._problem import MapProblem
-from ._sensitivity import flange_gap
 
 __all__ = ["boundary"]
 
 #: Kinds of special point that have a boundary in two parameters.
 BOUNDARY_KINDS = ("grazing", "stick_onset", "fold", "period_doubling", "neimark_sacker")
 _FD_STEP = 1e-7
-#: Where the orbit that touches a flange exactly has no Jacobian (it sticks or impacts there),
-#: a grazing boundary is traced this far (in X) off the flange on the contact-free side.
-GRAZING_OFFSET = 1e-9
 
 
 def boundary(point, names: tuple, limits, settings: Settings, backend, options):
@@ -50,16 +51,30 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     curve = MapProblem(here, names, problem.n, problem.section_phase, backend or problem.backend,
                        options or problem.options)
     test = extra_info.get("margin", extra_info.get("test", point.kind))  # an end: the margin of its flange
+    if isinstance(test, tuple | list) or test not in _TESTS:
+        # located by a change of the event signature: the test of its kind
+        test = _grazed_side(point) if point.kind == "grazing" else {"stick_onset": "stick_margin"}.get(point.kind,
+                                                                                                       point.kind)
+    if test in ("upper_margin", "lower_margin"):
+        # the grazing is where the contact-free orbit touches the flange: a regular zero of gap - max X on
+        # the orbits with that flange taken away, whichever side the point was located from
+        curve = curve.virtual(1 if test == "upper_margin" else -1)
     z0 = np.array([point.x, point.v])
+    if point.kind in ("fold", "period_doubling") and curve.rigid:
+        # a fold or a period doubling of single-impact orbits: followed in the impact's phase and speed, through
+        # to zero speed
+        side = single_impact_side(curve, curve.evaluate(z0, curve.values()))
+        followed = (fold_curve(curve, z0, curve.values(), side, bounds, settings, point.kind) if side
+                    else "no single impact")
+        if not isinstance(followed, str):
+            nodes, found, ends, nb = followed
+            return assemble(curve, nodes, found, ends, nb)
     u0 = scaled(curve, z0, curve.values())
     fix = np.zeros_like(u0)
     fix[3] = 1.0  # the second parameter held at its value: solve for the first
     curve.limit_events(problem.orbit_events or 0)
-    for offset in (0.0, GRAZING_OFFSET) if test in ("upper_margin", "lower_margin") else (0.0,):
-        extra = _extra(curve, test, offset)
-        result = correct(curve, u0, fix, settings, extra=extra)
-        if isinstance(result, Corrected) or "not differentiable" not in result:
-            break
+    extra = _extra(curve, test)
+    result = correct(curve, u0, fix, settings, extra=extra)
     if not isinstance(result, Corrected):
         return assemble(curve, [], [], [(-1, f"the {point.kind} point could not be solved in {names}: {result}")], 0)
     start = make_node(curve, result, None, 0.0, extra)
@@ -67,15 +82,27 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
         start.t = -start.t
     plain = Settings(settings.step, settings.min_step, settings.max_step, settings.max_points, settings.tol,
                      settings.max_iter, frozenset(), settings.locate_tol)
-    back = follow(curve, start, -1, bounds, plain, settings.max_points, extra)
-    fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra)
+    verify = _verifier(curve, extra, settings)
+    rejected = verify(result)
+    if rejected:
+        return assemble(curve, [], [], [(-1, f"the {point.kind} point solved in {names} was not verified: "
+                                             f"{rejected}")], 0)
+    back = follow(curve, start, -1, bounds, plain, settings.max_points, extra, verify)
+    fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
     nodes = list(reversed(back[0])) + [start] + fwd[0]
     ends = [tuple(back[2:]), tuple(fwd[2:])]
-    if offset:
-        note = (f" (traced {offset:g} in X off the flange, on the contact-free side: the orbit that touches it exactly "
-                "sticks or impacts there, where the map has no Jacobian)")
-        ends = [(status, message + note) for status, message in ends]
     return assemble(curve, nodes, [], ends, len(back[0]))
+
+
+#: The test functions a boundary solves (a margin of :mod:`._points` or a smooth test).
+_TESTS = ("upper_margin", "lower_margin", "stick_margin") + SMOOTH_TESTS
+
+
+def _grazed_side(point) -> str:
+    """The margin of the flange a grazing point touches (from its contacts before and after)."""
+    sides = {side for (kind, side), _ in tuple(point.before) + tuple(point.after)
+             if kind in ("impact", "contact_start", "chatter")}
+    return "lower_margin" if sides == {-1} else "upper_margin"
 
 
 def _bounds(names, limits, here):
@@ -88,22 +115,12 @@ def _bounds(names, limits, here):
             for name in names]
 
 
-def _extra(curve: MapProblem, test: str, offset: float = 0.0):
-    """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: ``offset`` off the flange)."""
-    scales = np.asarray(curve.scales)
+def _extra(curve: MapProblem, test: str):
+    """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: on the virtual orbits)."""
     if test in ("upper_margin", "lower_margin"):
-        upper = test == "upper_margin"
-        gap = flange_gap(oscillator_of(curve.base), 1 if upper else -1)
-
-        def grazing(ev, u):
-            rec = ev.recorder
-            x, row, sig = rec.top if upper else rec.bottom
-            sign = -1.0 if upper else 1.0
-            psi = gap + sign * x - offset
-            grad = sign * np.concatenate([np.asarray(row, float), np.asarray(sig, float) * scales])
-            return np.array([psi]), grad[None, :]
-
-        return grazing
+        return grazing_test(curve, 1 if test == "upper_margin" else -1)
+    if test == "stick_margin":
+        return stick_test(curve)
 
     def value(ev):
         info = point_info(curve, ev)
@@ -125,3 +142,82 @@ def _extra(curve: MapProblem, test: str, offset: float = 0.0):
         return np.array([psi]), grad[None, :]
 
     return differenced
+
+
+#: Relative step of the central differences of the net force in time and position (an algebraic expression).
+_FORCE_STEP = 1e-6
+
+
+def stick_test(curve: MapProblem):
+    """``extra(ev, u) -> (psi, row)``: the stick test ``beta_s - |f_net|`` at the velocity zero nearest to sticking.
+
+    The onset of sticking (the crossing-sliding bifurcation) is where the largest
+    ``beta_s - |f_net|`` over the velocity zeros of the sliding mass vanishes: negative while
+    every reversal slides on, positive once one of them sticks (the stick event's own test).
+    At a velocity zero ``X`` is stationary, so ``dX/du`` is the state's sensitivity there;
+    the zero's time moves by ``-dV/du / a`` (``a`` the acceleration before it), which moves
+    the forcing in ``f_net``; and ``f_net`` and ``beta_s`` depend on the parameters directly.
+    The gradient is exact up to the central differences of the algebraic ``f_net``.
+    """
+    scales = np.asarray(curve.scales)
+
+    def test(ev, u):
+        rec = ev.recorder
+        if not rec.turns:
+            return np.array([math.nan]), np.full((1, len(u)), math.nan)
+        osc = rec.osc
+        best = None
+        for t, x, mode, jac, sigma in rec.turns:
+            f = osc._net_force_scalar(t, x)
+            psi = osc.beta_s - abs(f)
+            if best is None or psi > best[0]:
+                best = (psi, t, x, mode, jac, sigma, f)
+        psi, t, x, mode, jac, sigma, f = best
+        a = osc._accel_scalar(t, x, 0.0, mode.region, mode.motion)
+        ht = _FORCE_STEP * max(1.0, abs(t))
+        hx = _FORCE_STEP * max(1.0, abs(x))
+        f_t = (osc._net_force_scalar(t + ht, x) - osc._net_force_scalar(t - ht, x)) / (2.0 * ht)
+        f_x = (osc._net_force_scalar(t, x + hx) - osc._net_force_scalar(t, x - hx)) / (2.0 * hx)
+        dx = np.concatenate([[jac[0], jac[1]], sigma[0] * scales])
+        dv = np.concatenate([[jac[2], jac[3]], sigma[1] * scales])
+        dt = -dv / a if a != 0.0 else np.full(len(u), math.nan)
+        df = f_t * dt + f_x * dx
+        sign = 1.0 if f >= 0.0 else -1.0
+        grad = -sign * df
+        for j, stencil in enumerate(rec.stencils):
+            direct = stencil.derivative(lambda m: m.beta_s - sign * m._net_force_scalar(t, x))
+            grad[2 + j] += direct * scales[j]
+        return np.array([psi]), grad[None, :]
+
+    return test
+
+
+#: A boundary point's defining equations must hold to this many times ``tol`` (no acceptance on the
+#: corrector's rounding floor), and its orbit, rerun on the model with every flange, must return to
+#: within this relative distance (a grazing orbit touches its flange there: a rigid one at a speed of
+#: the order of the rounding, whose impact moves the state by as much).
+VERIFY_TOL = 10.0
+VERIFY_ORBIT = 1e-6
+
+
+def _verifier(curve: MapProblem, extra, settings: Settings):
+    """``verify(corrected) -> str``: the point's equations re-evaluated, its orbit rerun on the real model."""
+    real = curve.virtual(0) if curve.stripped else curve
+
+    def verify(result) -> str:
+        ev = result.ev
+        z, params = unscaled(curve, result.u)
+        value = np.atleast_1d(extra(ev, result.u)[0])
+        size = max(1.0, float(np.linalg.norm(z)))
+        residual = float(np.linalg.norm(np.concatenate([ev.residual, value])))
+        if not residual <= VERIFY_TOL * settings.tol * size:
+            return f"its equations hold to {residual:.3g} only (tolerance {settings.tol:g})"
+        rerun = real.evaluate(z, params)
+        if not rerun.ok:
+            return f"its orbit could not be rerun: {rerun.failure}"
+        miss = float(np.linalg.norm(rerun.residual))
+        if not miss <= VERIFY_ORBIT * size:
+            return f"its orbit, rerun, misses its start by {miss:.3g}"
+        return ""
+
+    return verify

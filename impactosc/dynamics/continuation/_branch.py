@@ -17,9 +17,10 @@ __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 
 #: The kinds of special point a branch labels (AUTO's abbreviations LP, BP, PD, NS; GR grazing, ST stick onset, SC
 #: another change of the event signature).
-SPECIAL_KINDS = ("fold", "branch_point", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border")
+SPECIAL_KINDS = ("fold", "branch_point", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border",
+                 "resonant_grazing")
 LABELS = {"fold": "LP", "branch_point": "BP", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "GR",
-          "stick_onset": "ST", "border": "SC"}
+          "stick_onset": "ST", "border": "SC", "resonant_grazing": "RG"}
 
 
 @dataclass(frozen=True, eq=False)

@@ -12,13 +12,15 @@ for a test function, bisection for the signature, each evaluation a corrected po
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
+from ._arclength import Corrected, Settings, correct, unscaled
+from ._grazing import approaching
+from ._nodes import Found, Node, make_node
+from ._nonsmooth import across_section, regular_grazing, try_crossing
 from ._points import MARGIN_TESTS, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
-from ._problem import MapProblem
+from ._problem import UNSUPPORTED, MapProblem
 
 __all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
 
@@ -26,51 +28,20 @@ __all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
 MAX_TURN = 0.82
 #: Order of special points found between the same two points (for their labels).
 LABEL_ORDER = {"grazing": 0, "stick_onset": 1, "border": 2, "fold": 3, "branch_point": 4, "period_doubling": 5,
-               "neimark_sacker": 6}
+               "neimark_sacker": 6, "resonant_grazing": 7}
 #: A margin this close to zero (nondimensional) at a failed step: the branch ends at the grazing.
 GRAZING_NEAR = 1e-3
 
 
-@dataclass(eq=False)
-class Node:
-    """An accepted point: unknowns, tangent, evaluation and what it says."""
-
-    u: np.ndarray
-    t: np.ndarray
-    corrected: Corrected
-    info: PointInfo
-    arclength: float
-
-
-@dataclass(eq=False)
-class Found:
-    """A located special point before it becomes a :class:`~._branch.SpecialPoint`."""
-
-    kind: str
-    node: Node
-    before: tuple
-    after: tuple
-    accuracy: float
-    message: str
-    index: int
-    extra: dict = field(default_factory=dict)
-
-
-def make_node(problem: MapProblem, corrected: Corrected, previous_t, arclength: float, extra=None) -> Node:
-    rows = jacobian_rows(problem, corrected.ev)
-    if extra is not None:
-        rows = np.vstack([rows, extra(corrected.ev, corrected.u)[1]])
-    t = tangent(rows, previous_t)
-    return Node(corrected.u, t, corrected, point_info(problem, corrected.ev), arclength)
-
-
 def follow(problem: MapProblem, start: Node, direction: int, limits, settings: Settings, max_points: int,
-           extra=None):
+           extra=None, verify=None):
     """Follow the branch from ``start`` along ``direction * start.t``.
 
     ``limits`` is ``(lo, hi)`` of the first parameter, or a list of such pairs, one per free
     parameter (``-inf``/``inf`` for none); ``extra`` adds equations to the corrector (a
-    boundary's test function, :mod:`._boundary`). Returns ``(nodes, found, status,
+    boundary's test function, :mod:`._boundary`); ``verify(corrected) -> str`` checks a
+    corrected point before it is accepted ("" to accept, else why not: the step is then
+    shortened as after a failed corrector). Returns ``(nodes, found, status,
     message)``: the accepted points after ``start``, the located special points (``Found``,
     ``index`` counted in ``nodes`` with ``start`` as -1).
     """
@@ -84,16 +55,38 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
     h = settings.step
     jumped_last = False
     h_good = h  # the last step that succeeded: the scale of a jump across a grazing
+    previous = None  # the point before ``node`` (where the branch came from)
+    tried = {"crossing": -1, "section": -1, "failed": -1}  # the point count when each was last tried
     while True:
         if len(nodes) >= max_points:
             return nodes, found, 1, f"stopped after max_points = {max_points} points"
-        u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
-        result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
-        turn = 1.0
-        if isinstance(result, Corrected):
-            new = _advance(problem, node, result, t, direction, extra)
-            turn = float(np.dot(new.t, t))
-        if not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None):
+        side = 0 if extra is not None or tried["crossing"] == len(nodes) else approaching(problem, previous, node, h)
+        moved = try_crossing(problem, node, side, h, settings, bounds[0], direction, len(nodes) - 1) if side else None
+        tried["crossing"] = len(nodes) if side else tried["crossing"]
+        if moved is None:
+            u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
+            result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
+            if verify is not None and isinstance(result, Corrected):
+                rejected = verify(result)
+                result = f"the point was not verified: {rejected}" if rejected else result
+            if isinstance(result, str) and UNSUPPORTED in result:
+                return nodes, found, -1, f"the branch stops where its backend cannot go on: {result}"
+            turn = 1.0
+            if isinstance(result, Corrected):
+                new = _advance(problem, node, result, t, direction, extra)
+                turn = float(np.dot(new.t, t))
+            failed = not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None)
+            if failed and extra is None:
+                moved = _rescue(problem, previous, node, t, h, h_good, settings, bounds[0], direction, len(nodes),
+                                tried)
+        if moved is not None:
+            new, passed = moved
+            found.append(passed)
+            nodes.append(new)
+            previous, node, t, h = node, new, new.t, h_good
+            jumped_last = False
+            continue
+        if failed:
             why = result if not isinstance(result, Corrected) else (
                 f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, turn)))):.0f} degrees")
             h *= 0.5
@@ -124,11 +117,28 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
             return nodes, found, 0, f"stopped at the first {stop[0].kind} point, as asked (stop_at)"
         if at_limit is not None:
             return nodes, found, 0, f"reached the limit {at_limit[0]} = {at_limit[1]!r}"
-        if result.iterations <= 2:
+        iterations = result.iterations if isinstance(result, Corrected) else 3
+        if iterations <= 2:
             h = min(h * 1.5, settings.max_step)
-        elif result.iterations >= 5:
+        elif iterations >= 5:
             h = max(h * 0.6, settings.min_step)
-        node, t = new, new.t
+        previous, node, t = node, new, new.t
+
+
+def _rescue(problem, previous, node: Node, t, h: float, h_good: float, settings: Settings, bounds, direction: int,
+            count: int, tried: dict):
+    """After a failed step: across an impact on the section, or across a grazing (each once per point), or None."""
+    if tried["section"] != count:
+        tried["section"] = count
+        moved = across_section(problem, node, t, h_good, settings, count - 1)
+        if moved is not None:
+            return moved
+    if tried["failed"] != count:
+        side = approaching(problem, previous, node, h, failed=True)
+        if side:
+            tried["failed"] = count
+            return try_crossing(problem, node, side, h_good, settings, bounds, direction, count - 1)
+    return None
 
 
 def _advance(problem, node: Node, result: Corrected, t, direction: int, extra) -> Node:
@@ -224,7 +234,8 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
             continue
         va, vb = _test_value(a.info, name), _test_value(b.info, name)
         if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
-            out.append(_illinois(problem, a, t, h, name, kind, va, vb, settings, index))
+            regular = regular_grazing(problem, a, b, name, settings, index) if kind == "grazing" else None
+            out.append(regular or _illinois(problem, a, t, h, name, kind, va, vb, settings, index))
             out[-1].after = b.info.signature
     if same:
         for kind in SMOOTH_TESTS:
@@ -341,7 +352,10 @@ def _found(problem, kind: str, node: Node, a: Node, width: float, index: int, te
     _, params = unscaled(problem, node.u)
     before, after = a.info.signature, node.info.signature
     message = _describe(kind, test, node, before, after)
-    return Found(kind, node, before, after, width * problem.scales[0], message, index, {"test": test})
+    extra = {"test": test}
+    if kind == "stick_onset":
+        extra["bifurcation"] = "crossing-sliding" if test == "stick_margin" else "sliding"
+    return Found(kind, node, before, after, width * problem.scales[0], message, index, extra)
 
 
 def _describe(kind: str, test: str, node: Node, before, after) -> str:
@@ -361,8 +375,13 @@ def _describe(kind: str, test: str, node: Node, before, after) -> str:
     if kind == "grazing":
         side = "upper" if test.startswith("upper") else "lower"
         return f"the orbit touches the {side} flange tangentially (a contact appears or vanishes)"
+    if kind == "stick_onset" and test == "signature":
+        return (f"the stuck segments change ({stick_counts(before)} to {stick_counts(after)} sticks a period) where no "
+                "reversal's stick test vanishes: a sliding bifurcation other than at a reversal (adding- or "
+                "switching-sliding, di Bernardo et al. 2008, ch. 8)")
     if kind == "stick_onset":
-        return "a reversal turns into a stick (the sliding bifurcation)"
+        return ("a reversal turns into a stick: a crossing-sliding bifurcation (the orbit's crossing of the switching "
+                "surface V = 0 becomes a segment that sticks on it; di Bernardo et al. 2008, ch. 8)")
     return f"the event signature changes from {_text(before)} to {_text(after)}"
 
 

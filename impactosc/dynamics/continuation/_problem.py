@@ -9,6 +9,8 @@ parameter is ``phase`` the section stays at its time.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -23,7 +25,10 @@ from ..saltation import vector_field
 from ..tangent import check_backend, piece_stepper
 from ._sensitivity import SensitivityRecorder, Stencil, flange_gap
 
-__all__ = ["MapProblem", "MapEvaluation"]
+__all__ = ["MapProblem", "MapEvaluation", "without_flange", "UNSUPPORTED"]
+
+#: The start of a failure message of a member the problem's backend does not run (the branch stops there).
+UNSUPPORTED = "a member the backend does not run"
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,8 +78,12 @@ class MapProblem:
         ``"exact"``, ``"heyoka"`` or ``"scipy"``; ``options`` are its options.
     """
 
-    def __init__(self, base, names, n: int, section_phase: float, backend: str, options: dict, scales=None):
+    def __init__(self, base, names, n: int, section_phase: float, backend: str, options: dict, scales=None,
+                 stripped: int = 0):
         self.base = base
+        #: The side (+1 upper, -1 lower) whose flange is taken away (0: none): the *virtual* map of the
+        #: contact-free orbits near a grazing of that flange, smooth through the grazing (:mod:`._grazing`).
+        self.stripped = int(stripped)
         self.names = tuple(check_parameter(base, name) for name in names)
         self.n = int(n)
         self.section_phase = float(section_phase)
@@ -88,8 +97,11 @@ class MapProblem:
         base_osc = oscillator_of(base)
         #: Rigid flanges: no state beyond them (the corrector keeps its iterates on the walls).
         self.rigid = base_osc.rigid
-        #: Distances of the lower and the upper flange from X = 0.
-        self.walls = (flange_gap(base_osc, -1), flange_gap(base_osc, 1))
+        #: Distances of the lower and the upper flange from X = 0 (inf: absent).
+        self.flange_gaps = (flange_gap(base_osc, -1), flange_gap(base_osc, 1))
+        #: The walls the corrector keeps its iterates within (a stripped flange is no wall).
+        self.walls = tuple(math.inf if side == self.stripped else gap
+                           for side, gap in zip((-1, 1), self.flange_gaps, strict=True))
         # The section time of the base, kept when the parameter is the phase itself.
         self._t_section = self._section_time(base_osc)
         check_backend(self.section(self.values(base)), backend, self.options)
@@ -114,10 +126,34 @@ class MapProblem:
 
     def section(self, params) -> Oscillator:
         """The model at ``params`` seen from its section (a run from time 0 is one map)."""
+        if isinstance(self.base, Oscillator) and "phase" not in self.names:
+            return self._oscillator_section(params)
         osc = oscillator_of(self.model(params))
+        if self.stripped:
+            osc = without_flange(osc, self.stripped)
         if "phase" in self.names:
             return advanced(osc, self._t_section)
         return advanced(osc, self._section_time(osc))
+
+    def _oscillator_section(self, params) -> Oscillator:
+        """:meth:`section` of an Oscillator base in one construction (the same member, validated once).
+
+        The parameters, the flange taken away and the forcing phases advanced to the section
+        are one ``dataclasses.replace``: an evaluation builds a dozen members (the parameter
+        stencils), and each construction validates every field.
+        """
+        base = self.base
+        changes: dict[str, Any] = {name: float(value) for name, value in zip(self.names, params, strict=True)}
+        if self.stripped:
+            changes.update(stripped_fields(base, self.stripped))
+        F, Omega = changes.get("F", base.F), changes.get("Omega", base.Omega)
+        if F != 0.0 and Omega != 0.0:
+            t = ((self.section_phase - base.phase) % (2.0 * math.pi)) / Omega
+            if t != 0.0:
+                two_pi = 2.0 * math.pi
+                changes["phase"] = math.fmod(base.phase + Omega * t, two_pi)
+                changes["harmonics"] = tuple((Fi, Om, math.fmod(ph + Om * t, two_pi)) for Fi, Om, ph in base.harmonics)
+        return dataclasses.replace(base, **changes)
 
     def span(self, osc: Oscillator) -> float:
         return periods_in(osc, None, self.n)[1]
@@ -133,6 +169,9 @@ class MapProblem:
             sec = self.section(params)
         except ValueError as exc:
             return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, str(exc))
+        unsupported = self.unsupported(sec)
+        if unsupported:
+            return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, unsupported)
         if not (math.isfinite(z[0]) and math.isfinite(z[1])):
             return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, f"state {z} is not finite")
         if sec.rigid and not -flange_gap(sec, -1) <= z[0] <= flange_gap(sec, 1):
@@ -165,6 +204,19 @@ class MapProblem:
                 dp[:, j] += np.array([fx, fv]) * dT
         return MapEvaluation(z, params, image, M, dp, rec)
 
+    def unsupported(self, sec: Oscillator) -> str:
+        """Why the problem's backend cannot run the member ``sec`` ("" when it can).
+
+        The backend is checked against the base once, at the start; a parameter such as the
+        flange's ``exponent`` can carry the branch to members it does not run (the exact
+        backend runs linear members only), and every evaluation must then stop, not run the
+        member as if it were another.
+        """
+        if self.backend == "exact" and not sec.linear:
+            return (f"{UNSUPPORTED}: the exact backend runs linear members only, and this one has a power-law "
+                    f"flange (exponent = {sec.exponent!r}); continue with backend='heyoka' or backend='scipy'")
+        return ""
+
     def limit_events(self, orbit_events: int) -> None:
         """Let a map evaluation take at most ``max(5000, 20 * orbit_events)`` events.
 
@@ -186,4 +238,35 @@ class MapProblem:
 
     def with_names(self, names, scales=None) -> MapProblem:
         """The same problem with other free parameters."""
-        return MapProblem(self.base, names, self.n, self.section_phase, self.backend, self.options, scales)
+        return MapProblem(self.base, names, self.n, self.section_phase, self.backend, self.options, scales,
+                          self.stripped)
+
+    def virtual(self, side: int) -> MapProblem:
+        """The same problem with the flange on ``side`` taken away (contact-free orbits past its grazing).
+
+        ``side = 0`` gives the problem with every flange back (the real model).
+        """
+        out = copy.copy(self)
+        out.stripped = int(side)
+        out.walls = tuple(math.inf if s == side else w for s, w in zip((-1, 1), self.flange_gaps, strict=True))
+        return out
+
+    def at_phase(self, section_phase: float) -> MapProblem:
+        """The same problem on the section at another forcing phase (the phase of an impact, say)."""
+        out = copy.copy(self)
+        out.section_phase = float(section_phase)
+        out._t_section = out._section_time(oscillator_of(self.base))
+        return out
+
+
+def without_flange(osc: Oscillator, side: int) -> Oscillator:
+    """``osc`` with the flange on ``side`` taken away (its other flange, if any, kept as it is)."""
+    return dataclasses.replace(osc, **stripped_fields(osc, side))
+
+
+def stripped_fields(osc: Oscillator, side: int) -> dict[str, Any]:
+    """The fields that take the flange on ``side`` away from ``osc`` (:func:`without_flange`)."""
+    fields: dict[str, Any] = {"gap_upper" if side > 0 else "gap_lower": math.inf}
+    if math.isinf(osc.gap(-side)):  # no flange left: the flange law's fields go back to their defaults
+        fields.update(flange="spring", restitution=1.0, exponent=1.0, K=None)
+    return fields

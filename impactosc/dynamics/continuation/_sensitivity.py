@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from ...engine._driver import AT_WALL, IMPACT, N_GUARDS, guard_gradient, guard_value
+from ...engine._driver import AT_WALL, IMPACT, N_GUARDS, REVERSAL, STICK, guard_gradient, guard_value
 from ..flow import transition_matrix, variational_transition
 from ..saltation import vector_field
 from ..tangent import TangentRecorder
@@ -115,15 +115,20 @@ class SensitivityRecorder(TangentRecorder):
         #: or a piece end): the exact gradient of the distance to each flange.
         self.top = None
         self.bottom = None
+        #: Times of ``top`` and ``bottom`` from the start of the run (where a grazing orbit touches).
+        self.top_t = self.bottom_t = math.nan
         self.x_max = -math.inf
         self.x_min = math.inf
         self.impact_speed = {1: math.inf, -1: math.inf}
         self.final_mode = None
+        #: Every velocity zero of a sliding mass (a reversal, or a stick): ``(t, x, mode before, state Jacobian,
+        #: sigma)`` just before it, where the stick test ``beta_s - |f_net|`` is decided (its exact gradient).
+        self.turns: list = []
 
     def begin(self, osc, t, x, v, mode):
         super().begin(osc, t, x, v, mode)
         self.x_max = self.x_min = x
-        self._extremes(x)
+        self._extremes(x, t)
 
     def piece(self, mode, t0, x0, t1, x1, q, q2, w, vv, steps):
         v0 = self._state[2] if self._state is not None else math.nan
@@ -150,7 +155,7 @@ class SensitivityRecorder(TangentRecorder):
             self.sigma = sigma
         else:
             self.sigma = _power_law_sensitivity(self, mode, t0, x0, v0, t1)
-        self._extremes(x1)
+        self._extremes(x1, t1)
 
     def _duhamel(self, mode, t0, x0, v0, t1, w2, stencils):
         """``int Phi(t1, s) df/dp(s) ds`` over a linear piece by composite Gauss-Legendre quadrature."""
@@ -169,17 +174,19 @@ class SensitivityRecorder(TangentRecorder):
             out[1, j] = float(np.sum(weights * c22 * dadp))
         return out
 
-    def _extremes(self, x):
+    def _extremes(self, x, t):
         """Keep the state's derivatives where ``X`` is largest / smallest so far (an end of a monotonic piece)."""
         if self.singular is not None:
             return
         row = (self.jacobian[0], self.jacobian[1])
         if self.top is None or x >= self.top[0]:
-            self.top = (x, row, self.sigma[0].copy())
+            self.top, self.top_t = (x, row, self.sigma[0].copy()), t
         if self.bottom is None or x <= self.bottom[0]:
-            self.bottom = (x, row, self.sigma[0].copy())
+            self.bottom, self.bottom_t = (x, row, self.sigma[0].copy()), t
 
     def on_transition(self, t, mode_before, guard, mode_after, x_before, v_before, x_after, v_after, kind):
+        if kind in (REVERSAL, STICK) and mode_before.motion != 0 and self.singular is None:
+            self.turns.append((t, x_before, mode_before, self.jacobian, self.sigma.copy()))
         n_sal = len(self.saltations)
         super().on_transition(t, mode_before, guard, mode_after, x_before, v_before, x_after, v_after, kind)
         if kind == IMPACT:
@@ -228,7 +235,7 @@ class SensitivityRecorder(TangentRecorder):
         self.final_mode = mode
         self.x_max = max(self.x_max, x)
         self.x_min = min(self.x_min, x)
-        self._extremes(x)
+        self._extremes(x, t)
 
 
 def flange_gap(osc, side: int) -> float:

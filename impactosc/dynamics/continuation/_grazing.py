@@ -1,0 +1,345 @@
+"""Crossing a grazing: a branch goes on into the family on the other side of a flange's grazing.
+
+At a grazing the stroboscopic map ``P`` is not smooth: a rigid flange adds a square-root
+term (Nordmark 1991; the saltation matrix of an impact at speed ``V`` grows like ``1/V``),
+a stiff spring flange a steep ``d^{3/2}`` one. A corrector on ``P(z; p) = z`` cannot step
+over it. Two changes of unknowns make both sides regular up to and through the grazing
+itself (the idea of VIVID, Ghosh & Simpson 2025, and of COCO's ``hspo`` segments):
+
+* the **virtual** contact-free orbits, the map of the model with the grazed flange taken
+  away (:meth:`MapProblem.virtual`): smooth through the grazing, which is the regular zero
+  of ``gap - max X`` (``gap + min X`` below) along them, its gradient exact (the
+  sensitivity at the extreme, where ``V = 0``);
+* for a rigid flange the **impact formulation** of the impacting orbits: unknowns the
+  forcing phase ``psi`` of the impact, the impact speed ``v`` and the parameters; the orbit
+  leaves the wall at ``(gap, -e v)`` and must return to it after ``n`` periods at speed
+  ``v``. It is smooth in ``v`` through ``v = 0``, where it is the grazing orbit.
+
+:func:`cross` locates the grazing on the virtual family (a regular point: Newton on
+``[P - z, gap - max X]``), takes the tangent of the family on the far side (the impact
+formulation's with ``dv > 0``, the virtual one's pointing into the flange for a spring, or
+away from it back to contact-free orbits), steps along it and corrects the far point with
+the branch's own problem. Whether the parameter goes on in the same direction (a
+*persistent* crossing) or turns back (a *nonsmooth fold*: the two families meet at the
+grazing and annihilate) is said in the grazing's label. Only the map, its derivatives, the
+vector field and one event quantity (the impact speed) enter.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .._common import oscillator_of
+from ..saltation import vector_field
+from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
+from ._points import PointInfo, point_info
+from ._problem import MapEvaluation, MapProblem
+
+__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate"]
+
+#: A flange margin (distance, penetration or impact speed) below which a branch moving towards the
+#: grazing hands over to :func:`cross` once its next step would reach it.
+NEAR = 0.05
+_NEWTON_STEPS = 12
+#: The first step (scaled arclength) tried from a grazing into the family beyond it.
+FAR_STEP = 0.01
+#: The farthest (scaled) a grazing located from a branch's last point may lie (besides ten steps).
+REACH = 0.2
+
+
+@dataclasses.dataclass(eq=False)
+class Crossing:
+    """A grazing crossed: the grazing orbit (on the virtual family) and the first point beyond it."""
+
+    side: int
+    grazing_u: np.ndarray  #: the grazing's unknowns (z, scaled parameters) on the virtual family
+    grazing_ev: MapEvaluation  #: the virtual map's evaluation there
+    grazing_info: PointInfo
+    accuracy: float  #: last Newton correction of the first parameter at the grazing
+    far: Corrected  #: the first point beyond, corrected on the branch's own problem
+    case: str  #: "persistent" (the parameter goes on) or "nonsmooth_fold" (it turns back)
+    message: str
+
+
+def margin(info: PointInfo, side: int) -> float:
+    """Signed distance of an orbit from grazing the flange of ``side`` (negative once it is reached)."""
+    return info.upper_margin if side > 0 else info.lower_margin
+
+
+def approaching(problem: MapProblem, previous, node, h: float, failed: bool = False) -> int:
+    """The side of the flange whose grazing the branch reaches within its next step (0: none).
+
+    ``previous`` and ``node`` are the last two accepted points (Nodes). The margin of a side
+    must shrink towards zero between them and be within :data:`NEAR`; then the grazing is
+    near when the secant reaches zero within 1.5 steps, or the step has just failed.
+    """
+    if previous is None or problem.stripped:
+        return 0
+    ds = float(np.linalg.norm(node.u - previous.u))
+    for side in (1, -1):
+        if math.isinf(problem.walls[(side + 1) // 2]):
+            continue
+        m0, m1 = margin(previous.info, side), margin(node.info, side)
+        if not (math.isfinite(m0) and math.isfinite(m1)) or abs(m1) >= NEAR or abs(m1) >= abs(m0) or m0 * m1 <= 0:
+            continue
+        if m1 < 0.0 and contacts_on(node.info, side) != 1:
+            continue  # several contacts with that flange: not one about to vanish (taking the flange away is wrong)
+        rate = abs(m1 - m0) / max(ds, 1e-300)
+        if failed or abs(m1) <= 1.5 * h * rate:
+            return side
+    return 0
+
+
+def contacts_on(info: PointInfo, side: int) -> int:
+    """How many impacts, contacts or chatters with the flange of ``side`` one map period has."""
+    return sum(count for (kind, s), count in info.signature
+               if s == side and kind in ("impact", "contact_start", "chatter"))
+
+
+def grazing_test(virtual: MapProblem, side: int):
+    """``extra(ev, u) -> (psi, row)``: ``gap - side X_extreme`` on the virtual map and its exact gradient."""
+    gap = virtual.flange_gaps[(side + 1) // 2]
+    scales = np.asarray(virtual.scales)
+
+    def test(ev, u):
+        rec = ev.recorder
+        x, row, sig = rec.top if side > 0 else rec.bottom
+        psi = gap - side * x
+        grad = -side * np.concatenate([np.asarray(row, float), np.asarray(sig, float) * scales])
+        return np.array([psi]), grad[None, :]
+
+    return test
+
+
+def _newton(fun, u0, tol: float, fixed_rows=None):
+    """Newton on ``fun(u) -> (F, J, payload)`` (square); returns ``(u, payload, error estimate)`` or a reason."""
+    u = np.array(u0, dtype=float)
+    for it in range(_NEWTON_STEPS + 1):
+        out = fun(u)
+        if isinstance(out, str):
+            return f"{out} (iteration {it})"
+        F, J, payload = out
+        try:
+            du = np.linalg.solve(J, -F)
+        except np.linalg.LinAlgError:
+            return "a singular Jacobian"
+        if not np.all(np.isfinite(du)):
+            return "a Newton step that is not finite"
+        if float(np.linalg.norm(F)) <= tol * max(1.0, float(np.linalg.norm(u[:2]))):
+            return u, payload, du  # the step not taken: the error estimate of the converged point
+        if it == _NEWTON_STEPS:
+            break
+        u = u + du
+    return f"Newton did not converge (residual {np.linalg.norm(F):.3g})"
+
+
+def locate(virtual: MapProblem, side: int, u0, tol: float):
+    """The grazing orbit of one free parameter: ``(u, ev, last step)`` on the virtual family, or why not."""
+    test = grazing_test(virtual, side)
+
+    def fun(u):
+        z, params = unscaled(virtual, u)
+        ev = virtual.evaluate(z, params)
+        if not ev.ok or ev.singular:
+            return f"the virtual orbit could not be evaluated: {ev.failure or ev.singular}"
+        value, row = test(ev, u)
+        return np.concatenate([ev.residual, value]), np.vstack([jacobian_rows(virtual, ev), row]), ev
+
+    return _newton(fun, u0, tol)
+
+
+class ImpactFormulation:
+    """The impacting orbits of a rigid flange with the impact's phase and speed as unknowns (module docstring).
+
+    Unknowns ``w = (psi, v, s_1 .. s_k)``: forcing phase of the impact, impact speed, scaled
+    parameters. Residual ``[X(nT) - side gap, V(nT) - side v]`` of the virtual map from
+    ``(side gap, -side e v)`` on the section at ``psi``.
+    """
+
+    def __init__(self, virtual: MapProblem, side: int):
+        self.virtual, self.side = virtual, side
+        self.gap = virtual.flange_gaps[(side + 1) // 2]
+
+    def residual(self, w):
+        psi, v = float(w[0]), float(w[1])
+        problem = self.virtual.at_phase(psi)
+        params = tuple(float(s * c) for s, c in zip(w[2:], problem.scales, strict=True))
+        sec = problem.section(params)
+        e = oscillator_of(self.virtual.model(params)).restitution
+        z0 = np.array([self.side * self.gap, -self.side * e * v])
+        ev = problem.evaluate(z0, params)
+        if not ev.ok or ev.singular:
+            return f"the impacting orbit could not be evaluated: {ev.failure or ev.singular}"
+        rec = ev.recorder
+        F = np.array([rec.x_final - self.side * self.gap, rec.v_final - self.side * v])
+        span = problem.span(sec)
+        f_end = np.array(vector_field(sec, span, rec.x_final, rec.v_final, rec.final_mode))
+        a0 = sec._accel_scalar(0.0, z0[0], z0[1], 0, 1 if z0[1] > 0 else -1 if z0[1] < 0 else -self.side)
+        f_start = np.array([z0[1], a0])
+        d_psi = (f_end - ev.monodromy @ f_start) / sec.Omega
+        d_v = ev.monodromy @ np.array([0.0, -self.side * e]) - np.array([0.0, self.side])
+        J = np.column_stack([d_psi, d_v, ev.dp * np.asarray(problem.scales)[None, :]])
+        return F, J, ev
+
+
+def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bounds=None):
+    """Cross the grazing of the flange on ``side`` from ``node``: a :class:`Crossing`, or a string saying why not.
+
+    ``bounds`` are the ``(lo, hi)`` limits of the parameter: a grazing beyond them is not crossed.
+    """
+    if len(problem.names) != 1:
+        return "crossing a grazing is done on branches in one parameter"
+    virtual = problem.virtual(side)
+    from_contact = margin(node.info, side) < 0.0
+    found = locate(virtual, side, node.u, settings.tol)
+    if isinstance(found, str):
+        return f"the grazing could not be located on the contact-free orbits: {found}"
+    u_g, ev_g, error = found
+    distance = float(np.linalg.norm(u_g - node.u))
+    if distance > max(10.0 * h, REACH):
+        return f"the grazing located is {distance:.3g} away from the branch's last point: not the one it reaches"
+    value = u_g[2] * problem.scales[0]
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        return f"the grazing lies beyond the limits, at {problem.names[0]} = {value!r}"
+    rows = jacobian_rows(virtual, ev_g)
+    _, row = grazing_test(virtual, side)(ev_g, u_g)
+    t_v = np.linalg.svd(rows)[2][-1]
+    slope = float(row[0] @ t_v)
+    if abs(slope) < 1e-12:
+        return "the contact-free family is tangent to the flange's grazing condition here (a degenerate grazing)"
+    t_free = t_v if slope > 0 else -t_v
+    p_g = u_g[2]
+    came = np.sign(p_g - node.u[2])
+    rigid = problem.rigid
+    if from_contact:
+        far = _beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
+        went = np.sign(t_free[2])
+    elif rigid:
+        far = _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings)
+        went = np.sign(far[1]) if not isinstance(far, str) else 0.0
+        far = far[0] if not isinstance(far, str) else far
+    else:
+        # a stiff spring flange: near its grazing the contacting orbits are close to those of an elastic
+        # impact (e = 1), whose family is regular in the impact formulation; smaller stiffness, the tangent
+        far = _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings)
+        if isinstance(far, str):
+            far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
+            went = -np.sign(t_free[2])
+        else:
+            far, went = far[0], np.sign(far[1])
+    if isinstance(far, str):
+        return far
+    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
+    info = point_info(virtual, ev_g)
+    if rigid:
+        info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
+                                   singular="the map is not differentiable at a grazing of a rigid flange (a "
+                                            "square-root term, Nordmark 1991)")
+    flange = "upper" if side > 0 else "lower"
+    law = "rigid" if rigid else "spring"
+    into = "into contact with" if not from_contact else "off"
+    what = ("the branch goes on in the same direction of the parameter (a persistent crossing)" if case == "persistent"
+            else "the parameter turns back there: the contact-free and the contacting family meet at the grazing "
+                 "and end together (a nonsmooth fold, the discontinuous grazing case)")
+    message = (f"the orbit grazes the {flange} flange ({law}): located as a regular point of the contact-free "
+               f"orbits (gap - max X = 0); the branch crosses {into} the flange, and {what}")
+    return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
+
+
+def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
+    """The first point of the branch's own family a step ``h`` from the grazing along ``direction``."""
+    why = "no step tried"
+    # from a step the branch came with (not less than FAR_STEP: right past a stiff flange's grazing the map is
+    # steep and its orbits' contacts near-tangent, a corrector struggles there), halved when it fails
+    step = 2.0 * max(h, FAR_STEP)
+    while step > settings.min_step:
+        step *= 0.5
+        result = correct(problem, u_g + step * direction, direction, settings, max_distance=2.0 * step + 1e-9)
+        if not isinstance(result, Corrected):
+            why = result
+            continue
+        m = margin(point_info(problem, result.ev), side)
+        if (m < 0.0) != want_contact:
+            why = f"the corrected point lies on the wrong side of the grazing (margin {m:.3g})"
+            continue
+        t_far = tangent(jacobian_rows(problem, result.ev), direction)
+        if (result.u[2] - u_g[2]) * direction[2] < 0.0 or t_far[2] * direction[2] < 0.0:
+            why = "a fold lies within the step"  # the family turned back in the parameter: locate it normally
+            continue
+        return result
+    return f"no orbit was found beyond the grazing: {why}"
+
+
+def _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings):
+    """The first impacting orbit past a rigid flange's grazing (the impact formulation, then the branch's own)."""
+    rec = ev_g.recorder
+    t_touch = rec.top_t if side > 0 else rec.bottom_t
+    sec = virtual.section(unscaled(virtual, u_g)[1])
+    psi = virtual.section_phase + sec.Omega * t_touch
+    form = ImpactFormulation(virtual, side)
+    w_g = np.concatenate([[psi, 0.0], u_g[2:]])
+    out = form.residual(w_g)
+    if isinstance(out, str):
+        return out
+    _, J, _ = out
+    t_w = np.linalg.svd(J)[2][-1]
+    if t_w[1] < 0.0:
+        t_w = -t_w
+    if abs(t_w[1]) < 1e-12:
+        return "the impacting family leaves the grazing with zero impact speed (a degenerate grazing)"
+    why = "no step tried"
+    step = 2.0 * max(h, FAR_STEP)
+    while step > settings.min_step:
+        step *= 0.5
+        w_pred = w_g + step * t_w
+
+        def fun(w, w_pred=w_pred):
+            res = form.residual(w)
+            if isinstance(res, str):
+                return res
+            F, Jw, ev = res
+            return (np.concatenate([F, [float(t_w @ (w - w_pred))]]), np.vstack([Jw, t_w[None, :]]), (ev, Jw))
+
+        found = _newton(fun, w_pred, settings.tol)
+        if isinstance(found, str):
+            why = found
+            continue
+        w, (ev, Jw), _ = found
+        if w[1] <= 0.0:
+            why = f"the impact speed past the grazing is {w[1]:.3g}"
+            continue
+        t_far = np.linalg.svd(Jw)[2][-1]
+        if (w[2] - w_g[2]) * t_w[2] < 0.0 or float(t_far @ t_w) * t_far[2] * t_w[2] < 0.0:
+            why = "a fold lies within the step"  # the family turned back in the parameter: locate it normally
+            continue
+        z = _section_state(virtual, ev, w)
+        u_pred = np.concatenate([z, w[2:]])
+        chord = u_pred - u_g
+        chord /= np.linalg.norm(chord)
+        result = correct(problem, u_pred, chord, settings, max_distance=2.0 * step + 1e-9)
+        if isinstance(result, Corrected) and margin(point_info(problem, result.ev), side) < 0.0:
+            return result, float(t_w[2])
+        why = result if isinstance(result, str) else "the corrected orbit does not hit the flange"
+    return f"no impacting orbit was found past the grazing: {why}"
+
+
+def _section_state(virtual: MapProblem, ev, w) -> np.ndarray:
+    """The impacting orbit's state on the branch's section (its phase), from its run of the impact formulation.
+
+    The run from the impact is contact-free until it returns to the wall at its end, so the
+    virtual run's state at the section time is the real orbit's.
+    """
+    from ...backends._simulate import simulate
+
+    problem = virtual.at_phase(float(w[0]))
+    params = tuple(float(s * c) for s, c in zip(w[2:], problem.scales, strict=True))
+    sec = problem.section(params)
+    dt = ((virtual.section_phase - float(w[0])) % (2.0 * math.pi)) / sec.Omega
+    z0 = ev.z
+    if dt == 0.0:
+        return np.array([ev.recorder.x_final, ev.recorder.v_final])
+    sol = simulate(sec, dt, float(z0[0]), float(z0[1]), backend=virtual.backend, record="stats", **virtual.options)
+    return np.array([sol.x_final, sol.v_final])
