@@ -1,0 +1,158 @@
+"""A hybrid system's expressions in numeric form: parameters as ``par[i]``, Lie derivatives, evaluators.
+
+The backends need the definition in three forms: heyoka expressions with the parameters
+as runtime parameters ``hy.par[i]`` (for the Taylor integrator), the Lie derivative
+``h' = dh/dt + grad h . f`` of every guard in every mode (its zeros are the guard's
+extrema, where a grazing is checked), and functions that evaluate the small per-event
+expressions (resets, guard values at a new state, entry conditions, vector fields for
+scipy) at a point.
+
+The per-event functions are Python functions generated from the expressions' text (about
+1 us a call), checked against heyoka's compiled function (``hy.cfunc``, about 7 us a call
+from Python) at a random point when they are built; an expression the generated code
+cannot reproduce uses the compiled function.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._definition import HybridSystem
+
+__all__ = ["Numeric", "numeric", "evaluator"]
+
+_TIME_VAR = "_time"  # the time as a variable, to differentiate with respect to it
+
+
+def _select(cond, a, b):
+    return a if cond else b
+
+
+def _sigmoid(x):
+    return 1.0 / (1.0 + math.exp(-x))
+
+
+_NAMESPACE = {
+    **{name: getattr(math, name) for name in ("sin", "cos", "tan", "exp", "log", "sqrt", "asin", "acos", "atan",
+                                              "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh", "erf")},
+    "select": _select, "relu": lambda x: x if x > 0.0 else 0.0, "sigmoid": _sigmoid,
+    "__builtins__": {},
+}
+
+
+class Numeric:
+    """The numeric forms of one system's structure (shared by every parameter value).
+
+    Attributes
+    ----------
+    states : list of heyoka variables
+        The state variables, then the integrals' (the integrator's state vector).
+    rates : list of list of expressions
+        ``rates[m]`` the vector field of mode ``m`` (states then integrands), parameters as ``par[i]``.
+    guards : list of expressions
+        Each guard's expression, parameters as ``par[i]``.
+    lie : dict (mode, guard) -> expression
+        The Lie derivative of each guard armed in each mode.
+    """
+
+    def __init__(self, system: HybridSystem):
+        import heyoka as hy
+
+        self.system = system
+        names = list(system.states) + list(system.integrals)
+        self.states = list(hy.make_vars(*names)) if len(names) > 1 else [hy.make_vars(*names)]
+        self.n_params = len(system.parameters)
+        subs = {name: hy.par[i] for i, name in enumerate(system.parameter_names)}
+        self._subs = subs
+        self.rates = [[hy.subs(r, subs) for r in m.field] for m in system.modes]
+        self.guards = [hy.subs(g.expression, subs) for g in system.guards]
+        self.armed = [tuple(system.mode_names.index(a) for a in g.armed) for g in system.guards]
+        self.armed_in = [tuple(g for g, modes in enumerate(self.armed) if m in modes)
+                         for m in range(len(system.modes))]
+        self.lie = {(m, g): self.lie_derivative(self.guards[g], self.rates[m])
+                    for g, modes in enumerate(self.armed) for m in modes}
+
+    def lie_derivative(self, expr, rates):
+        """``dh/dt + sum_i dh/dy_i f_i`` of ``expr`` along ``rates``.
+
+        heyoka differentiates with respect to variables only: the time becomes the variable
+        ``_time`` for the derivative and is put back after.
+        """
+        import heyoka as hy
+
+        tvar = hy.make_vars(_TIME_VAR)
+        timed = hy.subs(expr, {hy.time: tvar})
+        used = set(hy.get_variables(expr))
+        terms = [hy.diff(timed, _TIME_VAR)]
+        terms += [hy.diff(timed, str(var)) * rate for var, rate in zip(self.states, rates, strict=True)
+                  if str(var) in used]
+        total = hy.sum(terms) if len(terms) > 1 else terms[0]
+        return hy.subs(total, {_TIME_VAR: hy.time})
+
+    def with_params(self, expr):
+        """``expr`` (in the named parameters) with the parameters as ``par[i]``."""
+        import heyoka as hy
+
+        return hy.subs(expr, self._subs)
+
+
+_by_structure: dict[str, Numeric] = {}
+
+
+def numeric(system: HybridSystem) -> Numeric:
+    """The :class:`Numeric` of ``system``'s structure (cached: shared across parameter values)."""
+    found = _by_structure.get(system.structure)
+    if found is None:
+        found = _by_structure[system.structure] = Numeric(system)
+    return found
+
+
+def evaluator(num: Numeric, exprs, label: str):
+    """A function ``f(t, y, p) -> tuple of float`` evaluating ``exprs`` (parameters as ``par[i]``).
+
+    Generated Python source from the expressions' text, checked against ``hy.cfunc`` at a
+    random point; the compiled function is used when the two disagree or the text uses a
+    function the generated code does not know. ``label`` names the expressions in errors.
+    """
+    import heyoka as hy
+
+    exprs = list(exprs)
+    n = len(num.states)
+    names = [f"_y{i}" for i in range(n)]
+    internal = hy.make_vars(*names) if n > 1 else [hy.make_vars(*names)]
+    renamed = [hy.subs(e, {str(v): w for v, w in zip(num.states, internal, strict=True)}) for e in exprs]
+    compiled = hy.cfunc(exprs, num.states) if exprs else None
+    if not exprs:
+        return lambda t, y, p: ()
+    args = ", ".join(names)
+    pars = ", ".join(f"p{i}" for i in range(num.n_params))
+    body = ["def _f(t, y, p):", f"    {args}{',' if n == 1 else ''} = y"]
+    if num.n_params:
+        body.append(f"    {pars}{',' if num.n_params == 1 else ''} = p")
+    body.append(f"    return ({', '.join(str(e) for e in renamed)},)")
+    source = "\n".join(body)
+    rng = np.random.default_rng(12345)
+    y = rng.uniform(0.3, 0.9, n)
+    p = rng.uniform(0.3, 0.9, num.n_params)
+    t = 0.37
+    with np.errstate(all="ignore"):
+        want = compiled(y, pars=p, time=t) if num.n_params else compiled(y, time=t)
+    try:
+        space = dict(_NAMESPACE)
+        exec(compile(source, f"<{label}>", "exec"), space)  # noqa: S102 - our own text of heyoka expressions
+        fast = space["_f"]
+        got = np.array(fast(t, tuple(y), tuple(p)), dtype=float)
+        agree = bool(np.allclose(got, want, rtol=1e-12, atol=1e-300, equal_nan=True))
+    except Exception:  # an operator or function the generated code does not reproduce
+        agree = False
+    if agree:
+        return fast
+    out = np.empty(len(exprs))
+
+    def slow(t, y, p):
+        compiled(np.asarray(y, dtype=float), pars=np.asarray(p, dtype=float), time=t, outputs=out)
+        return tuple(out.tolist())
+
+    return slow
