@@ -25,8 +25,6 @@ def _check_symbols(where: str, expr, allowed: set[str]) -> None:
 
 def check_system(system) -> None:
     """Raise a TypeError/ValueError naming what is wrong in ``system`` (see HybridSystem)."""
-    from ._definition import Guard, HybridMode
-
     if not system.states:
         raise ValueError("states: a system needs at least one state")
     _duplicates("state", system.states)
@@ -38,12 +36,6 @@ def check_system(system) -> None:
         raise ValueError(f"{clash} are named as more than one of states, parameters and integrals")
     if not system.modes:
         raise ValueError("modes: a system needs at least one mode")
-    for m in system.modes:
-        if not isinstance(m, HybridMode):
-            raise TypeError(f"modes must be impactosc.HybridMode objects, got {m!r}")
-    for g in system.guards:
-        if not isinstance(g, Guard):
-            raise TypeError(f"guards must be impactosc.Guard objects, got {g!r}")
     _duplicates("mode", system.mode_names)
     _duplicates("guard", system.guard_names)
     states, modes = set(system.states), set(system.mode_names)

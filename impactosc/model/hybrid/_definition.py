@@ -23,6 +23,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ._checks import check_system
+
 __all__ = ["symbols", "HybridMode", "Guard", "HybridSystem", "DIRECTIONS"]
 
 #: Crossing directions of a guard: +1 (``h`` rises through 0), -1 (falls), 0 (either way).
@@ -300,8 +302,12 @@ class HybridSystem:
         object.__setattr__(self, "guards", tuple(self.guards))
         if self.period is not None:
             object.__setattr__(self, "period", _expression("period", self.period))
-        from ._checks import check_system
-
+        for m in self.modes:
+            if not isinstance(m, HybridMode):
+                raise TypeError(f"modes must be impactosc.HybridMode objects, got {m!r}")
+        for g in self.guards:
+            if not isinstance(g, Guard):
+                raise TypeError(f"guards must be impactosc.Guard objects, got {g!r}")
         check_system(self)
         object.__setattr__(self, "modes", tuple(_complete_mode(self, m) for m in self.modes))
         object.__setattr__(self, "structure", _structure(self))
