@@ -46,6 +46,10 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
              max_events: int = DEFAULT_MAX_EVENTS, sample_at=None, **options) -> Solution:
     """Integrate the impact oscillator event by event from ``(x0, v0)`` at ``Lambda = 0``.
 
+    ``simulate(system, t_end, state0, backend=..., **options)`` runs a user's
+    :class:`~impactosc.HybridSystem` instead (see ``impactosc.backends._hybrid.simulate_system``
+    for its options) and returns a :class:`~impactosc.results._hybrid.HybridSolution`.
+
     Parameters
     ----------
     osc : Oscillator
@@ -96,6 +100,10 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
         and the next run works normally. To bound a run and keep what it computed, use
         ``max_events`` or heyoka's ``max_wall_time``.
     """
+    if type(osc).__name__ == "HybridSystem":  # a user's system: its own event loops (see _hybrid.py)
+        from ._hybrid import simulate_system
+
+        return simulate_system(osc, t_end, x0, backend=backend, max_events=max_events, **options)
     run = get_backend(backend)
     osc, t_end, x0, v0, max_events = check_run_arguments(osc, t_end, x0, v0, max_events)
     _v.choice("record", record, RECORD_OPTIONS)

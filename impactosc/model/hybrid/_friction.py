@@ -81,10 +81,10 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
     below = hy.select(hy.lt(v, zero), 1.0, hy.select(hy.gt(v, zero), -1.0, -force - static))
     still = hy.select(hy.gt(v, zero), -1.0, hy.select(hy.lt(v, zero), -1.0, 1.0))
     modes = [
-        HybridMode(stuck, {**stuck_rates, v_name: zero}, entry=[still, static - force, static + force],
+        HybridMode(stuck, {**stuck_rates, v_name: zero}, entry=(still, static - force, static + force),
              integrands=stick_integrands or {}),
-        HybridMode(up, {**others, v_name: (force - kinetic) / mass}, entry=[above], integrands=integrands or {}),
-        HybridMode(down, {**others, v_name: (force + kinetic) / mass}, entry=[below], integrands=integrands or {}),
+        HybridMode(up, {**others, v_name: (force - kinetic) / mass}, entry=(above,), integrands=integrands or {}),
+        HybridMode(down, {**others, v_name: (force + kinetic) / mass}, entry=(below,), integrands=integrands or {}),
     ]
     guards = [
         Guard(f"{up} stop", v, -1, armed=up, to=(stuck, down)),

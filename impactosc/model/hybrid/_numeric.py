@@ -21,7 +21,7 @@ import numpy as np
 
 from ._definition import HybridSystem
 
-__all__ = ["Numeric", "numeric", "evaluator"]
+__all__ = ["Numeric", "numeric", "evaluator", "Rules", "rules"]
 
 _TIME_VAR = "_time"  # the time as a variable, to differentiate with respect to it
 
@@ -61,6 +61,7 @@ class Numeric:
         import heyoka as hy
 
         self.system = system
+        self.rules: Rules | None = None  # the per-event functions, built on first use
         names = list(system.states) + list(system.integrals)
         self.states = list(hy.make_vars(*names)) if len(names) > 1 else [hy.make_vars(*names)]
         self.n_params = len(system.parameters)
@@ -123,9 +124,9 @@ def evaluator(num: Numeric, exprs, label: str):
     names = [f"_y{i}" for i in range(n)]
     internal = hy.make_vars(*names) if n > 1 else [hy.make_vars(*names)]
     renamed = [hy.subs(e, {str(v): w for v, w in zip(num.states, internal, strict=True)}) for e in exprs]
-    compiled = hy.cfunc(exprs, num.states) if exprs else None
     if not exprs:
         return lambda t, y, p: ()
+    compiled = hy.cfunc(exprs, num.states)
     args = ", ".join(names)
     pars = ", ".join(f"p{i}" for i in range(num.n_params))
     body = ["def _f(t, y, p):", f"    {args}{',' if n == 1 else ''} = y"]
@@ -137,8 +138,9 @@ def evaluator(num: Numeric, exprs, label: str):
     y = rng.uniform(0.3, 0.9, n)
     p = rng.uniform(0.3, 0.9, num.n_params)
     t = 0.37
+    n_pars = compiled.nparams
     with np.errstate(all="ignore"):
-        want = compiled(y, pars=p, time=t) if num.n_params else compiled(y, time=t)
+        want = compiled(y, pars=p[:n_pars], time=t) if n_pars else compiled(y, time=t)
     try:
         space = dict(_NAMESPACE)
         exec(compile(source, f"<{label}>", "exec"), space)  # noqa: S102 - our own text of heyoka expressions
@@ -152,7 +154,50 @@ def evaluator(num: Numeric, exprs, label: str):
     out = np.empty(len(exprs))
 
     def slow(t, y, p):
-        compiled(np.asarray(y, dtype=float), pars=np.asarray(p, dtype=float), time=t, outputs=out)
+        pars = np.asarray(p[:n_pars], dtype=float)
+        compiled(np.asarray(y, dtype=float), pars=pars, time=t, outputs=out)
         return tuple(out.tolist())
 
     return slow
+
+
+class Rules:
+    """The per-event functions of one structure, built on first use and kept (see :func:`rules`).
+
+    ``reset[g]`` (``None`` for the identity), ``entry[m]`` (``None`` without conditions) and
+    ``probe[m]``, which gives the values of the guards armed in ``m`` followed by their Lie
+    derivatives, each ``f(t, y, p) -> tuple``.
+    """
+
+    def __init__(self, num: Numeric):
+        system = num.system
+        n = system.dimension
+        self.reset: list = []
+        for guard in system.guards:
+            given = dict(guard.reset)
+            if not given:
+                self.reset.append(None)
+                continue
+            exprs = [num.with_params(given[s]) if s in given else num.states[i] for i, s in enumerate(system.states)]
+            self.reset.append(evaluator(num, exprs, f"reset of guard {guard.name!r}"))
+        self.entry = [evaluator(num, [num.with_params(c) for c in m.entry], f"entry of mode {m.name!r}")
+                      if m.entry else None for m in system.modes]
+        self.probe = []
+        for m, mode in enumerate(system.modes):
+            armed = num.armed_in[m]
+            exprs = [num.guards[g] for g in armed] + [num.lie[(m, g)] for g in armed]
+            self.probe.append(evaluator(num, exprs, f"guards of mode {mode.name!r}"))
+        self.field = [evaluator(num, num.rates[m], f"vector field of mode {system.modes[m].name!r}")
+                      for m in range(len(system.modes))]
+        self.guard = [evaluator(num, [num.guards[g]], f"guard {system.guards[g].name!r}")
+                      for g in range(len(system.guards))]
+        self.dimension = n
+
+
+def rules(system: HybridSystem) -> Rules:
+    """The :class:`Rules` of ``system``'s structure (built once per structure)."""
+    num = numeric(system)
+    found = num.rules
+    if found is None:
+        found = num.rules = Rules(num)
+    return found

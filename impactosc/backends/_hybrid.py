@@ -1,0 +1,61 @@
+"""``simulate`` for a user's :class:`~impactosc.HybridSystem`: the backend by name."""
+
+from __future__ import annotations
+
+from .._util import validation as _v
+
+__all__ = ["simulate_system", "SYSTEM_BACKENDS"]
+
+#: The backends that run a user's system.
+SYSTEM_BACKENDS = ("heyoka", "scipy")
+
+
+def simulate_system(system, t_end: float, state0, *, backend: str = "heyoka", **options):
+    """Run a user's hybrid system from ``state0`` at ``t0`` (default 0) to ``t_end``.
+
+    Parameters
+    ----------
+    system : HybridSystem
+    t_end : float
+    state0 : sequence of float
+        One value per state, in the system's order (the integrals start at 0).
+    backend : {"heyoka", "scipy"}
+        ``"heyoka"``: one compiled Taylor integrator per system, guards located on each
+        step's Taylor polynomial, transitions in event callbacks. ``"scipy"``: one
+        ``solve_ivp`` per smooth piece with the guards as events: the independent cross-check.
+    **options
+        ``mode`` (the initial mode's name; default the first whose entry conditions hold),
+        ``t0``, ``max_events``, ``zeno_tol`` (an accumulation is declared when the time left
+        to it is below ``zeno_tol (1 + |t|)``, default 1e-6), ``graze_tol`` (a guard's
+        extremum within ``graze_tol (1 + max |y|)`` of zero is a grazing, default 1e-10),
+        ``touch_tol`` (a state within ``touch_tol (1 + max |y|)`` of a guard it crosses
+        fires it at once, default 1e-12); heyoka: ``tol``; scipy: ``method``, ``rtol``, ``atol``.
+
+    Returns
+    -------
+    HybridSolution
+
+    Examples
+    --------
+    The bouncing ball stops at its Zeno time ``sqrt(2 h / g) (1 + 2 e / (1 - e))``:
+
+    >>> import impactosc
+    >>> from impactosc import Guard, HybridMode, HybridSystem, symbols
+    >>> x, v, g, e = symbols("x v g e")
+    >>> ball = HybridSystem("x v", {"g": 9.81, "e": 0.8}, [HybridMode("flight", {x: v, v: -g})],
+    ...                     [Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v})])
+    >>> sol = impactosc.simulate(ball, 10.0, [1.0, 0.0])
+    >>> sol.status, round(sol.accumulation_time, 12)
+    (2, 4.063712768872)
+    """
+    _v.choice("backend", backend, SYSTEM_BACKENDS)
+    if backend == "heyoka":
+        from . import _hybrid_heyoka as loop
+    else:
+        from . import _hybrid_scipy as loop  # type: ignore[no-redef]
+    try:
+        return loop.run_system(system, t_end, state0, **options)
+    except TypeError as exc:
+        if "unexpected keyword argument" in str(exc):
+            raise TypeError(f"backend {backend!r} does not accept that option for a user system: {exc}") from None
+        raise

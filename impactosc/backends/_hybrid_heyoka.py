@@ -1,0 +1,333 @@
+"""The heyoka event loop for user hybrid systems: one compiled integrator per system, transitions in callbacks.
+
+The integrator
+--------------
+One ``taylor_adaptive`` per system structure and tolerance (cached, reused across runs and
+parameter values). Its runtime parameters are the system's parameters, one indicator per
+mode and one switch ``on`` for the events::
+
+    pars = [p_1 .. p_P, [mode == 1] .. [mode == M], on]
+    y'   = sum_m [mode == m] f_m(y, t; p)          (modes with the same rate share its term)
+
+Every guard ``h`` is a terminal event ``a h + (1 - a)`` gated by ``a = on * sum of the
+indicators of the modes that arm it`` (the constant 1, which has no root, where it is not
+armed), filtered by its direction, so heyoka locates it on each step's Taylor polynomial.
+A guard's extrema are where its Lie derivative ``h' = dh/dt + grad h . f`` vanishes; that
+derivative, gated the same way, is a second terminal event (minima for a guard that fires
+falling, maxima for one that fires rising): at each the guard's value is checked, so a
+guard that touches zero without changing sign (a grazing) is recorded, and one that went
+past zero without a located root (a double root lost to rounding) is applied there.
+
+The loop
+--------
+The whole run is one ``propagate_until``: each terminal event's callback applies the
+transition (the engine's :class:`~impactosc.engine._hybrid.Switch`: reset, entry
+conditions, a guard the new state lies on), writes the new state and two indicators, and
+records the event, in a few microseconds of Python per event. A callback that returns
+False stops the run: the event limit, an accumulation of events, a failed transition.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from .._util import validation as _v
+from .._util.notice import notice
+from ..engine._hybrid import (
+    CROSSING,
+    GRAZING,
+    MARKER,
+    MAX_EVENTS_AT_AN_INSTANT,
+    Accumulation,
+    Switch,
+    check_state,
+)
+from ..model.hybrid._definition import HybridSystem
+from ..model.hybrid._numeric import Numeric, numeric
+from ..results._hybrid import STATUS_MESSAGES, HybridSolution
+
+__all__ = ["run_system", "compiled", "CompiledSystem"]
+
+DEFAULT_TOL = 2.0**-52
+
+
+class _Holder:
+    """The run that the callbacks of a cached integrator serve (one at a time per thread's integrator)."""
+
+    __slots__ = ("run",)
+
+    def __init__(self):
+        self.run = None
+
+
+class _Callback:
+    """A terminal event's callback: guard ``g`` crossed (``extremum`` False) or at an extremum.
+
+    heyoka copies callbacks deeply; ``__deepcopy__`` returns the object itself so that every
+    copy reaches the same holder.
+    """
+
+    __slots__ = ("holder", "g", "extremum")
+
+    def __init__(self, holder: _Holder, g: int, extremum: bool):
+        self.holder, self.g, self.extremum = holder, g, extremum
+
+    def __deepcopy__(self, memo):
+        return self
+
+    def __call__(self, ta, d_sgn) -> bool:
+        run = self.holder.run
+        if self.extremum:
+            return run.extremum(ta, self.g)
+        return run.crossing(ta, self.g)
+
+
+def _gated_sum(hy, exprs_by_mode, indicators):
+    """``sum_m [mode == m] e_m``, one term per distinct expression, zeros left out."""
+    groups: dict[str, tuple] = {}
+    for m, e in enumerate(exprs_by_mode):
+        key = str(e)
+        if e == hy.expression(0.0):
+            continue
+        expr, modes = groups.get(key, (e, []))
+        modes.append(m)
+        groups[key] = (expr, modes)
+    terms = []
+    for expr, modes in groups.values():
+        gate = indicators[modes[0]] if len(modes) == 1 else hy.sum([indicators[m] for m in modes])
+        terms.append(gate * expr)
+    if not terms:
+        return hy.expression(0.0)
+    return terms[0] if len(terms) == 1 else hy.sum(terms)
+
+
+class CompiledSystem:
+    """The cached integrator of one system structure and tolerance, and what the loop reads from it."""
+
+    def __init__(self, system: HybridSystem, tol: float):
+        import heyoka as hy
+
+        num: Numeric = numeric(system)
+        self.num = num
+        P, M = num.n_params, len(system.modes)
+        self.P, self.M = P, M
+        ind = [hy.par[P + m] for m in range(M)]
+        on = hy.par[P + M]
+        n_all = len(num.states)
+        rates = [_gated_sum(hy, [num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
+        self.holder = _Holder()
+        direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative, 0: hy.event_direction.any}
+        events = []
+        for g, guard in enumerate(system.guards):
+            armed = num.armed[g]
+            gate = on * (ind[armed[0]] if len(armed) == 1 else hy.sum([ind[m] for m in armed]))
+            h = num.guards[g]
+            events.append(hy.t_event(gate * h + (1.0 - gate), direction=direction[guard.direction],
+                                     callback=_Callback(self.holder, g, False)))
+            if not guard.terminal:
+                continue
+            lie = _gated_sum(hy, [num.lie[(m, g)] if (m, g) in num.lie else hy.expression(0.0) for m in range(M)],
+                             ind)
+            if not hy.get_variables(lie) and "t" not in str(lie):
+                continue  # a constant rate: no extremum
+            # the extrema that can touch zero from the side the guard fires from
+            ext = {1: hy.event_direction.negative, -1: hy.event_direction.positive, 0: hy.event_direction.any}
+            events.append(hy.t_event(gate * lie + (1.0 - gate), direction=ext[guard.direction],
+                                     callback=_Callback(self.holder, g, True)))
+        self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all,
+                                     pars=[0.0] * (P + M + 1), t_events=events, tol=tol, compact_mode=False)
+        self.pars = self.ta.pars
+        self.state = self.ta.state
+        self.lock = threading.Lock()
+
+    def load(self, params, mode: int, on: float) -> None:
+        pars = self.pars
+        pars[:] = 0.0
+        pars[:self.P] = params
+        pars[self.P + mode] = 1.0
+        pars[self.P + self.M] = on
+
+
+_cache: dict[tuple[str, float], CompiledSystem] = {}
+_cache_lock = threading.Lock()
+
+
+def compiled(system: HybridSystem, tol: float = DEFAULT_TOL) -> CompiledSystem:
+    """The :class:`CompiledSystem` of ``system`` at ``tol`` (compiled once per structure and tolerance)."""
+    key = (system.structure, tol)
+    found = _cache.get(key)
+    if found is None:
+        with _cache_lock:
+            found = _cache.get(key)
+            if found is None:
+                notice(f"hybrid-compile:{hash(key)}",
+                       f"impactosc: heyoka is compiling the integrator of the system {system.name!r} "
+                       f"(tol={tol:g}); this process compiles it once and reuses it for every run and parameter value")
+                found = _cache[key] = CompiledSystem(system, tol)
+    return found
+
+
+class _Run:
+    """One run's state as the callbacks see it."""
+
+    def __init__(self, comp: CompiledSystem, switch: Switch, mode: int, max_events: int, zeno_tol: float,
+                 graze_tol: float):
+        self.comp = comp
+        self.switch = switch
+        self.mode = mode
+        self.max_events = max_events
+        self.accumulation = Accumulation(zeno_tol)
+        self.graze_tol = graze_tol
+        self.status = 0
+        self.message = ""
+        self.accumulation_time: float | None = None
+        self.P = comp.P
+        self.n = switch.n
+
+    def transition(self, g: int, t: float, y: list, kind: str = CROSSING) -> list:
+        """Apply guard ``g`` and every guard the new state lies on; return the state after."""
+        switch = self.switch
+        mode = self.mode
+        chained = 0
+        while g >= 0:
+            target, after = switch.apply(g, mode, t, y)
+            switch.events.append((t, g, kind, mode, target, tuple(y), tuple(after)))
+            mode, y = target, after
+            chained += 1
+            if chained > MAX_EVENTS_AT_AN_INSTANT:
+                self.status = 2
+                self.accumulation_time = t
+                self.message = (f"More than {MAX_EVENTS_AT_AN_INSTANT} transitions at t={t!r} (the last by guard "
+                                f"{switch.system.guard_names[g]!r}): events accumulate at one instant.")
+                break
+            g = switch.pending(mode, t, y)
+            kind = CROSSING
+        pars = self.comp.pars
+        pars[self.P + self.mode] = 0.0
+        pars[self.P + mode] = 1.0
+        self.mode = mode
+        switch.pieces.append((t, mode, tuple(y)))
+        return y
+
+    def crossing(self, ta, g: int) -> bool:
+        t = ta.time
+        state = ta.state
+        y = state.tolist()
+        switch = self.switch
+        if not switch.terminal[g]:
+            switch.events.append((t, g, MARKER, self.mode, self.mode, tuple(y), tuple(y)))
+            return self._go_on(t)
+        try:
+            after = self.transition(g, t, y)
+        except RuntimeError as exc:
+            self.status, self.message = -1, str(exc)
+            return False
+        if after != y:
+            state[:] = after
+        if self.status:
+            return False
+        estimate = self.accumulation.add(t)
+        if estimate is not None:
+            self.status = 2
+            self.accumulation_time = estimate
+            self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at t={t!r}, "
+                            f"the accumulation time is estimated at {estimate!r}.")
+            return False
+        return self._go_on(t)
+
+    def _go_on(self, t: float) -> bool:
+        if len(self.switch.events) >= self.max_events:
+            self.status = 1
+            self.message = f"The event limit max_events={self.max_events} was reached at t={t!r}; results are kept."
+            return False
+        return True
+
+    def extremum(self, ta, g: int) -> bool:
+        t = ta.time
+        y = ta.state.tolist()
+        switch = self.switch
+        h = switch.guard_value(g, t, y)
+        d = switch.direction[g]
+        scale = self.graze_tol * (1.0 + max(abs(c) for c in y[:self.n]))
+        if d * h > 0.0 and self._started_before(g):
+            return self.crossing(ta, g)  # past zero without a located root: a lost double root
+        if abs(h) <= scale:
+            switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
+            return self._go_on(t)
+        return True
+
+    def _started_before(self, g: int) -> bool:
+        """Whether the guard was on the side it fires from at the start of the current piece."""
+        t0, mode, y0 = self.switch.pieces[-1]
+        return -self.switch.direction[g] * self.switch.guard_value(g, t0, list(y0)) >= 0.0
+
+
+def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
+               max_events: int = 1_000_000, tol: float = DEFAULT_TOL, zeno_tol: float = 1e-6,
+               graze_tol: float = 1e-10, touch_tol: float = 1e-12) -> HybridSolution:
+    """Run ``system`` with heyoka from ``state0`` at ``t0`` to ``t_end`` (see :func:`impactosc.simulate`)."""
+    t0 = _v.real("t0", t0)
+    t_end = _v.real("t_end", t_end)
+    if not t_end > t0:
+        raise ValueError(f"t_end must be > t0={t0!r}, got {t_end!r}")
+    tol = _v.positive("tol", tol)
+    max_events = _v.integer("max_events", max_events)
+    zeno_tol = _v.positive("zeno_tol", zeno_tol)
+    y0 = check_state(system, state0) + [0.0] * len(system.integrals)
+    comp = compiled(system, tol)
+    switch = Switch(system, _v.positive("touch_tol", touch_tol))
+    mode0 = switch.initial_mode(mode, t0, y0)
+    with comp.lock:
+        run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
+        comp.holder.run = run
+        ta = comp.ta
+        comp.load(system.parameter_values, mode0, 1.0)
+        ta.time = t0
+        switch.pieces.append((t0, mode0, tuple(y0)))
+        g = switch.pending(mode0, t0, y0)
+        y = run.transition(g, t0, y0) if g >= 0 else y0
+        ta.state[:] = y
+        ta.reset_cooldowns()
+        failure = ""
+        if run.status == 0:
+            try:
+                outcome = ta.propagate_until(t_end)[0]
+                import heyoka as hy
+
+                if outcome not in (hy.taylor_outcome.time_limit,) and outcome.value >= 0:
+                    failure = f"heyoka stopped with {outcome!r} at t={ta.time!r}"
+            except Exception as exc:  # a callback's error or heyoka's: keep what was computed
+                failure = f"{type(exc).__name__}: {exc}"
+        comp.holder.run = None
+        t_final = ta.time if run.status or failure else t_end
+        state_final = ta.state.copy()
+        if failure and run.status == 0:
+            run.status, run.message = -1, failure
+    params = system.parameter_values
+
+    def evaluate(mode: int, t_start: float, state, times):
+        return _dense(system, tol, params, mode, t_start, state, times)
+
+    return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
+                          switch.events, switch.pieces, state_final, run.mode, evaluate, run.accumulation_time)
+
+
+def _dense(system: HybridSystem, tol: float, params, mode: int, t_start: float, state, times) -> np.ndarray:
+    """The states at ``times`` (not before ``t_start``) in ``mode`` from ``state``, events off."""
+    comp = compiled(system, tol)
+    times = np.asarray(times, dtype=float)
+    grid, where = np.unique(times, return_inverse=True)
+    out = np.empty((grid.size, len(state)))
+    with comp.lock:
+        comp.load(params, mode, 0.0)
+        ta = comp.ta
+        ta.time = t_start
+        ta.state[:] = state
+        later = grid > t_start
+        out[~later] = state
+        if later.any():
+            res = ta.propagate_grid(np.concatenate(([t_start], grid[later])))
+            out[later] = np.asarray(res[-1])[1:]
+    return out[where.reshape(-1)]

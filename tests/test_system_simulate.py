@@ -1,0 +1,69 @@
+"""User hybrid systems run by simulate(): closed forms, then heyoka against scipy."""
+
+import math
+
+import numpy as np
+import pytest
+
+import impactosc
+from impactosc import Guard, HybridMode, HybridSystem, symbols
+
+x, v, g, e = symbols("x v g e")
+
+
+def ball(restitution=0.8):
+    return HybridSystem("x v", {"g": 9.81, "e": restitution}, [HybridMode("flight", {x: v, v: -g})],
+                        [Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v})], name="ball")
+
+
+def ball_times(h, gr, r, n):
+    """Impact times of a ball dropped from h: t1 = sqrt(2h/g), then 2 v_k / g with v_k = r^k sqrt(2 g h)."""
+    t, speed, out = math.sqrt(2 * h / gr), math.sqrt(2 * gr * h), []
+    for _ in range(n):
+        out.append(t)
+        speed *= r
+        t += 2 * speed / gr
+    return np.array(out)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+@pytest.mark.parametrize("restitution", [0.5, 0.8, 0.9])
+def test_bouncing_ball_events_and_zeno_time(backend, restitution):
+    sol = impactosc.simulate(ball(restitution), 30.0, [1.0, 0.0], backend=backend)
+    times = sol.event_times("impact")
+    want = ball_times(1.0, 9.81, restitution, times.size)
+    tol = 1e-12 if backend == "heyoka" else 1e-9
+    np.testing.assert_allclose(times, want, rtol=0, atol=tol)
+    zeno = math.sqrt(2 / 9.81) * (1 + 2 * restitution / (1 - restitution))
+    assert sol.status == 2 and "Zeno" in sol.message
+    assert sol.accumulation_time == pytest.approx(zeno, abs=tol)
+    assert sol.t_final < zeno
+    # the velocity after each impact is -e times the one before
+    ev = sol.events[3]
+    assert ev.state_after[1] == pytest.approx(-restitution * ev.state_before[1], rel=1e-14)
+    assert (ev.mode_before, ev.mode_after, ev.kind) == ("flight", "flight", "crossing")
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_dense_output_is_the_parabola(backend):
+    sol = impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend=backend)
+    t1 = math.sqrt(2 / 9.81)
+    s = np.array([0.2, t1 + 0.1])
+    got = sol.sample(s)
+    v1 = 0.8 * math.sqrt(2 * 9.81)
+    want = np.array([[1 - 9.81 * 0.02, -9.81 * 0.2], [v1 * 0.1 - 9.81 * 0.005, v1 - 0.981]])
+    np.testing.assert_allclose(got, want, atol=1e-9)
+    assert sol.status == 0 and sol.t_final == 1.0
+    with pytest.raises(ValueError, match="sample: times"):
+        sol.sample([2.0])
+
+
+def test_event_limit_keeps_results_and_bad_state_is_named():
+    sol = impactosc.simulate(ball(), 30.0, [1.0, 0.0], max_events=3)
+    assert sol.status == 1 and len(sol.events) == 3 and "max_events=3" in sol.message
+    with pytest.raises(ValueError, match="state0 has 3 values"):
+        impactosc.simulate(ball(), 1.0, [1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="backend must be one of"):
+        impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend="exact")
+    with pytest.raises(TypeError, match="does not accept that option"):
+        impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend="heyoka", rtol=1e-9)
