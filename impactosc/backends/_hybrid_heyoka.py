@@ -51,6 +51,13 @@ from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 __all__ = ["run_system", "compiled", "CompiledSystem"]
 
 DEFAULT_TOL = 2.0**-52
+#: How long (in the system's time unit) an event is ignored after it fired: longer than the
+#: rounding roots a reset leaves next to the surface (a ball bounced off ``x = 0`` restarts at
+#: ``x ~ 1e-17``: a spurious root ``1e-17 / v`` later, which also defeats heyoka's polynomial
+#: root isolation), far shorter than the intervals of an accumulation when it is declared
+#: (``zeno_tol``). heyoka's automatic cooldown is not used: it grows like ``1 / |h'|`` and, at
+#: the double root of a release from sticking, hid the next genuine stop for seconds.
+DEFAULT_COOLDOWN = 1e-12
 
 
 class _Holder:
@@ -63,25 +70,34 @@ class _Holder:
 
 
 class _Callback:
-    """A terminal event's callback: guard ``g`` crossed (``extremum`` False) or at an extremum.
+    """The callback of one heyoka event (a slot): the guard crossing and the extremum checks it stands for.
 
-    heyoka copies callbacks deeply; ``__deepcopy__`` returns the object itself so that every
-    copy reaches the same holder.
+    ``cross[mode]`` is the guard that crosses when the slot's expression has its root in
+    ``mode``; ``extrema[mode]`` the guards whose extremum it is there (their values are
+    checked first). heyoka copies callbacks deeply; ``__deepcopy__`` returns the object
+    itself so that every copy reaches the same holder.
     """
 
-    __slots__ = ("holder", "g", "extremum")
+    __slots__ = ("holder", "cross", "extrema")
 
-    def __init__(self, holder: _Holder, g: int, extremum: bool):
-        self.holder, self.g, self.extremum = holder, g, extremum
+    def __init__(self, holder: _Holder):
+        self.holder = holder
+        self.cross: dict[int, int] = {}
+        self.extrema: dict[int, list[int]] = {}
 
     def __deepcopy__(self, memo):
         return self
 
     def __call__(self, ta, d_sgn) -> bool:
         run = self.holder.run
-        if self.extremum:
-            return run.extremum(ta, self.g)
-        return run.crossing(ta, self.g)
+        mode = run.mode
+        checks = self.extrema.get(mode)
+        if checks is not None and not run.extremum(ta, checks):
+            return False
+        g = self.cross.get(mode, -1)
+        if g < 0 or run.mode != mode:
+            return True
+        return run.crossing(ta, g)
 
 
 def _gated_sum(hy, exprs_by_mode, indicators):
@@ -106,7 +122,7 @@ def _gated_sum(hy, exprs_by_mode, indicators):
 class CompiledSystem:
     """The cached integrator of one system structure and tolerance, and what the loop reads from it."""
 
-    def __init__(self, system: HybridSystem, tol: float):
+    def __init__(self, system: HybridSystem, tol: float, cooldown: float = 0.0):
         import heyoka as hy
 
         num: Numeric = numeric(system)
@@ -118,24 +134,36 @@ class CompiledSystem:
         n_all = len(num.states)
         rates = [_gated_sum(hy, [num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
         self.holder = _Holder()
+        # One heyoka event per distinct (expression, direction): the guards that share it in
+        # different modes, and the extremum checks whose Lie derivative it is, share its cost.
+        slots: dict[tuple[str, int], tuple] = {}
+
+        def slot(expr, d):
+            key = (str(expr), d)
+            if key not in slots:
+                slots[key] = (expr, d, set(), _Callback(self.holder))
+            return slots[key]
+
+        for g, guard in enumerate(system.guards):
+            d = guard.direction
+            for m in num.armed[g]:
+                _, _, modes, cb = slot(num.guards[g], d)
+                modes.add(m)
+                cb.cross[m] = g
+                lie = num.lie[(m, g)]
+                if not guard.terminal or (not hy.get_variables(lie) and "t" not in _words(str(lie))):
+                    continue  # a marker, or a constant rate: no extremum to check
+                # the extrema that can touch zero from the side the guard fires from
+                _, _, modes, cb = slot(lie, -d)
+                modes.add(m)
+                cb.extrema.setdefault(m, []).append(g)
         direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative, 0: hy.event_direction.any}
         events = []
-        for g, guard in enumerate(system.guards):
-            armed = num.armed[g]
-            gate = on * (ind[armed[0]] if len(armed) == 1 else hy.sum([ind[m] for m in armed]))
-            h = num.guards[g]
-            events.append(hy.t_event(gate * h + (1.0 - gate), direction=direction[guard.direction],
-                                     callback=_Callback(self.holder, g, False)))
-            if not guard.terminal:
-                continue
-            lie = _gated_sum(hy, [num.lie[(m, g)] if (m, g) in num.lie else hy.expression(0.0) for m in range(M)],
-                             ind)
-            if not hy.get_variables(lie) and "t" not in str(lie):
-                continue  # a constant rate: no extremum
-            # the extrema that can touch zero from the side the guard fires from
-            ext = {1: hy.event_direction.negative, -1: hy.event_direction.positive, 0: hy.event_direction.any}
-            events.append(hy.t_event(gate * lie + (1.0 - gate), direction=ext[guard.direction],
-                                     callback=_Callback(self.holder, g, True)))
+        for expr, d, modes, cb in slots.values():
+            ms = sorted(modes)
+            gate = on * (ind[ms[0]] if len(ms) == 1 else hy.sum([ind[m] for m in ms]))
+            events.append(hy.t_event(gate * expr + (1.0 - gate), direction=direction[d], callback=cb,
+                                     cooldown=cooldown))
         self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all,
                                      pars=[0.0] * (P + M + 1), t_events=events, tol=tol, compact_mode=False)
         self.pars = self.ta.pars
@@ -150,13 +178,17 @@ class CompiledSystem:
         pars[self.P + self.M] = on
 
 
-_cache: dict[tuple[str, float], CompiledSystem] = {}
+def _words(text: str) -> set[str]:
+    return set(text.replace("(", " ").replace(")", " ").replace(",", " ").split())
+
+
+_cache: dict[tuple[str, float, float], CompiledSystem] = {}
 _cache_lock = threading.Lock()
 
 
-def compiled(system: HybridSystem, tol: float = DEFAULT_TOL) -> CompiledSystem:
+def compiled(system: HybridSystem, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN) -> CompiledSystem:
     """The :class:`CompiledSystem` of ``system`` at ``tol`` (compiled once per structure and tolerance)."""
-    key = (system.structure, tol)
+    key = (system.structure, tol, cooldown)
     found = _cache.get(key)
     if found is None:
         with _cache_lock:
@@ -165,7 +197,7 @@ def compiled(system: HybridSystem, tol: float = DEFAULT_TOL) -> CompiledSystem:
                 notice(f"hybrid-compile:{hash(key)}",
                        f"impactosc: heyoka is compiling the integrator of the system {system.name!r} "
                        f"(tol={tol:g}); this process compiles it once and reuses it for every run and parameter value")
-                found = _cache[key] = CompiledSystem(system, tol)
+                found = _cache[key] = CompiledSystem(system, tol, cooldown)
     return found
 
 
@@ -185,6 +217,7 @@ class _Run:
         self.accumulation_time: float | None = None
         self.P = comp.P
         self.n = switch.n
+        self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
 
     def transition(self, g: int, t: float, y: list, kind: str = CROSSING) -> list:
         """Apply guard ``g`` and every guard the new state lies on; return the state after."""
@@ -219,6 +252,8 @@ class _Run:
         if not switch.terminal[g]:
             switch.events.append((t, g, MARKER, self.mode, self.mode, tuple(y), tuple(y)))
             return self._go_on(t)
+        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, self.mode, t, y):
+            return True  # a rounding root at the start of the piece (see Switch.leaves)
         try:
             after = self.transition(g, t, y)
         except RuntimeError as exc:
@@ -244,18 +279,20 @@ class _Run:
             return False
         return True
 
-    def extremum(self, ta, g: int) -> bool:
+    def extremum(self, ta, guards) -> bool:
+        """Check the values of ``guards`` at one of their extrema: a grazing, or a crossing lost to rounding."""
         t = ta.time
         y = ta.state.tolist()
         switch = self.switch
-        h = switch.guard_value(g, t, y)
-        d = switch.direction[g]
-        scale = self.graze_tol * (1.0 + max(abs(c) for c in y[:self.n]))
-        if d * h > 0.0 and self._started_before(g):
-            return self.crossing(ta, g)  # past zero without a located root: a lost double root
-        if abs(h) <= scale:
-            switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
-            return self._go_on(t)
+        for g in guards:
+            h = switch.guard_value(g, t, y)
+            d = switch.direction[g]
+            if d * h > 0.0 and self._started_before(g):
+                return self.crossing(ta, g)  # past zero without a located root: a lost double root
+            if abs(h) <= self.graze_tol * (1.0 + max(abs(c) for c in y[:self.n])):
+                switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
+                if not self._go_on(t):
+                    return False
         return True
 
     def _started_before(self, g: int) -> bool:
@@ -265,7 +302,8 @@ class _Run:
 
 
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
-               max_events: int = 1_000_000, tol: float = DEFAULT_TOL, zeno_tol: float = 1e-6,
+               max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
+               zeno_tol: float = 1e-6,
                graze_tol: float = 1e-10, touch_tol: float = 1e-12) -> HybridSolution:
     """Run ``system`` with heyoka from ``state0`` at ``t0`` to ``t_end`` (see :func:`impactosc.simulate`)."""
     t0 = _v.real("t0", t0)
@@ -276,7 +314,8 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     max_events = _v.integer("max_events", max_events)
     zeno_tol = _v.positive("zeno_tol", zeno_tol)
     y0 = check_state(system, state0) + [0.0] * len(system.integrals)
-    comp = compiled(system, tol)
+    cooldown = _v.nonnegative("cooldown", cooldown)
+    comp = compiled(system, tol, cooldown)
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
     mode0 = switch.initial_mode(mode, t0, y0)
     with comp.lock:
@@ -308,15 +347,16 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     params = system.parameter_values
 
     def evaluate(mode: int, t_start: float, state, times):
-        return _dense(system, tol, params, mode, t_start, state, times)
+        return _dense(system, tol, cooldown, params, mode, t_start, state, times)
 
     return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
                           switch.events, switch.pieces, state_final, run.mode, evaluate, run.accumulation_time)
 
 
-def _dense(system: HybridSystem, tol: float, params, mode: int, t_start: float, state, times) -> np.ndarray:
+def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,
+           times) -> np.ndarray:
     """The states at ``times`` (not before ``t_start``) in ``mode`` from ``state``, events off."""
-    comp = compiled(system, tol)
+    comp = compiled(system, tol, cooldown)
     times = np.asarray(times, dtype=float)
     grid, where = np.unique(times, return_inverse=True)
     out = np.empty((grid.size, len(state)))

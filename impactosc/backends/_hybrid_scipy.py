@@ -126,11 +126,12 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
                 h = switch.guard_value(g, t, y)
                 d = switch.direction[g]
                 t_start, _, y_start = switch.pieces[-1]
+                at_start = t - t_start <= 16.0 * 2.0**-52 * (1.0 + abs(t))  # the extremum the piece starts at
                 if d * h > 0.0 and -d * switch.guard_value(g, t_start, list(y_start)) >= 0.0:
                     current, y = transition(g, t, y, current)
                 else:
                     quiet = g
-                    if abs(h) <= graze_tol * (1.0 + max(abs(c) for c in y[:n])):
+                    if not at_start and abs(h) <= graze_tol * (1.0 + max(abs(c) for c in y[:n])):
                         switch.events.append((t, g, GRAZING, current, current, tuple(y), tuple(y)))
                     switch.pieces.append((t, current, tuple(y)))
             elif not switch.terminal[g]:

@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from ..model.hybrid._definition import HybridSystem
-from ..model.hybrid._numeric import numeric, rules
+from ..model.hybrid._numeric import evaluator, numeric, rules
 
 __all__ = ["Switch", "Accumulation", "check_state", "CROSSING", "GRAZING", "MARKER", "MAX_EVENTS_AT_AN_INSTANT"]
 
@@ -37,9 +37,19 @@ class Accumulation:
     def __init__(self, tol: float, span: int = 6):
         self.tol = tol
         self.span = span
+        # An interval above quick (1 + |t|) cannot end an accumulation with a ratio r >= 0.01
+        # whose time left, dt r / (1 - r), is within tol (1 + |t|): the common case costs one test.
+        self.quick = 99.0 * tol
         self.times: list[float] = []
+        self.last = -math.inf
 
     def add(self, t: float) -> float | None:
+        dt = t - self.last
+        self.last = t
+        scale = 1.0 + abs(t)
+        if dt > self.quick * scale:
+            self.times = [t]
+            return None
         times = self.times
         times.append(t)
         if len(times) > self.span + 2:
@@ -47,16 +57,14 @@ class Accumulation:
         if len(times) < self.span + 2:
             return None
         dts = [b - a for a, b in zip(times, times[1:], strict=False)]
-        if dts[-1] > self.tol * (1.0 + abs(t)) or dts[-1] <= 0.0 and dts[-2] <= 0.0:
-            return t if all(d <= 0.0 for d in dts) else None
+        if all(d <= 0.0 for d in dts):
+            return t  # every event at one instant
         ratios = [b / a for a, b in zip(dts, dts[1:], strict=False) if a > 0.0]
-        if len(ratios) < self.span or not all(0.0 < r < 1.0 for r in ratios):
+        if len(ratios) < self.span or not all(0.0 < r < 1.0 for r in ratios) or max(ratios) > 1.1 * min(ratios):
             return None
         r = ratios[-1]
-        if max(ratios) > 1.1 * min(ratios):
-            return None
         left = dts[-1] * r / (1.0 - r)
-        return t + left if left <= self.tol * (1.0 + abs(t)) else None
+        return t + left if left <= self.tol * scale else None
 
 
 class Switch:
@@ -83,6 +91,7 @@ class Switch:
         self.touch_tol = touch_tol
         self.events: list[tuple] = []
         self.pieces: list[tuple] = []
+        self._second: dict = self.num.second
 
     def initial_mode(self, mode, t: float, y) -> int:
         """The index of ``mode`` (a name), or of the first mode whose entry conditions hold at ``(t, y)``."""
@@ -125,20 +134,61 @@ class Switch:
     def pending(self, mode: int, t: float, y) -> int:
         """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.
 
-        On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way.
+        On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way,
+        or, where it is zero within the same tolerance (a tangency, such as the slip-end guard
+        of a mass just released), the second Lie derivative does.
         """
         armed = self.num.armed_in[mode]
         if not armed:
             return -1
         values = self.rules.probe[mode](t, y, self.p)
         k = len(armed)
+        near = min(abs(h) for h in values[:k])
+        if near > self.touch_tol * (1.0 + max(map(abs, y))):  # the common case: on no guard
+            return -1
         scale = self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
         for i, g in enumerate(armed):
             if abs(values[i]) <= scale and self.terminal[g]:
                 d, rate = self.direction[g], values[k + i]
-                if (d == 0 and rate != 0.0) or d * rate > 0.0:
-                    return g
+                if abs(rate) > scale:
+                    if d == 0 or d * rate > 0.0:
+                        return g
+                elif d != 0 and d * self.second_derivative(g, mode, t, y) > 0.0:
+                    return g  # tangent to the guard, curving across it
         return -1
+
+    def leaves(self, g: int, mode: int, t: float, y) -> bool:
+        """Whether guard ``g``, on zero at ``(t, y)`` in ``mode``, moves away from the side it fires towards.
+
+        The root a solver reports at the start of a piece can be a rounding artefact of a
+        double root: a mass released from sticking starts with ``v = 0`` and ``v' = 0``, and
+        its slip-end guard ``v`` must not fire there although rounding may make ``v``
+        slightly negative. The sign of the first Lie derivative, or of the second where the
+        first is zero within ``touch_tol``, says where the guard goes.
+        """
+        armed = self.num.armed_in[mode]
+        if g not in armed:
+            return False
+        values = self.rules.probe[mode](t, y, self.p)
+        k, i = len(armed), armed.index(g)
+        d = self.direction[g]
+        if d == 0:
+            return False
+        rate = values[k + i]
+        if abs(rate) > self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n])):
+            return d * rate < 0.0
+        return d * self.second_derivative(g, mode, t, y) < 0.0
+
+    def second_derivative(self, g: int, mode: int, t: float, y) -> float:
+        """``h''`` of guard ``g`` along the flow of ``mode`` at ``(t, y)`` (built on first use)."""
+        key = (mode, g)
+        fn = self._second.get(key)
+        if fn is None:
+            num = self.num
+            expr = num.lie_derivative(num.lie[key], num.rates[mode])
+            label = f"second derivative of guard {self.system.guard_names[g]!r}"
+            fn = self._second[key] = evaluator(num, [expr], label)
+        return fn(t, y, self.p)[0]
 
     def guard_value(self, g: int, t: float, y) -> float:
         return self.rules.guard[g](t, y, self.p)[0]

@@ -22,7 +22,7 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
     Modes (in this order): ``f"{prefix}0"`` (stuck: ``v' = 0``, the other states' rates
     with ``v = 0``), ``f"{prefix}+"`` (slipping with ``v > 0``), ``f"{prefix}-"``.
     Guards: ``f"{prefix}+ stop"`` (``v`` falls to 0 in ``+``) and ``f"{prefix}- stop"``
-    (``v`` rises to 0 in ``-``), each to the stick mode if ``|force| <= static`` there,
+    (``v`` rises to 0 in ``-``, reset to exactly 0), each to the stick mode if ``|force| <= static`` there,
     else to slipping the other way; ``f"{prefix} release+"`` (``force - static`` rises
     through 0 while stuck) and ``f"{prefix} release-"`` (``force + static`` falls through 0).
 
@@ -87,8 +87,10 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
         HybridMode(down, {**others, v_name: (force + kinetic) / mass}, entry=(below,), integrands=integrands or {}),
     ]
     guards = [
-        Guard(f"{up} stop", v, -1, armed=up, to=(stuck, down)),
-        Guard(f"{down} stop", v, 1, armed=down, to=(stuck, up)),
+        # the velocity is snapped onto the switching surface v = 0 (the located root is within
+        # rounding of it, and the entry conditions test v against 0 exactly)
+        Guard(f"{up} stop", v, -1, armed=up, to=(stuck, down), reset={v_name: zero}),
+        Guard(f"{down} stop", v, 1, armed=down, to=(stuck, up), reset={v_name: zero}),
         Guard(f"{prefix} release+", force - static, 1, armed=stuck, to=up),
         Guard(f"{prefix} release-", force + static, -1, armed=stuck, to=down),
     ]

@@ -62,6 +62,7 @@ class Numeric:
 
         self.system = system
         self.rules: Rules | None = None  # the per-event functions, built on first use
+        self.second: dict = {}  # (mode, guard) -> the guard's second Lie derivative, built on first use
         names = list(system.states) + list(system.integrals)
         self.states = list(hy.make_vars(*names)) if len(names) > 1 else [hy.make_vars(*names)]
         self.n_params = len(system.parameters)
