@@ -67,3 +67,28 @@ def test_event_limit_keeps_results_and_bad_state_is_named():
         impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend="exact")
     with pytest.raises(TypeError, match="does not accept that option"):
         impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend="heyoka", rtol=1e-9)
+
+
+k = symbols("k")
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_a_run_that_blows_up_fails_and_keeps_what_it_computed(backend):
+    """x' = x^2 from 1 blows up at t = 1: status -1, the event at x = 1.5 (t = 1/3) kept."""
+    system = HybridSystem("x", {"k": 1.0}, [HybridMode("a", {x: k * x * x}), HybridMode("b", {x: k * x * x})],
+                          [Guard("half", x - 1.5, 1, armed="a", to="b")], name="blow-up")
+    sol = impactosc.simulate(system, 2.0, [1.0], backend=backend)
+    assert sol.status == -1 and "'b'" in sol.message
+    assert [e.guard for e in sol.events] == ["half"] and sol.events[0].t == pytest.approx(1 / 3, abs=1e-12)
+    assert 0.99 < sol.t_final <= 1.0 + 1e-9
+    assert sol.sample([0.5])[0, 0] == pytest.approx(2.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_a_transition_without_an_admissible_mode_is_named(backend):
+    system = HybridSystem("x v", {}, [HybridMode("a", {x: v, v: -x}), HybridMode("b", {x: v, v: -x}, entry=[x + 10.0]),
+                                      HybridMode("c", {x: v, v: -x}, entry=[x + 10.0])],
+                          [Guard("g", x, -1, armed="a", to=("b", "c"), reset={x: x - 20.0})], name="no mode")
+    sol = impactosc.simulate(system, 10.0, [1.0, 0.0], backend=backend, mode="a")
+    assert sol.status == -1 and "guard 'g'" in sol.message and "['b', 'c']" in sol.message
+    assert sol.t_final == pytest.approx(math.pi / 2, abs=1e-9)

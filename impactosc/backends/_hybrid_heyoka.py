@@ -325,18 +325,24 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
         comp.load(system.parameter_values, mode0, 1.0)
         ta.time = t0
         switch.pieces.append((t0, mode0, tuple(y0)))
-        g = switch.pending(mode0, t0, y0)
-        y = run.transition(g, t0, y0) if g >= 0 else y0
+        failure = ""
+        y = y0
+        try:
+            g = switch.pending(mode0, t0, y0)
+            y = run.transition(g, t0, y0) if g >= 0 else y0
+        except RuntimeError as exc:  # no candidate mode at the start
+            run.status, run.message = -1, str(exc)
         ta.state[:] = y
         ta.reset_cooldowns()
-        failure = ""
         if run.status == 0:
+            import heyoka as hy
+
             try:
                 outcome = ta.propagate_until(t_end)[0]
-                import heyoka as hy
-
-                if outcome not in (hy.taylor_outcome.time_limit,) and outcome.value >= 0:
-                    failure = f"heyoka stopped with {outcome!r} at t={ta.time!r}"
+                if run.status == 0 and outcome != hy.taylor_outcome.time_limit:
+                    # not a callback's stop: a non-finite state (err_nf_state) or another failure
+                    failure = (f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode "
+                               f"{system.mode_names[run.mode]!r}")
             except Exception as exc:  # a callback's error or heyoka's: keep what was computed
                 failure = f"{type(exc).__name__}: {exc}"
         comp.holder.run = None

@@ -108,8 +108,9 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
             fns, what = loop.events(current, quiet)
             sol = solve_ivp(loop.field(current), (t, t_end), y, method=method, rtol=rtol, atol=atol, events=fns)
             if sol.status == -1:
-                status, message = -1, f"solve_ivp failed at t={sol.t[-1]!r} in mode {system.mode_names[current]!r}: " \
-                                      f"{sol.message}"
+                status = -1
+                message = (f"solve_ivp failed at t={float(sol.t[-1])!r} in mode {system.mode_names[current]!r}: "
+                           f"{sol.message}")
                 t, y = float(sol.t[-1]), sol.y[:, -1].tolist()
                 break
             t, y = float(sol.t[-1]), sol.y[:, -1].tolist()
