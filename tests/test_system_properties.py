@@ -76,3 +76,19 @@ def test_heyoka_and_scipy_agree_on_random_systems(case):
     np.testing.assert_allclose(b.event_times(), times, rtol=0, atol=1e-9)
     np.testing.assert_allclose(b.state_final[:system.dimension], a.state_final[:system.dimension], rtol=1e-7,
                                atol=1e-8)
+
+
+def test_scipy_finds_a_crossing_lost_inside_one_step():
+    """A draw where y0 dips below the guard and back within one DOP853 step (found by the dev profile).
+
+    scipy saw no sign change; the guard's minimum showed it had gone past zero, and the event is
+    the first root before that minimum (it used to be applied at the minimum, 0.05 late).
+    """
+    values = dict(a0_0=-0.040687704917043266, b0_0=-0.4128024472180718, fa0=0.7367913537751728,
+                  fb0=0.4490544871734104, ca0=-0.08683244127125196, cb0=0.14583676048748184, w=1.905207090132706,
+                  d=0.2231947437242222, r=0.9729515399387485)
+    system = two_mode_system(1).with_parameters(**values)
+    a = impactosc.simulate(system, 10.0, [0.0], mode="a")
+    b = impactosc.simulate(system, 10.0, [0.0], mode="a", backend="scipy")
+    assert [e.guard for e in b.events] == [e.guard for e in a.events] and len(a.events) == 6
+    np.testing.assert_allclose(b.event_times(), a.event_times(), rtol=0, atol=1e-9)

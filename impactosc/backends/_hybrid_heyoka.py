@@ -217,6 +217,7 @@ class _Run:
         self.accumulation_time: float | None = None
         self.P = comp.P
         self.n = switch.n
+        self.missed: tuple[int, float] | None = None  # (guard, time of the extremum past its zero)
         self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
 
     def transition(self, g: int, t: float, y: list, kind: str = CROSSING) -> list:
@@ -288,7 +289,10 @@ class _Run:
             h = switch.guard_value(g, t, y)
             d = switch.direction[g]
             if d * h > 0.0 and self._started_before(g):
-                return self.crossing(ta, g)  # past zero without a located root: a lost double root
+                # Past zero and back within a step, its roots not located (rounding): stop the
+                # propagation; the loop applies the guard at its first root (see _first_root).
+                self.missed = (g, t)
+                return False
             if abs(h) <= self.graze_tol * (1.0 + max(abs(c) for c in y[:self.n])):
                 switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
                 if not self._go_on(t):
@@ -338,7 +342,15 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
             import heyoka as hy
 
             try:
-                outcome = ta.propagate_until(t_end)[0]
+                while True:
+                    outcome = ta.propagate_until(t_end)[0]
+                    if run.missed is None or run.status:
+                        break
+                    g, t_past = run.missed
+                    run.missed = None
+                    t_root, y_root = _first_root(comp, run, g, t_past)
+                    ta.time = t_root
+                    ta.state[:] = run.transition(g, t_root, y_root)
                 if run.status == 0 and outcome != hy.taylor_outcome.time_limit:
                     # not a callback's stop: a non-finite state (err_nf_state) or another failure
                     failure = (f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode "
@@ -357,6 +369,36 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
 
     return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
                           switch.events, switch.pieces, state_final, run.mode, evaluate, run.accumulation_time)
+
+
+def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list]:
+    """The first root of guard ``g`` between the current piece's start and ``t1`` (Brent's method).
+
+    The guard's value at ``t`` comes from a copy of the integrator, events off, propagated
+    from the piece start: a rare path (a double root that the Taylor polynomial's root
+    isolation lost), so its cost does not matter.
+    """
+    from copy import copy
+
+    from scipy.optimize import brentq
+
+    t0, mode, y0 = run.switch.pieces[-1]
+    ta = copy(comp.ta)
+    ta.pars[comp.P + comp.M] = 0.0  # events off
+
+    def state(s: float) -> list:
+        ta.time = t0
+        ta.state[:] = y0
+        if s > t0:
+            ta.propagate_until(s)
+        return ta.state.tolist()
+
+    def h(s: float) -> float:
+        return run.switch.guard_value(g, s, state(s))
+
+    start = t0 if h(t0) != 0.0 else t0 + 1e-3 * (t1 - t0)
+    root = float(brentq(h, start, t1, xtol=4.0 * 2.0**-52 * (1.0 + abs(t1)), rtol=4.0 * 2.0**-52))
+    return root, state(root)
 
 
 def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,

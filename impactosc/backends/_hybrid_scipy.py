@@ -65,6 +65,24 @@ class _Piecewise:
         return fns, what
 
 
+def _first_root(loop: _Piecewise, switch: Switch, mode: int, g: int, t0: float, y0: list, t1: float, method: str,
+                rtol: float, atol: float) -> tuple[float, list]:
+    """The root of guard ``g`` in ``(t0, t1]`` of the piece from ``(t0, y0)`` (Brent's method on its dense output)."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    dense = solve_ivp(loop.field(mode), (t0, t1), y0, method=method, rtol=rtol, atol=atol, dense_output=True).sol
+
+    def h(s: float) -> float:
+        return switch.guard_value(g, s, dense(s).tolist())
+
+    start = t0
+    if h(start) == 0.0:  # the piece starts on the guard: step off it
+        start = t0 + 1e-3 * (t1 - t0)
+    root = brentq(h, start, t1, xtol=4.0 * 2.0**-52 * (1.0 + abs(t1)), rtol=4.0 * 2.0**-52)
+    return float(root), dense(root).tolist()
+
+
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
                max_events: int = 1_000_000, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
                zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12) -> HybridSolution:
@@ -129,6 +147,9 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
                 t_start, _, y_start = switch.pieces[-1]
                 at_start = t - t_start <= 16.0 * 2.0**-52 * (1.0 + abs(t))  # the extremum the piece starts at
                 if d * h > 0.0 and -d * switch.guard_value(g, t_start, list(y_start)) >= 0.0:
+                    # the guard went past zero and back within a step: its first root lies
+                    # between the piece start and this extremum
+                    t, y = _first_root(loop, switch, current, g, t_start, list(y_start), t, method, rtol, atol)
                     current, y = transition(g, t, y, current)
                 else:
                     quiet = g
