@@ -45,7 +45,7 @@ from ..engine._hybrid import (
     check_state,
 )
 from ..model.hybrid._definition import HybridSystem
-from ..model.hybrid._numeric import Numeric, numeric
+from ..model.hybrid._numeric import Numeric, gated_sum, numeric
 from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 
 __all__ = ["run_system", "compiled", "CompiledSystem"]
@@ -100,25 +100,6 @@ class _Callback:
         return run.crossing(ta, g)
 
 
-def _gated_sum(hy, exprs_by_mode, indicators):
-    """``sum_m [mode == m] e_m``, one term per distinct expression, zeros left out."""
-    groups: dict[str, tuple] = {}
-    for m, e in enumerate(exprs_by_mode):
-        key = str(e)
-        if e == hy.expression(0.0):
-            continue
-        expr, modes = groups.get(key, (e, []))
-        modes.append(m)
-        groups[key] = (expr, modes)
-    terms = []
-    for expr, modes in groups.values():
-        gate = indicators[modes[0]] if len(modes) == 1 else hy.sum([indicators[m] for m in modes])
-        terms.append(gate * expr)
-    if not terms:
-        return hy.expression(0.0)
-    return terms[0] if len(terms) == 1 else hy.sum(terms)
-
-
 class CompiledSystem:
     """The cached integrator of one system structure and tolerance, and what the loop reads from it."""
 
@@ -132,7 +113,7 @@ class CompiledSystem:
         ind = [hy.par[P + m] for m in range(M)]
         on = hy.par[P + M]
         n_all = len(num.states)
-        rates = [_gated_sum(hy, [num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
+        rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
         self.holder = _Holder()
         # One heyoka event per distinct (expression, direction): the guards that share it in
         # different modes, and the extremum checks whose Lie derivative it is, share its cost.

@@ -71,6 +71,12 @@ class HybridSolution:
         self._evaluate = evaluate
 
     @property
+    def pieces(self) -> list[tuple[float, str, tuple]]:
+        """``(t, mode, state)`` at the start of every smooth piece (states then integrals)."""
+        names = self.system.mode_names
+        return [(t, names[m], tuple(y)) for t, m, y in self._pieces]
+
+    @property
     def success(self) -> bool:
         return self.status == 0
 

@@ -17,6 +17,7 @@ once (:attr:`HybridSystem.structure`).
 
 from __future__ import annotations
 
+import copy
 import math
 import numbers
 from collections.abc import Mapping, Sequence
@@ -357,8 +358,14 @@ class HybridSystem:
         for key in values:
             if key not in known:
                 raise ValueError(f"{self.name}: {key!r} is not a parameter; the parameters are {list(known)}")
-        known.update(values)
-        return replace(self, parameters=known)
+        for key, value in values.items():
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
+                raise ValueError(f"parameter {key!r} must be a finite real number, got {value!r}")
+            known[key] = float(value)
+        # The structure is unchanged, and validated: a copy with the new values, not a new construction.
+        new = copy.copy(self)
+        object.__setattr__(new, "parameters", tuple(known.items()))
+        return new
 
     def period_value(self) -> float | None:
         """The forcing period at the current parameter values (None when there is none)."""

@@ -9,7 +9,7 @@ from ._definition import Guard, HybridMode, _expression, _name_of
 
 def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Mapping | None = None,
                integrands: Mapping | None = None, stick_integrands: Mapping | None = None,
-               mass=1.0) -> tuple[list[HybridMode], list[Guard]]:
+               mass=1.0, entry=()) -> tuple[list[HybridMode], list[Guard]]:
     """The three friction modes of one degree of freedom and the four guards between them.
 
     The degree of freedom has the velocity state ``velocity`` and obeys
@@ -41,6 +41,9 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
         Integrands of the system's integrals while slipping and while stuck.
     mass : expression or number
         The mass (default 1).
+    entry : sequence of expressions, optional
+        Entry conditions ``c >= 0`` added to all three modes (the region they belong to,
+        such as ``1 - x`` for a mass between the flanges).
 
     Returns
     -------
@@ -68,6 +71,7 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
     kinetic = _expression("stick_slip: kinetic", kinetic)
     static = kinetic if static is None else _expression("stick_slip: static", static)
     mass = _expression("stick_slip: mass", mass)
+    region = tuple(_expression(f"stick_slip: entry[{i}]", c) for i, c in enumerate(entry))
     others = {_name_of("stick_slip: rates", k): _expression(f"stick_slip: rates[{k!r}]", e)
               for k, e in (rates or {}).items()}
     if v_name in others:
@@ -81,10 +85,12 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
     below = hy.select(hy.lt(v, zero), 1.0, hy.select(hy.gt(v, zero), -1.0, -force - static))
     still = hy.select(hy.gt(v, zero), -1.0, hy.select(hy.lt(v, zero), -1.0, 1.0))
     modes = [
-        HybridMode(stuck, {**stuck_rates, v_name: zero}, entry=(still, static - force, static + force),
+        HybridMode(stuck, {**stuck_rates, v_name: zero}, entry=(*region, still, static - force, static + force),
              integrands=stick_integrands or {}),
-        HybridMode(up, {**others, v_name: (force - kinetic) / mass}, entry=(above,), integrands=integrands or {}),
-        HybridMode(down, {**others, v_name: (force + kinetic) / mass}, entry=(below,), integrands=integrands or {}),
+        HybridMode(up, {**others, v_name: (force - kinetic) / mass}, entry=(*region, above),
+                   integrands=integrands or {}),
+        HybridMode(down, {**others, v_name: (force + kinetic) / mass}, entry=(*region, below),
+                   integrands=integrands or {}),
     ]
     guards = [
         # the velocity is snapped onto the switching surface v = 0 (the located root is within

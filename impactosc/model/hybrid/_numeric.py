@@ -21,7 +21,7 @@ import numpy as np
 
 from ._definition import HybridSystem
 
-__all__ = ["Numeric", "numeric", "evaluator", "Rules", "rules"]
+__all__ = ["Numeric", "numeric", "evaluator", "Rules", "rules", "gated_sum"]
 
 _TIME_VAR = "_time"  # the time as a variable, to differentiate with respect to it
 
@@ -92,6 +92,16 @@ class Numeric:
                   if str(var) in used]
         total = hy.sum(terms) if len(terms) > 1 else terms[0]
         return hy.subs(total, {_TIME_VAR: hy.time})
+
+    def derivatives(self, expr) -> list:
+        """``[d expr / d y_j for every state and integral] + [d expr / dt] + [d expr / d p_k for every parameter]``."""
+        import heyoka as hy
+
+        tvar = hy.make_vars(_TIME_VAR)
+        timed = hy.subs(expr, {hy.time: tvar})
+        out = [hy.diff(timed, str(var)) for var in self.states] + [hy.diff(timed, _TIME_VAR)]
+        out += [hy.diff(timed, hy.par[k]) for k in range(self.n_params)]
+        return [hy.subs(e, {_TIME_VAR: hy.time}) for e in out]
 
     def with_params(self, expr):
         """``expr`` (in the named parameters) with the parameters as ``par[i]``."""
@@ -193,6 +203,31 @@ class Rules:
         self.guard = [evaluator(num, [num.guards[g]], f"guard {system.guards[g].name!r}")
                       for g in range(len(system.guards))]
         self.dimension = n
+        self._num = num
+        self._jacobians: dict[int, tuple] = {}
+
+    def jacobians(self, g: int) -> tuple:
+        """``(guard, reset)`` functions of guard ``g``'s derivatives (built on first use), each ``f(t, y, p)``.
+
+        ``guard`` gives ``dh/dy`` (every state and integral), ``dh/dt`` and ``dh/dp`` (every
+        parameter); ``reset`` gives, row by row for each state, ``dR_i/dy``, ``dR_i/dt``,
+        ``dR_i/dp`` (``None`` for the identity reset).
+        """
+        found = self._jacobians.get(g)
+        if found is None:
+            num = self._num
+            guard = num.system.guards[g]
+            h = num.guards[g]
+            guard_fn = evaluator(num, num.derivatives(h), f"derivatives of guard {guard.name!r}")
+            reset_fn = None
+            given = dict(guard.reset)
+            if given:
+                rows = []
+                for i, s in enumerate(num.system.states):
+                    rows += num.derivatives(num.with_params(given[s]) if s in given else num.states[i])
+                reset_fn = evaluator(num, rows, f"derivatives of the reset of guard {guard.name!r}")
+            found = self._jacobians[g] = (guard_fn, reset_fn)
+        return found
 
 
 def rules(system: HybridSystem) -> Rules:
@@ -202,3 +237,28 @@ def rules(system: HybridSystem) -> Rules:
     if found is None:
         found = num.rules = Rules(num)
     return found
+
+
+def gated_sum(exprs_by_mode, indicators):
+    """``sum_m [mode == m] e_m``, one term per distinct expression, zeros left out.
+
+    ``indicators[m]`` is the expression of ``[mode == m]`` (a runtime parameter): the vector
+    field of every mode in one expression, for one integrator per system.
+    """
+    import heyoka as hy
+
+    groups: dict[str, tuple] = {}
+    for m, e in enumerate(exprs_by_mode):
+        key = str(e)
+        if e == hy.expression(0.0):
+            continue
+        expr, modes = groups.get(key, (e, []))
+        modes.append(m)
+        groups[key] = (expr, modes)
+    terms = []
+    for expr, modes in groups.values():
+        gate = indicators[modes[0]] if len(modes) == 1 else hy.sum([indicators[m] for m in modes])
+        terms.append(gate * expr)
+    if not terms:
+        return hy.expression(0.0)
+    return terms[0] if len(terms) == 1 else hy.sum(terms)

@@ -22,7 +22,8 @@ def oscillator_system(osc: Oscillator) -> HybridSystem:
     reset ``V -> -e V`` in the free modes (a mass coming to rest against it is an
     accumulation of impacts: the run ends with status 2). The parameters keep the
     oscillator's names (``F, Omega, phase, beta, beta_s, K, zeta, e, gap_upper,
-    gap_lower``, and ``F2, Omega2, phase2, ...`` for the harmonics).
+    gap_lower``, and ``F2, Omega2, phase2, ...`` for the harmonics); the forcing period
+    is ``2 pi / Omega``.
 
     Raises
     ------
@@ -66,15 +67,19 @@ def oscillator_system(osc: Oscillator) -> HybridSystem:
     flanges = [(side, gap) for side, gap in ((1, osc.gap_upper), (-1, osc.gap_lower)) if gap != math.inf]
     gaps = {side: par("gap_upper" if side > 0 else "gap_lower", gap) for side, gap in flanges}
     modes, guards = [], []
-    regions = [("free", base, None)]
+    # the region of each mode's entry: between the flanges, or into one (an initial state decides)
+    inside = [gaps[side] - side * x for side, _ in flanges]
+    regions = [("free", base, None, inside)]
     if not osc.rigid:
         K = par("K", osc.K)
         for side, _ in flanges:
             wall = side * gaps[side]
-            regions.append(("upper" if side > 0 else "lower", base - K * (x - wall), side * K * (x - wall)))
-    for prefix, force, impulse in regions:
+            regions.append(("upper" if side > 0 else "lower", base - K * (x - wall), side * K * (x - wall),
+                            [side * x - gaps[side]]))
+    for prefix, force, impulse, region in regions:
         ints: dict = {"Q": impulse} if impulse is not None else {}
-        m, g = stick_slip(prefix, v, force, beta, beta_s, rates={x: v}, integrands=ints, stick_integrands=ints)
+        m, g = stick_slip(prefix, v, force, beta, beta_s, rates={x: v}, integrands=ints, stick_integrands=ints,
+                          entry=region)
         modes += m
         guards += g
     if osc.rigid:
@@ -90,5 +95,6 @@ def oscillator_system(osc: Oscillator) -> HybridSystem:
             surface = x - side * gaps[side]
             guards.append(Guard(f"enter {name}", surface, side, armed=f"free{into}", to=f"{name}{into}"))
             guards.append(Guard(f"leave {name}", surface, -side, armed=f"{name}{out}", to=f"free{out}"))
-    return HybridSystem("x v", params, modes, guards, integrals=() if osc.rigid else "Q",
+    period = 2.0 * math.pi / symbols("Omega") if osc.Omega > 0.0 else None
+    return HybridSystem("x v", params, modes, guards, integrals=() if osc.rigid else "Q", period=period,
                         name="eq3" if not osc.rigid else "eq3 rigid")
