@@ -70,7 +70,7 @@ def test_heyoka_and_scipy_agree_on_random_systems(case):
     for ev in a.events:  # the guard y0 -+ d moves at the speed y0' = field_0 when it fires
         speed = field[system.mode_index(ev.mode_before)](ev.t, list(ev.state_before), system.parameter_values)[0]
         assume(abs(speed) > 1e-3)
-    b = impactosc.simulate(system, 10.0, y0, mode="a", max_events=200, backend="scipy")
+    b = impactosc.simulate(system, 10.0, y0, mode="a", max_events=200, backend="scipy", rtol=1e-13, atol=1e-13)
     assert b.status == 0
     assert [e.guard for e in b.events] == [e.guard for e in a.events]
     np.testing.assert_allclose(b.event_times(), times, rtol=0, atol=1e-9)

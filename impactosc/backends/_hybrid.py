@@ -10,7 +10,8 @@ __all__ = ["simulate_system", "SYSTEM_BACKENDS"]
 SYSTEM_BACKENDS = ("heyoka", "scipy")
 
 
-def simulate_system(system, t_end: float, state0, *, backend: str = "heyoka", **options):
+def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: str = "heyoka", record: str = "full",
+                    sample_at=None, **options):
     """Run a user's hybrid system from ``state0`` at ``t0`` (default 0) to ``t_end``.
 
     Parameters
@@ -19,6 +20,9 @@ def simulate_system(system, t_end: float, state0, *, backend: str = "heyoka", **
     t_end : float
     state0 : sequence of float
         One value per state, in the system's order (the integrals start at 0).
+    v0, record, sample_at
+        :func:`impactosc.simulate`'s arguments for the built-in oscillator: a user system
+        refuses anything but their defaults (``0.0``, ``"full"``, ``None``) with a message.
     backend : {"heyoka", "scipy"}
         ``"heyoka"``: one compiled Taylor integrator per system, guards located on each
         step's Taylor polynomial, transitions in event callbacks. ``"scipy"``: one
@@ -49,6 +53,14 @@ def simulate_system(system, t_end: float, state0, *, backend: str = "heyoka", **
     (2, 4.063712768872)
     """
     _v.choice("backend", backend, SYSTEM_BACKENDS)
+    # simulate()'s arguments for the built-in oscillator that a user system does not take: refused, not ignored
+    if v0 != 0.0:
+        raise TypeError(f"v0={v0!r}: a user system takes its whole initial state in state0 (one value per state "
+                        f"{list(system.states)}), not a separate velocity")
+    if record != "full":
+        raise ValueError(f"record={record!r}: a user system's run keeps every event (record='full' only)")
+    if sample_at is not None:
+        raise TypeError("sample_at is not available for a user system: use HybridSolution.sample(times) after the run")
     if backend == "heyoka":
         from . import _hybrid_heyoka as loop
     else:

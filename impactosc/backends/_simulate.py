@@ -103,7 +103,8 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     if type(osc).__name__ == "HybridSystem":  # a user's system: its own event loops (see _hybrid.py)
         from ._hybrid import simulate_system
 
-        return simulate_system(osc, t_end, x0, backend=backend, max_events=max_events, **options)
+        return simulate_system(osc, t_end, x0, v0, backend=backend, record=record, max_events=max_events,
+                               sample_at=sample_at, **options)
     run = get_backend(backend)
     osc, t_end, x0, v0, max_events = check_run_arguments(osc, t_end, x0, v0, max_events)
     _v.choice("record", record, RECORD_OPTIONS)
