@@ -99,3 +99,19 @@ def test_a_transition_without_an_admissible_mode_is_named(backend):
     sol = impactosc.simulate(system, 10.0, [1.0, 0.0], backend=backend, mode="a")
     assert sol.status == -1 and "guard 'g'" in sol.message and "['b', 'c']" in sol.message
     assert sol.t_final == pytest.approx(math.pi / 2, abs=1e-9)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_a_sliding_relay_ends_as_an_accumulation_at_one_instant(backend):
+    """A relay whose two fields both point at the switching surface (a Filippov sliding motion that the
+    user did not model as a mode): each switch lands on the other guard at once. Status 2, no hang."""
+    zeta, a = symbols("zeta a")
+    s = x + a * v
+    system = HybridSystem("x v", {"zeta": -0.1, "a": 0.3},
+                          [HybridMode("on", {x: v, v: -x - 2 * zeta * v - 1.0}),
+                           HybridMode("off", {x: v, v: -x - 2 * zeta * v + 1.0})],
+                          [Guard("switch off", s, -1, armed="on", to="off"),
+                           Guard("switch on", s, 1, armed="off", to="on")], name="sliding relay")
+    sol = impactosc.simulate(system, 40.0, [0.5, 0.0], mode="on", backend=backend)
+    assert sol.status == 2 and "one instant" in sol.message
+    assert sol.accumulation_time == pytest.approx(sol.t_final) and len(sol.events) > 64

@@ -36,11 +36,10 @@ import numpy as np
 from .._util import validation as _v
 from .._util.notice import notice
 from ..engine._hybrid import (
-    CROSSING,
     GRAZING,
     MARKER,
-    MAX_EVENTS_AT_AN_INSTANT,
     Accumulation,
+    InstantAccumulation,
     Switch,
     check_state,
 )
@@ -201,29 +200,16 @@ class _Run:
         self.missed: tuple[int, float] | None = None  # (guard, time of the extremum past its zero)
         self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
 
-    def transition(self, g: int, t: float, y: list, kind: str = CROSSING) -> list:
-        """Apply guard ``g`` and every guard the new state lies on; return the state after."""
-        switch = self.switch
-        mode = self.mode
-        chained = 0
-        while g >= 0:
-            target, after = switch.apply(g, mode, t, y)
-            switch.events.append((t, g, kind, mode, target, tuple(y), tuple(after)))
-            mode, y = target, after
-            chained += 1
-            if chained > MAX_EVENTS_AT_AN_INSTANT:
-                self.status = 2
-                self.accumulation_time = t
-                self.message = (f"More than {MAX_EVENTS_AT_AN_INSTANT} transitions at t={t!r} (the last by guard "
-                                f"{switch.system.guard_names[g]!r}): events accumulate at one instant.")
-                break
-            g = switch.pending(mode, t, y)
-            kind = CROSSING
+    def transition(self, g: int, t: float, y: list) -> list:
+        """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
+
+        Raises the errors of :meth:`Switch.transition`.
+        """
+        mode, y = self.switch.transition(g, self.mode, t, y)
         pars = self.comp.pars
         pars[self.P + self.mode] = 0.0
         pars[self.P + mode] = 1.0
         self.mode = mode
-        switch.pieces.append((t, mode, tuple(y)))
         return y
 
     def crossing(self, ta, g: int) -> bool:
@@ -238,13 +224,14 @@ class _Run:
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         try:
             after = self.transition(g, t, y)
+        except InstantAccumulation as exc:
+            self.status, self.message, self.accumulation_time = 2, str(exc), t
+            return False
         except RuntimeError as exc:
             self.status, self.message = -1, str(exc)
             return False
         if after != y:
             state[:] = after
-        if self.status:
-            return False
         estimate = self.accumulation.add(t)
         if estimate is not None:
             self.status = 2
@@ -315,6 +302,8 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
         try:
             g = switch.pending(mode0, t0, y0)
             y = run.transition(g, t0, y0) if g >= 0 else y0
+        except InstantAccumulation as exc:
+            run.status, run.message, run.accumulation_time = 2, str(exc), t0
         except RuntimeError as exc:  # no candidate mode at the start
             run.status, run.message = -1, str(exc)
         ta.state[:] = y

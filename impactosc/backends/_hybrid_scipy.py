@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._util import validation as _v
-from ..engine._hybrid import CROSSING, GRAZING, MARKER, MAX_EVENTS_AT_AN_INSTANT, Accumulation, Switch, check_state
+from ..engine._hybrid import GRAZING, MARKER, Accumulation, InstantAccumulation, Switch, check_state
 from ..model.hybrid._definition import HybridSystem
 from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 
@@ -105,17 +105,7 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     status, message, estimate = 0, "", None
 
     def transition(g: int, t: float, y: list, current: int):
-        chained = 0
-        while g >= 0:
-            target, after = switch.apply(g, current, t, y)
-            switch.events.append((t, g, CROSSING, current, target, tuple(y), tuple(after)))
-            current, y = target, after
-            chained += 1
-            if chained > MAX_EVENTS_AT_AN_INSTANT:
-                raise OverflowError(t)
-            g = switch.pending(current, t, y)
-        switch.pieces.append((t, current, tuple(y)))
-        return current, y
+        return switch.transition(g, current, t, y)
 
     quiet = -1
     try:
@@ -169,9 +159,8 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
             if status == 0 and len(switch.events) >= max_events:
                 status = 1
                 message = f"The event limit max_events={max_events} was reached at t={t!r}; results are kept."
-    except OverflowError:
-        status, estimate = 2, t
-        message = f"More than {MAX_EVENTS_AT_AN_INSTANT} transitions at t={t!r}: events accumulate at one instant."
+    except InstantAccumulation as exc:
+        status, estimate, message = 2, t, str(exc)
     except RuntimeError as exc:
         status, message = -1, str(exc)
     p, fields = system.parameter_values, switch.rules.field

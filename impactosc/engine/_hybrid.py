@@ -16,7 +16,8 @@ import numpy as np
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, rules
 
-__all__ = ["Switch", "Accumulation", "check_state", "CROSSING", "GRAZING", "MARKER", "MAX_EVENTS_AT_AN_INSTANT"]
+__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER",
+           "MAX_EVENTS_AT_AN_INSTANT"]
 
 #: Event kinds: a guard crossed (its transition applied), a guard's extremum on zero without a
 #: crossing (recorded, no transition), a non-terminal guard crossed (recorded only).
@@ -24,6 +25,10 @@ CROSSING, GRAZING, MARKER = "crossing", "grazing", "marker"
 
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
 MAX_EVENTS_AT_AN_INSTANT = 64
+
+
+class InstantAccumulation(Exception):
+    """More than :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at one instant (the message says where)."""
 
 
 class Accumulation:
@@ -130,6 +135,32 @@ class Switch:
         names = [self.system.mode_names[m] for m in targets]
         raise RuntimeError(f"guard {self.system.guard_names[g]!r} fired at t={t!r} with the state {after}, "
                            f"where the entry conditions of none of its modes {names} hold")
+
+    def transition(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
+        """Apply guard ``g`` in ``mode`` at ``(t, y)``, then every guard the new state lies on and crosses.
+
+        Records each event and the new piece; returns ``(mode, state)`` after the last.
+
+        Raises
+        ------
+        RuntimeError
+            When no candidate mode's entry conditions hold (see :meth:`apply`).
+        InstantAccumulation
+            After :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at ``t``.
+        """
+        chained = 0
+        while g >= 0:
+            target, after = self.apply(g, mode, t, y)
+            self.events.append((t, g, CROSSING, mode, target, tuple(y), tuple(after)))
+            mode, y = target, after
+            chained += 1
+            if chained > MAX_EVENTS_AT_AN_INSTANT:
+                last = self.system.guard_names[g]
+                raise InstantAccumulation(f"More than {MAX_EVENTS_AT_AN_INSTANT} transitions at t={t!r} (the last "
+                                          f"by guard {last!r}): events accumulate at one instant.")
+            g = self.pending(mode, t, y)
+        self.pieces.append((t, mode, tuple(y)))
+        return mode, y
 
     def pending(self, mode: int, t: float, y) -> int:
         """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.
