@@ -60,3 +60,14 @@ def test_stick_slip_builds_three_modes_and_four_guards():
     assert sys.mode_names == ("m0", "m+", "m-")
     assert sys.guard_names == ("m+ stop", "m- stop", "m release+", "m release-")
     assert [gd.to for gd in sys.guards][:2] == [("m0", "m-"), ("m0", "m+")]
+
+
+@pytest.mark.parametrize("module", ["impactosc.model.hybrid._definition", "impactosc.model.hybrid._friction",
+                                    "impactosc.model.hybrid._oscillator_system", "impactosc.backends._hybrid",
+                                    "impactosc.dynamics.hybrid_map"])
+def test_examples_in_the_docstrings_run(module):
+    import doctest
+    import importlib
+
+    result = doctest.testmod(importlib.import_module(module))
+    assert result.attempted > 0 and result.failed == 0

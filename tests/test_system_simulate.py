@@ -115,3 +115,27 @@ def test_a_sliding_relay_ends_as_an_accumulation_at_one_instant(backend):
     sol = impactosc.simulate(system, 40.0, [0.5, 0.0], mode="on", backend=backend)
     assert sol.status == 2 and "one instant" in sol.message
     assert sol.accumulation_time == pytest.approx(sol.t_final) and len(sol.events) > 64
+
+
+def test_a_crossing_lost_inside_a_step_is_applied_at_its_first_root(monkeypatch):
+    """Make the heyoka loop lose the crossing of x - 1 (x = 1.5 sin t): the guard's maximum, past zero,
+    reveals it, and the event is applied at its first root asin(2/3), not at the maximum pi/2."""
+    from impactosc.backends import _hybrid_heyoka
+
+    crossing = _hybrid_heyoka._Run.crossing
+    lost = []
+
+    def lose_first(self, ta, g):
+        if not lost:
+            lost.append(ta.time)
+            return True  # as if the root had not been located
+        return crossing(self, ta, g)
+
+    monkeypatch.setattr(_hybrid_heyoka._Run, "crossing", lose_first)
+    system = HybridSystem("x v", {}, [HybridMode("free", {x: v, v: -x})],
+                          [Guard("wall", x - 1.0, 1, armed="free", to="free", reset={v: -v})], name="lost root")
+    sol = impactosc.simulate(system, 1.7, [0.0, 1.5])
+    assert lost and sol.status == 0
+    assert [(e.guard, e.kind) for e in sol.events] == [("wall", "crossing")]
+    assert sol.events[0].t == pytest.approx(math.asin(2 / 3), abs=1e-12)
+    assert sol.events[0].state_after[1] == pytest.approx(-1.5 * math.cos(math.asin(2 / 3)), rel=1e-12)
