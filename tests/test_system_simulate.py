@@ -139,3 +139,13 @@ def test_a_crossing_lost_inside_a_step_is_applied_at_its_first_root(monkeypatch)
     assert [(e.guard, e.kind) for e in sol.events] == [("wall", "crossing")]
     assert sol.events[0].t == pytest.approx(math.asin(2 / 3), abs=1e-12)
     assert sol.events[0].state_after[1] == pytest.approx(-1.5 * math.cos(math.asin(2 / 3)), rel=1e-12)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_a_solution_pickles_and_samples_after(backend):
+    import pickle
+
+    sol = impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend=backend)
+    copy = pickle.loads(pickle.dumps(sol))
+    assert copy.event_times() == pytest.approx(sol.event_times(), abs=0)
+    np.testing.assert_allclose(copy.sample([0.3, 0.9]), sol.sample([0.3, 0.9]), rtol=1e-13, atol=1e-13)

@@ -332,11 +332,7 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
         state_final = ta.state.copy()
         if failure and run.status == 0:
             run.status, run.message = -1, failure
-    params = system.parameter_values
-
-    def evaluate(mode: int, t_start: float, state, times):
-        return _dense(system, tol, cooldown, params, mode, t_start, state, times)
-
+    evaluate = _Dense(system, tol, cooldown)
     return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
                           switch.events, switch.pieces, state_final, run.mode, evaluate, run.accumulation_time)
 
@@ -369,6 +365,17 @@ def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[flo
     start = t0 if h(t0) != 0.0 else t0 + 1e-3 * (t1 - t0)
     root = float(brentq(h, start, t1, xtol=4.0 * 2.0**-52 * (1.0 + abs(t1)), rtol=4.0 * 2.0**-52))
     return root, state(root)
+
+
+class _Dense:
+    """Dense output of a run: a piece integrated again, events off (picklable: the integrator is looked up)."""
+
+    def __init__(self, system: HybridSystem, tol: float, cooldown: float):
+        self.system, self.tol, self.cooldown = system, tol, cooldown
+
+    def __call__(self, mode: int, t_start: float, state, times) -> np.ndarray:
+        return _dense(self.system, self.tol, self.cooldown, self.system.parameter_values, mode, t_start, state,
+                      times)
 
 
 def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,

@@ -17,6 +17,7 @@ import numpy as np
 from .._util import validation as _v
 from ..engine._hybrid import GRAZING, MARKER, Accumulation, InstantAccumulation, Switch, check_state
 from ..model.hybrid._definition import HybridSystem
+from ..model.hybrid._numeric import rules
 from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 
 __all__ = ["run_system"]
@@ -81,6 +82,26 @@ def _first_root(loop: _Piecewise, switch: Switch, mode: int, g: int, t0: float, 
         start = t0 + 1e-3 * (t1 - t0)
     root = brentq(h, start, t1, xtol=4.0 * 2.0**-52 * (1.0 + abs(t1)), rtol=4.0 * 2.0**-52)
     return float(root), dense(root).tolist()
+
+
+class _Dense:
+    """Dense output of a run: a piece integrated again with ``dense_output`` (picklable)."""
+
+    def __init__(self, system: HybridSystem, method: str, rtol: float, atol: float):
+        self.system, self.method, self.rtol, self.atol = system, method, rtol, atol
+
+    def __call__(self, mode: int, t_start: float, state, times) -> np.ndarray:
+        from scipy.integrate import solve_ivp
+
+        fn, p = rules(self.system).field[mode], self.system.parameter_values
+        times = np.asarray(times, dtype=float)
+        out = np.tile(np.asarray(state, dtype=float), (times.size, 1))
+        later = times > t_start
+        if later.any():
+            dense = solve_ivp(lambda s, u: fn(s, u, p), (t_start, times[later].max()), list(state),
+                              method=self.method, rtol=self.rtol, atol=self.atol, dense_output=True)
+            out[later] = dense.sol(times[later]).T
+        return out
 
 
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
@@ -163,18 +184,6 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
         status, estimate, message = 2, t, str(exc)
     except RuntimeError as exc:
         status, message = -1, str(exc)
-    p, fields = system.parameter_values, switch.rules.field
-
-    def evaluate(mode: int, t_start: float, state, times):
-        times = np.asarray(times, dtype=float)
-        out = np.tile(np.asarray(state, dtype=float), (times.size, 1))
-        later = times > t_start
-        if later.any():
-            fn = fields[mode]
-            dense = solve_ivp(lambda s, u: fn(s, u, p), (t_start, times[later].max()), list(state), method=method,
-                              rtol=rtol, atol=atol, dense_output=True)
-            out[later] = dense.sol(times[later]).T
-        return out
-
+    evaluate = _Dense(system, method, rtol, atol)
     return HybridSolution(system, "scipy", t_end, t, status, message or STATUS_MESSAGES[status], switch.events,
                           switch.pieces, y, current, evaluate, estimate)
