@@ -92,3 +92,39 @@ def test_scipy_finds_a_crossing_lost_inside_one_step():
     b = impactosc.simulate(system, 10.0, [0.0], mode="a", backend="scipy")
     assert [e.guard for e in b.events] == [e.guard for e in a.events] and len(a.events) == 6
     np.testing.assert_allclose(b.event_times(), a.event_times(), rtol=0, atol=1e-9)
+
+
+def _energy_system():
+    """A forced, damped mass with a spring stop at x = 1: integrals of the forcing's work and the damping loss."""
+    if "energy" in _SYSTEMS:
+        return _SYSTEMS["energy"]
+    x, v, A, w, zeta, K = symbols("x v A w zeta K")
+    force = A * hy.cos(w * hy.time)
+    integrands = {"W": v * force, "D": 2 * zeta * v * v}
+    free = HybridMode("free", {x: v, v: force - x - 2 * zeta * v}, integrands=integrands)
+    contact = HybridMode("contact", {x: v, v: force - x - 2 * zeta * v - K * (x - 1.0)}, integrands=integrands)
+    system = HybridSystem("x v", {"A": 1.0, "w": 1.0, "zeta": 0.0, "K": 1.0}, [free, contact],
+                          [Guard("in", x - 1.0, 1, armed="free", to="contact"),
+                           Guard("out", x - 1.0, -1, armed="contact", to="free")],
+                          integrals="W D", name="energy")
+    _SYSTEMS["energy"] = system
+    return system
+
+
+@given(st.floats(0.2, 2.0), st.floats(0.3, 2.0), st.floats(0.0, 0.2), st.floats(1.0, 1e4),
+       st.floats(-0.9, 0.9), st.floats(-1.0, 1.0))
+def test_energy_identity_with_user_integrals(A, w, zeta, K, x0, v0):
+    """E(t) - E(0) = int v F cos(w t) - int 2 zeta v^2 with E = v^2/2 + x^2/2 + K (x - 1)+^2 / 2,
+    the work and the loss integrated exactly with the flow as the system's integrals W and D."""
+    system = _energy_system().with_parameters(A=A, w=w, zeta=zeta, K=K)
+    sol = impactosc.simulate(system, 30.0, [x0, v0])
+    assert sol.status == 0
+
+    def energy(x, v):
+        return 0.5 * v * v + 0.5 * x * x + 0.5 * K * max(x - 1.0, 0.0) ** 2
+
+    x1, v1 = sol.state_final[:2]
+    change = energy(x1, v1) - energy(x0, v0)
+    budget = sol.integrals["W"] - sol.integrals["D"]
+    scale = 1.0 + energy(x0, v0) + abs(sol.integrals["W"]) + sol.integrals["D"]
+    assert abs(change - budget) <= 1e-11 * scale

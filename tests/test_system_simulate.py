@@ -149,3 +149,30 @@ def test_a_solution_pickles_and_samples_after(backend):
     copy = pickle.loads(pickle.dumps(sol))
     assert copy.event_times() == pytest.approx(sol.event_times(), abs=0)
     np.testing.assert_allclose(copy.sample([0.3, 0.9]), sol.sample([0.3, 0.9]), rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_a_reset_that_lands_on_a_guard_fires_it_at_once(backend):
+    """x' = 1: at x = 1 the guard "jump" moves x to 2, onto the guard "land" (x - 2, rising) of the next mode."""
+    modes = [HybridMode(m, {x: 1.0, v: 0.0}) for m in ("A", "B", "C")]
+    guards = [Guard("jump", x - 1.0, 1, armed="A", to="B", reset={x: x + 1.0}),
+              Guard("land", x - 2.0, 1, armed="B", to="C")]
+    system = HybridSystem("x v", {}, modes, guards, name="landing")
+    sol = impactosc.simulate(system, 3.0, [0.0, 0.0], mode="A", backend=backend)
+    assert [(e.guard, e.mode_before, e.mode_after) for e in sol.events] == [("jump", "A", "B"), ("land", "B", "C")]
+    assert sol.events[1].t == sol.events[0].t == pytest.approx(1.0, abs=1e-12)
+    assert sol.mode_final == "C" and sol.state_final[0] == pytest.approx(4.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_two_guards_at_one_instant_both_fire(backend):
+    """x' = 1, y' = 1 from (0, 0): x - 1 and y - 1 reach zero together. Whichever fires first, the other
+    (armed again in the mode the first leads to) fires at once: mode D after two events at t = 1."""
+    y = symbols("y")
+    modes = [HybridMode(m, {x: 1.0, y: 1.0}) for m in ("A", "B", "C", "D")]
+    guards = [Guard("x first", x - 1.0, 1, armed="A", to="B"), Guard("y first", y - 1.0, 1, armed="A", to="C"),
+              Guard("y second", y - 1.0, 1, armed="B", to="D"), Guard("x second", x - 1.0, 1, armed="C", to="D")]
+    system = HybridSystem("x y", {}, modes, guards, name="two at once")
+    sol = impactosc.simulate(system, 2.0, [0.0, 0.0], mode="A", backend=backend)
+    assert sol.mode_final == "D" and len(sol.events) == 2
+    assert all(e.t == pytest.approx(1.0, abs=1e-12) for e in sol.events)
