@@ -67,6 +67,8 @@ def test_event_limit_keeps_results_and_bad_state_is_named():
         impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend="exact")
     with pytest.raises(TypeError, match="does not accept that option"):
         impactosc.simulate(ball(), 1.0, [1.0, 0.0], backend="heyoka", rtol=1e-9)
+    with pytest.raises(ValueError, match="tol must be in"):
+        impactosc.simulate(ball(), 1.0, [1.0, 0.0], tol=1e-200)
     # the built-in oscillator's arguments are refused, not silently ignored
     with pytest.raises(TypeError, match="v0=0.5"):
         impactosc.simulate(ball(), 1.0, [1.0, 0.0], 0.5)
