@@ -6,6 +6,8 @@ side in one run (interleaved repeats, medians): the user system on its heyoka lo
 (``impactosc.model.hybrid.oscillator_system``), the built-in heyoka path, the compiled RK4 at its
 default step, and the user system on the scipy loop (the cross-check, a few repeats).
 Targets: the user system within 1.5x of the built-in heyoka path per event; its ratio to the RK4.
+A fourth row runs the user system's compiled integrator with callbacks that only switch the
+mode (no resets, records or checks): the loop's Python cost per event is the difference.
 The compile of the user system's integrator is timed once (cold, in this process).
 """
 
@@ -18,9 +20,52 @@ import time
 import impactosc as io
 from impactosc.backends._hybrid_heyoka import compiled
 from impactosc.model.hybrid import oscillator_system
+from impactosc.model.hybrid._numeric import numeric
 
 CONTACT = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
 T_END = 400.0
+
+
+def raw_run(system, comp):
+    """The user system's compiled integrator with the loop's Python stripped to the mode switch.
+
+    The callbacks of the cached integrator are pointed at a stand-in run whose ``crossing``
+    only moves the indicator to the guard's last candidate mode (no reset, records, chained
+    guards, accumulation check) and whose ``extremum`` does nothing: the cost of the
+    integration itself and of heyoka calling back into Python at each event.
+    """
+    num = numeric(system)
+    P = comp.P
+    last = [system.mode_index(g.to[-1]) if g.to else -1 for g in system.guards]
+
+    class Stand:
+        mode = 0
+        events = 0
+
+        def crossing(self, ta, g):
+            target = last[g]
+            if target >= 0:
+                pars = comp.pars
+                pars[P + self.mode] = 0.0
+                pars[P + target] = 1.0
+                self.mode = target
+            self.events += 1
+            return True
+
+        def extremum(self, ta, guards):
+            return True
+
+    stand = Stand()
+    mode0 = system.mode_index("free-")
+    stand.mode = mode0
+    comp.holder.run = stand
+    comp.load(system.parameter_values, mode0, 1.0)
+    comp.ta.time = 0.0
+    comp.ta.state[:] = [0.95, 0.0] + [0.0] * (len(num.states) - 2)
+    comp.ta.reset_cooldowns()
+    comp.ta.propagate_until(T_END)
+    comp.holder.run = None
+    return stand.events
 
 
 def main(argv=None) -> int:
@@ -32,15 +77,17 @@ def main(argv=None) -> int:
     t = time.perf_counter()
     compiled(system)
     compile_s = time.perf_counter() - t
+    comp = compiled(system)
     cases = {
         "user system (heyoka loop)": lambda: io.simulate(system, T_END, [0.95, 0.0]),
+        "user system's integrator, raw callbacks": lambda: raw_run(system, comp),
         "built-in heyoka path": lambda: io.simulate(CONTACT, T_END),
         "built-in compiled RK4 (default dt)": lambda: io.simulate(CONTACT, T_END, backend="rk4"),
     }
     events = {}
     for name, fn in cases.items():  # warm-up: compiles, caches
-        sol = fn()
-        events[name] = len(sol.events)
+        out = fn()
+        events[name] = out if isinstance(out, int) else len(out.events)
     times: dict[str, list[float]] = {name: [] for name in cases}
     for _ in range(reps):  # interleaved, so that a busy machine slows every case alike
         for name, fn in cases.items():
