@@ -106,3 +106,48 @@ def test_bad_map_arguments_are_named():
     with pytest.raises(ValueError, match="'q' is not a parameter"):
         HybridMap(impact_oscillator(), names=["q"])
     assert "2 finite numbers" in HybridMap(impact_oscillator()).evaluate([0.0]).failure
+
+
+def relay(section="switch on"):
+    """x'' + 2 zeta x' + x = -sign(x + a x'), as two modes; its section: the switch-on surface."""
+    zeta, a = symbols("zeta a")
+    s = x + a * v
+    modes = [HybridMode("on", {x: v, v: -x - 2 * zeta * v - 1.0}),
+             HybridMode("off", {x: v, v: -x - 2 * zeta * v + 1.0})]
+    guards = [Guard("switch off", s, -1, armed="on", to="off"), Guard("switch on", s, 1, armed="off", to="on")]
+    return HybridSystem("x v", {"zeta": -0.1, "a": 0.05}, modes, guards, section=section, name="relay")
+
+
+def test_section_map_of_an_autonomous_system():
+    """The relay's return map to its switching surface: central differences, and its limit cycle, whose
+    multipliers are 0 (along the flow, which the section removes) and, by Liouville's rule,
+    mu = exp(int div f) prod (n.f+)/(n.f-) = exp(-2 zeta T) prod (n.f+)/(n.f-)."""
+    system = relay()
+    hmap = HybridMap(system, mode="on")
+    z = np.array([-0.05, 0.9])  # near the cycle, just after a switch on
+    value = hmap.evaluate(z)
+    assert value.ok and [s[0] for s in value.signature] == ["switch off", "switch on"]
+    dz, _ = central_differences(hmap, z, np.array(hmap.values()))
+    np.testing.assert_allclose(value.monodromy, dz, rtol=0, atol=1e-7)
+    orbit = periodic_orbit_of(hmap, z)
+    assert orbit.status == 0
+    sol = impactosc.simulate(system, 100.0, orbit.z, mode="on", until=("switch on", 1))
+    assert "as asked" in sol.message and sol.events[-1].guard == "switch on"
+    a, zeta = 0.05, -0.1
+    ratio = 1.0
+    for e in sol.events:  # n = (1, a); f = (v, -x - 2 zeta v -+ 1)
+        xb, vb = e.state_before[:2]
+        sign_before = -1.0 if e.mode_before == "on" else 1.0
+        ratio *= (vb + a * (-xb - 2 * zeta * vb - sign_before)) / (vb + a * (-xb - 2 * zeta * vb + sign_before))
+    mu = math.exp(-2 * zeta * sol.t_final) * ratio
+    multipliers = sorted(orbit.multipliers, key=abs)
+    assert abs(multipliers[0]) < 1e-9
+    assert multipliers[1] == pytest.approx(mu, rel=1e-9)
+
+
+def test_until_ends_a_run_after_the_named_event():
+    sol = impactosc.simulate(relay(), 100.0, [-0.05, 0.9], mode="on", until=("switch off", 2))
+    assert [e.guard for e in sol.events] == ["switch off", "switch on", "switch off"]
+    assert sol.t_final == sol.events[-1].t and sol.status == 0
+    with pytest.raises(ValueError, match="'nothing'"):
+        impactosc.simulate(relay(), 10.0, [0.0, 1.0], mode="on", until=("nothing", 1))

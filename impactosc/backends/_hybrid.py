@@ -32,6 +32,8 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
         ``t0``, ``max_events``, ``zeno_tol`` (an accumulation is declared when the time left
         to it is below ``zeno_tol (1 + |t|)``, default 1e-6), ``graze_tol`` (a guard's
         extremum within ``graze_tol (1 + max |y|)`` of zero is a grazing, default 1e-10),
+        ``until=(guard, k)`` (end the run right after the ``k``-th event of ``guard``: a
+        return to a Poincare section; status 0 and a message that says so),
         ``touch_tol`` (a state within ``touch_tol (1 + max |y|)`` of a guard it crosses
         fires it at once, default 1e-12); heyoka: ``tol`` (in [1e-18, 1e-2], default machine
         epsilon) and ``cooldown`` (how long an event is ignored after it fired, default 1e-12

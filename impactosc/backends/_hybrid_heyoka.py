@@ -254,7 +254,7 @@ class _Run:
         switch = self.switch
         if not switch.terminal[g]:
             switch.events.append((t, g, MARKER, self.mode, self.mode, tuple(y), tuple(y)))
-            return self._go_on(t)
+            return not switch.count(g) and self._go_on(t)
         if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, self.mode, t, y):
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         try:
@@ -267,6 +267,8 @@ class _Run:
             return False
         if after != y:
             state[:] = after
+        if switch.done:
+            return False  # the event the run was to end after (until=...)
         estimate = self.accumulation.add(t)
         if estimate is not None:
             self.status = 2
@@ -310,8 +312,8 @@ class _Run:
 
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
                max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
-               zeno_tol: float = 1e-6,
-               graze_tol: float = 1e-10, touch_tol: float = 1e-12) -> HybridSolution:
+               zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
+               until: tuple[str, int] | None = None) -> HybridSolution:
     """Run ``system`` with heyoka from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
     t0 = _v.real("t0", t0)
     t_end = _v.real("t_end", t_end)
@@ -328,6 +330,8 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     cooldown = _v.nonnegative("cooldown", cooldown)
     comp = compiled(system, tol, cooldown)
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
+    if until is not None:
+        switch.stop_after(*until)
     mode0 = switch.initial_mode(mode, t0, y0)
     with comp.lock:
         run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
@@ -353,21 +357,23 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
             try:
                 while True:
                     outcome = ta.propagate_until(t_end)[0]
-                    if run.missed is None or run.status:
+                    if run.missed is None or run.status or switch.done:
                         break
                     g, t_past = run.missed
                     run.missed = None
                     t_root, y_root = _first_root(comp, run, g, t_past)
                     ta.time = t_root
                     ta.state[:] = run.transition(g, t_root, y_root)
-                if run.status == 0 and outcome != hy.taylor_outcome.time_limit:
+                if run.status == 0 and not switch.done and outcome != hy.taylor_outcome.time_limit:
                     # not a callback's stop: a non-finite state (err_nf_state) or another failure
                     failure = (f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode "
                                f"{system.mode_names[run.mode]!r}")
             except Exception as exc:  # a callback's error or heyoka's: keep what was computed
                 failure = f"{type(exc).__name__}: {exc}"
         comp.holder.run = None
-        t_final = ta.time if run.status or failure else t_end
+        t_final = ta.time if run.status or failure or switch.done else t_end
+        if switch.done and run.status == 0 and not failure:
+            run.message = switch.done_message()
         state_final = ta.state.copy()
         if failure and run.status == 0:
             run.status, run.message = -1, failure

@@ -106,7 +106,8 @@ class _Dense:
 
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
                max_events: int = 1_000_000, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
-               zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12) -> HybridSolution:
+               zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
+               until: tuple[str, int] | None = None) -> HybridSolution:
     """Run ``system`` with scipy's ``solve_ivp`` from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
     from scipy.integrate import solve_ivp
 
@@ -119,6 +120,8 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     graze_tol = _v.positive("graze_tol", graze_tol)
     y = check_state(system, state0) + [0.0] * len(system.integrals)
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
+    if until is not None:
+        switch.stop_after(*until)
     loop = _Piecewise(system, switch, {})
     n = system.dimension
     t, current = t0, switch.initial_mode(mode, t0, y)
@@ -170,6 +173,7 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
             elif not switch.terminal[g]:
                 switch.events.append((t, g, MARKER, current, current, tuple(y), tuple(y)))
                 switch.pieces.append((t, current, tuple(y)))
+                switch.count(g)
             else:
                 current, y = transition(g, t, y, current)
                 estimate = accumulation.add(t)
@@ -177,6 +181,9 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
                     status = 2
                     message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at t={t!r}, "
                                f"the accumulation time is estimated at {estimate!r}.")
+            if switch.done:
+                message = switch.done_message()
+                break
             if status == 0 and len(switch.events) >= max_events:
                 status = 1
                 message = f"The event limit max_events={max_events} was reached at t={t!r}; results are kept."

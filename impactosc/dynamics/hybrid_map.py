@@ -1,10 +1,11 @@
 """The stroboscopic map of a user hybrid system, its Jacobians from saltation products, periodic orbits.
 
 For a :class:`~impactosc.HybridSystem` with a forcing period ``T``, the map
-``P(z; p) = y(t0 + n T)`` of the run from ``y(t0) = z`` is differentiated exactly along the
-run: on each smooth piece the state-transition matrix and the parameter sensitivities come
-from heyoka's variational equations (``heyoka.var_ode_sys``) of the same compiled vector
-fields, and at each event the sensitivity ``J = [dy/dz | dy/dp]`` jumps by the saltation
+``P(z; p) = y(t0 + n T)`` of the run from ``y(t0) = z`` (for an autonomous system with a
+``section`` guard instead: the state at its ``n``-th event, ``P = y(tau_n)``) is
+differentiated exactly along the run: on each smooth piece the state-transition matrix and
+the parameter sensitivities come from heyoka's variational equations (``heyoka.var_ode_sys``)
+of the same compiled vector fields, and at each event the sensitivity ``J = [dy/dz | dy/dp]`` jumps by the saltation
 rule::
 
     J+ = R_y J + [0 | R_p] + (f+ - R_y f- - R_t) (n^T J + [0 | h_p]) / (n . f- + h_t)
@@ -129,9 +130,10 @@ class HybridMap:
     Parameters
     ----------
     system : HybridSystem
-        With a forcing ``period`` (a number or an expression in its parameters).
+        With a forcing ``period`` (a number or an expression in its parameters), or, for an
+        autonomous system without one, a ``section`` guard.
     iterates : int
-        Forcing periods per map (default 1).
+        Forcing periods per map, or returns to the section (default 1).
     names : sequence of str, optional
         The parameters of ``dP/dp`` and of :meth:`evaluate` (default: all of the system's).
     mode : str, optional
@@ -140,6 +142,8 @@ class HybridMap:
         The section time (default 0).
     tol : float
         heyoka's tolerance for the run and the variational equations.
+    max_time : float
+        Section maps: how long a run may take to return (default 1e3): longer is a failure.
 
     Examples
     --------
@@ -154,11 +158,15 @@ class HybridMap:
     """
 
     def __init__(self, system: HybridSystem, iterates: int = 1, *, names=None, mode: str | None = None,
-                 t0: float = 0.0, tol: float = DEFAULT_TOL):
+                 t0: float = 0.0, tol: float = DEFAULT_TOL, max_time: float = 1e3):
         if not isinstance(system, HybridSystem):
             raise TypeError(f"system must be an impactosc.HybridSystem, got {system!r}")
-        if system.period is None:
-            raise ValueError(f"{system.name}: a stroboscopic map needs the system's forcing period (period=...)")
+        if system.period is None and system.section is None:
+            raise ValueError(f"{system.name}: a map needs the system's forcing period (period=...) or, for an "
+                             "autonomous system, a section guard (section=...)")
+        #: The section guard of an autonomous system's map (None: the stroboscopic map of the period).
+        self.section = system.section if system.period is None else None
+        self.max_time = float(max_time)
         if isinstance(iterates, bool) or not isinstance(iterates, int) or iterates < 1:
             raise ValueError(f"iterates must be an integer >= 1, got {iterates!r}")
         self.system = system
@@ -175,11 +183,12 @@ class HybridMap:
         import heyoka as hy
 
         num = numeric(system)
-        period = num.with_params(system.period)
         from ..model.hybrid._numeric import evaluator
 
-        self._period = evaluator(num, [period] + [hy.diff(period, hy.par[k]) for k in range(num.n_params)],
-                                 "the period")
+        if self.section is None:
+            period = num.with_params(system.period)
+            self._period = evaluator(num, [period] + [hy.diff(period, hy.par[k]) for k in range(num.n_params)],
+                                     "the period")
 
     def values(self) -> tuple:
         """The map's parameters' values in the system."""
@@ -198,14 +207,24 @@ class HybridMap:
             return HybridMapValue(z, params, None, nan_m, nan_p, (), f"z must be {n} finite numbers, got {z}")
         sys_p = system.with_parameters(**dict(zip(self.names, params, strict=True)))
         p = sys_p.parameter_values
-        period_and_rates = self._period(0.0, [0.0] * len(numeric(system).states), p)
-        span = self.iterates * period_and_rates[0]
-        if not (math.isfinite(span) and span > 0.0):
-            return HybridMapValue(z, params, None, nan_m, nan_p, (), f"the period is {period_and_rates[0]!r}")
-        sol = simulate_system(sys_p, self.t0 + span, z, backend="heyoka", mode=self.mode, t0=self.t0, tol=self.tol)
+        if self.section is None:
+            period_and_rates = self._period(0.0, [0.0] * len(numeric(system).states), p)
+            span = self.iterates * period_and_rates[0]
+            if not (math.isfinite(span) and span > 0.0):
+                return HybridMapValue(z, params, None, nan_m, nan_p, (), f"the period is {period_and_rates[0]!r}")
+            sol = simulate_system(sys_p, self.t0 + span, z, backend="heyoka", mode=self.mode, t0=self.t0,
+                                  tol=self.tol)
+        else:
+            sol = simulate_system(sys_p, self.t0 + self.max_time, z, backend="heyoka", mode=self.mode, t0=self.t0,
+                                  tol=self.tol, until=(self.section, self.iterates))
         signature = tuple((e.guard, e.mode_before, e.mode_after) for e in sol.events if e.kind == "crossing")
         if sol.status != 0:
             return HybridMapValue(z, params, None, nan_m, nan_p, signature, sol.message)
+        if self.section is not None and not (sol.events and sol.events[-1].guard == self.section
+                                             and "as asked" in sol.message):
+            return HybridMapValue(z, params, None, nan_m, nan_p, signature,
+                                  f"no return {self.iterates} to the section {self.section!r} within "
+                                  f"max_time={self.max_time!r}")
         image = sol.state_final[:n].copy()
         grazings = [e for e in sol.events if e.kind == "grazing"]
         if grazings:
@@ -218,6 +237,8 @@ class HybridMap:
             return HybridMapValue(z, params, image, nan_m, nan_p, signature, "", str(exc))
         n_all = J.shape[0]
         dp = J[:n, [n_all + c for c in self.columns]].copy()
+        if self.section is not None:  # the map ends on the section: no end time to move
+            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature)
         # the map ends at t0 + iterates T(p): a parameter that moves T moves the end
         f_end = np.array(rules(system).field[sys_p.mode_index(sol.mode_final)](self.t0 + span,
                                                                                 sol.state_final.tolist(), p))
@@ -236,18 +257,27 @@ class HybridMap:
         J[:, :n_all] = np.eye(n_all)
         t, mode_name, y = sol.pieces[0]
         mode = system.mode_index(mode_name)
+        last = len(sol.events) - 1
         with tangent.lock:
-            for e in sol.events:
-                if e.kind != "crossing":
+            for i, e in enumerate(sol.events):
+                on_section = self.section is not None and i == last
+                if e.kind != "crossing" and not on_section:
                     continue
                 J = _compose(tangent.piece(p, mode, t, y, e.t), J, n_all)
-                J = self._saltation(rule, system, e, p, J, n, n_all, P)
+                J, dtau, f_plus = self._saltation(rule, system, e, p, J, n, n_all, P, reset=e.kind == "crossing")
+                if on_section:
+                    # the map's value is the state on the section, at the perturbed return time
+                    J = J - np.outer(f_plus, dtau)
                 t, mode, y = e.t, system.mode_index(e.mode_after), e.state_after
             J = _compose(tangent.piece(p, mode, t, y, sol.t_final), J, n_all)
         return J
 
     @staticmethod
-    def _saltation(rule, system, e, p, J, n, n_all, P) -> np.ndarray:
+    def _saltation(rule, system, e, p, J, n, n_all, P, reset: bool = True) -> tuple:
+        """``(J+, dtau, f+)``: the sensitivity after the event, ``-d(event time)/d(z, p)`` and the field after.
+
+        ``reset=False`` (a marker guard): no transition, ``J+ = J``.
+        """
         g = system.guard_names.index(e.guard)
         guard_fn, reset_fn = rule.jacobians(g)
         before, after = list(e.state_before), list(e.state_after)
@@ -258,7 +288,7 @@ class HybridMap:
         R_y = np.eye(n_all)
         R_t = np.zeros(n_all)
         R_p = np.zeros((n_all, P))
-        if reset_fn is not None:
+        if reset_fn is not None and reset:
             rows = np.array(reset_fn(e.t, before, p)).reshape(n, n_all + 1 + P)
             R_y[:n] = rows[:, :n_all]
             R_t[:n] = rows[:, n_all]
@@ -269,10 +299,13 @@ class HybridMap:
                                     f"{speed!r}): a grazing, where the map has no derivative")
         crossing = normal @ J
         crossing[n_all:] += h_p
+        dtau = crossing / speed
+        if not reset:
+            return J, dtau, f_minus
         J_new = R_y @ J
         J_new[:, n_all:] += R_p
-        J_new += np.outer(f_plus - R_y @ f_minus - R_t, crossing / speed)
-        return J_new
+        J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
+        return J_new, dtau, f_plus
 
 
 def _compose(piece: np.ndarray, J: np.ndarray, n_all: int) -> np.ndarray:

@@ -96,6 +96,7 @@ class Switch:
         self.touch_tol = touch_tol
         self.events: list[tuple] = []
         self.pieces: list[tuple] = []
+        self.until_guard, self.until_count, self.seen, self.done = -1, 0, 0, False
         self._second: dict = self.num.second
 
     def initial_mode(self, mode, t: float, y) -> int:
@@ -136,6 +137,27 @@ class Switch:
         raise RuntimeError(f"guard {self.system.guard_names[g]!r} fired at t={t!r} with the state {after}, "
                            f"where the entry conditions of none of its modes {names} hold")
 
+    def stop_after(self, guard: str, count: int) -> None:
+        """End the run right after the ``count``-th event of ``guard`` (a Poincare section's return)."""
+        if guard not in self.system.guard_names:
+            raise ValueError(f"until names the guard {guard!r}, which {self.system.name} does not have "
+                             f"(its guards are {list(self.system.guard_names)})")
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise ValueError(f"until=({guard!r}, {count!r}): the count must be an integer >= 1")
+        self.until_guard, self.until_count = self.system.guard_names.index(guard), count
+
+    def done_message(self) -> str:
+        name = self.system.guard_names[self.until_guard]
+        return f"The run ended after event {self.until_count} of guard {name!r}, as asked (until=...)."
+
+    def count(self, g: int) -> bool:
+        """Note an event of guard ``g``; True when it is the one the run ends after (see :meth:`stop_after`)."""
+        if g == self.until_guard:
+            self.seen += 1
+            if self.seen == self.until_count:
+                self.done = True
+        return self.done
+
     def transition(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
         """Apply guard ``g`` in ``mode`` at ``(t, y)``, then every guard the new state lies on and crosses.
 
@@ -158,6 +180,8 @@ class Switch:
                 last = self.system.guard_names[g]
                 raise InstantAccumulation(f"More than {MAX_EVENTS_AT_AN_INSTANT} transitions at t={t!r} (the last "
                                           f"by guard {last!r}): events accumulate at one instant.")
+            if self.count(g):
+                break  # the run ends right after this event
             g = self.pending(mode, t, y)
         self.pieces.append((t, mode, tuple(y)))
         return mode, y

@@ -252,9 +252,9 @@ class HybridSystem:
         The forcing period (for stroboscopic maps), a number or an expression in the
         parameters such as ``2 * pi / Omega``.
     section : str, optional
-        The name of a guard whose crossings are the Poincare section of an autonomous system
-        (a declaration, checked to name a guard; the maps of :mod:`impactosc.dynamics.hybrid_map`
-        are stroboscopic and do not read it yet).
+        The name of a guard whose events are the Poincare section of an autonomous system
+        (:class:`impactosc.dynamics.hybrid_map.HybridMap` maps the state on it to its next
+        return when the system has no period).
     name : str, optional
         A label for messages and tables.
 
