@@ -120,70 +120,82 @@ class CompiledSystem:
         P, M = num.n_params, len(system.modes)
         self.P, self.M = P, M
         ind = [hy.par[P + m] for m in range(M)]
-        on = hy.par[P + M]
         n_all = len(num.states)
         rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
         self.holder = _Holder()
-        # One heyoka event per distinct (expression, direction): the guards that share it in
-        # different modes, and the extremum checks whose Lie derivative it is, share its cost.
-        slots: dict[tuple[str, int], tuple] = {}
-
-        def slot(expr, d):
-            key = (str(expr), d)
-            if key not in slots:
-                slots[key] = (expr, d, set(), _Callback(self.holder))
-            return slots[key]
-
-        for g, guard in enumerate(system.guards):
-            d = guard.direction
-            for m in num.armed[g]:
-                _, _, modes, cb = slot(num.guards[g], d)
-                modes.add(m)
-                cb.cross[m] = g
-                lie = num.lie[(m, g)]
-                if not guard.terminal or (not hy.get_variables(lie) and "t" not in _words(str(lie))):
-                    continue  # a marker, or a constant rate: no extremum to check
-                # the extrema that can touch zero from the side the guard fires from
-                _, _, modes, cb = slot(lie, -d)
-                modes.add(m)
-                cb.extrema.setdefault(m, []).append(g)
-        # Slots armed in disjoint sets of modes share one event too: its expression is the
-        # active mode's (a gated sum, like the vector field), so a step isolates the roots of a
-        # few polynomials, not one per guard (eq. 3: 20 slots in 4 events).
-        bins: list[tuple[int, set, list]] = []  # (direction, modes, slots)
-        for expr, d, modes, cb in slots.values():
-            for b_d, b_modes, b_slots in bins:
-                if b_d == d and not (b_modes & modes):
-                    b_modes.update(modes)
-                    b_slots.append((expr, modes, cb))
-                    break
-            else:
-                bins.append((d, set(modes), [(expr, modes, cb)]))
-        direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative, 0: hy.event_direction.any}
-        events = []
-        for d, modes, members in bins:
-            merged = _Callback(self.holder)
-            terms = []
-            for expr, ms, cb in members:
-                merged.cross.update(cb.cross)
-                merged.extrema.update(cb.extrema)
-                terms.append(_indicator(sorted(ms), ind) * expr)
-            armed = on * _indicator(sorted(modes), ind)
-            value = on * (terms[0] if len(terms) == 1 else hy.sum(terms))
-            events.append(hy.t_event(value + (1.0 - armed), direction=direction[d], callback=merged,
-                                     cooldown=cooldown))
-        self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all,
-                                     pars=[0.0] * (P + M + 1), t_events=events, tol=tol, compact_mode=False)
+        events = _events(system, num, ind, hy.par[P + M], self.holder, cooldown)
+        # pars left out: heyoka sizes them to the highest index the expressions use (see load)
+        self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all, t_events=events,
+                                     tol=tol, compact_mode=False)
         self.pars = self.ta.pars
         self.state = self.ta.state
         self.lock = threading.Lock()
 
     def load(self, params, mode: int, on: float) -> None:
+        """The parameters, ``mode``'s indicator and the events' switch (indices the expressions do not use
+        are not in heyoka's vector: a parameter used nowhere, a mode with no rate and no guard, no guards)."""
         pars = self.pars
+        size = len(pars)
         pars[:] = 0.0
-        pars[:self.P] = params
-        pars[self.P + mode] = 1.0
-        pars[self.P + self.M] = on
+        used = min(self.P, size)
+        pars[:used] = params[:used]
+        for index, value in ((self.P + mode, 1.0), (self.P + self.M, on)):
+            if index < size:
+                pars[index] = value
+
+
+def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldown: float) -> list:
+    """The heyoka events of every guard and extremum check, shared as the module docstring says."""
+    import heyoka as hy
+
+    # One slot per distinct (expression, direction): the guards that share it in different
+    # modes, and the extremum checks whose Lie derivative it is.
+    slots: dict[tuple[str, int], tuple] = {}
+
+    def slot(expr, d):
+        key = (str(expr), d)
+        if key not in slots:
+            slots[key] = (expr, d, set(), _Callback(holder))
+        return slots[key]
+
+    for g, guard in enumerate(system.guards):
+        d = guard.direction
+        for m in num.armed[g]:
+            _, _, modes, cb = slot(num.guards[g], d)
+            modes.add(m)
+            cb.cross[m] = g
+            lie = num.lie[(m, g)]
+            if not guard.terminal or (not hy.get_variables(lie) and "t" not in _words(str(lie))):
+                continue  # a marker, or a constant rate: no extremum to check
+            # the extrema that can touch zero from the side the guard fires from
+            _, _, modes, cb = slot(lie, -d)
+            modes.add(m)
+            cb.extrema.setdefault(m, []).append(g)
+    # Slots armed in disjoint sets of modes share one event: its expression is the active
+    # mode's (a gated sum, like the vector field), so a step isolates the roots of a few
+    # polynomials, not one per guard (eq. 3: 20 slots in 4 events).
+    bins: list[tuple[int, set, list]] = []  # (direction, modes, slots)
+    for expr, d, modes, cb in slots.values():
+        for b_d, b_modes, b_slots in bins:
+            if b_d == d and not (b_modes & modes):
+                b_modes.update(modes)
+                b_slots.append((expr, modes, cb))
+                break
+        else:
+            bins.append((d, set(modes), [(expr, modes, cb)]))
+    direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative, 0: hy.event_direction.any}
+    events = []
+    for d, modes, members in bins:
+        merged = _Callback(holder)
+        terms = []
+        for expr, ms, cb in members:
+            merged.cross.update(cb.cross)
+            merged.extrema.update(cb.extrema)
+            terms.append(_indicator(sorted(ms), ind) * expr)
+        armed = on * _indicator(sorted(modes), ind)
+        value = on * (terms[0] if len(terms) == 1 else hy.sum(terms))
+        events.append(hy.t_event(value + (1.0 - armed), direction=direction[d], callback=merged, cooldown=cooldown))
+    return events
 
 
 def _indicator(modes: list[int], ind):
@@ -310,6 +322,16 @@ class _Run:
         return -self.switch.direction[g] * self.switch.guard_value(g, t0, list(y0)) >= 0.0
 
 
+def check_tol(tol) -> float:
+    """``tol`` as a float in ``[MIN_TOL, MAX_TOL]``, or an error naming it."""
+    tol = _v.real("tol", tol)
+    if not MIN_TOL <= tol <= MAX_TOL:
+        raise ValueError(f"tol must be in [{MIN_TOL!r}, {MAX_TOL!r}] for the heyoka loop, got {tol!r}: below about "
+                         "machine epsilon a double-precision run gains nothing while the Taylor order and the compile "
+                         "time grow; above 1e-2 event times are off by more than 1e-3")
+    return tol
+
+
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
                max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
                zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
@@ -319,11 +341,7 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     t_end = _v.real("t_end", t_end)
     if not t_end > t0:
         raise ValueError(f"t_end must be > t0={t0!r}, got {t_end!r}")
-    tol = _v.real("tol", tol)
-    if not MIN_TOL <= tol <= MAX_TOL:
-        raise ValueError(f"tol must be in [{MIN_TOL!r}, {MAX_TOL!r}] for the heyoka loop, got {tol!r}: below about "
-                         "machine epsilon a double-precision run gains nothing while the Taylor order and the compile "
-                         "time grow; above 1e-2 event times are off by more than 1e-3")
+    tol = check_tol(tol)
     max_events = _v.integer("max_events", max_events)
     zeno_tol = _v.positive("zeno_tol", zeno_tol)
     y0 = check_state(system, state0) + [0.0] * len(system.integrals)
@@ -336,50 +354,55 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     with comp.lock:
         run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
         comp.holder.run = run
-        ta = comp.ta
-        comp.load(system.parameter_values, mode0, 1.0)
-        ta.time = t0
-        switch.pieces.append((t0, mode0, tuple(y0)))
-        failure = ""
-        y = y0
         try:
-            g = switch.pending(mode0, t0, y0)
-            y = run.transition(g, t0, y0) if g >= 0 else y0
-        except InstantAccumulation as exc:
-            run.status, run.message, run.accumulation_time = 2, str(exc), t0
-        except RuntimeError as exc:  # no candidate mode at the start
-            run.status, run.message = -1, str(exc)
-        ta.state[:] = y
-        ta.reset_cooldowns()
-        if run.status == 0:
-            import heyoka as hy
-
-            try:
-                while True:
-                    outcome = ta.propagate_until(t_end)[0]
-                    if run.missed is None or run.status or switch.done:
-                        break
-                    g, t_past = run.missed
-                    run.missed = None
-                    t_root, y_root = _first_root(comp, run, g, t_past)
-                    ta.time = t_root
-                    ta.state[:] = run.transition(g, t_root, y_root)
-                if run.status == 0 and not switch.done and outcome != hy.taylor_outcome.time_limit:
-                    # not a callback's stop: a non-finite state (err_nf_state) or another failure
-                    failure = (f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode "
-                               f"{system.mode_names[run.mode]!r}")
-            except Exception as exc:  # a callback's error or heyoka's: keep what was computed
-                failure = f"{type(exc).__name__}: {exc}"
-        comp.holder.run = None
-        t_final = ta.time if run.status or failure or switch.done else t_end
-        if switch.done and run.status == 0 and not failure:
-            run.message = switch.done_message()
+            _propagate(run, comp, t0, y0, t_end)
+        finally:
+            comp.holder.run = None
+        ta = comp.ta
+        t_final = ta.time if run.status or switch.done else t_end
         state_final = ta.state.copy()
-        if failure and run.status == 0:
-            run.status, run.message = -1, failure
-    evaluate = _Dense(system, tol, cooldown)
     return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
-                          switch.events, switch.pieces, state_final, run.mode, evaluate, run.accumulation_time)
+                          switch.events, switch.pieces, state_final, run.mode, _Dense(system, tol, cooldown),
+                          run.accumulation_time)
+
+
+def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float) -> None:
+    """The run from ``(t0, y0)``: the transitions at the start, then one ``propagate_until`` (more after a
+    lost root); its end is in ``run.status``/``run.message`` and the integrator's time and state."""
+    import heyoka as hy
+
+    ta, switch = comp.ta, run.switch
+    comp.load(switch.system.parameter_values, run.mode, 1.0)
+    ta.time = t0
+    ta.state[:] = y0
+    switch.pieces.append((t0, run.mode, tuple(y0)))
+    try:
+        g = switch.pending(run.mode, t0, y0)
+        ta.state[:] = run.transition(g, t0, y0) if g >= 0 else y0
+        ta.reset_cooldowns()
+        while True:
+            outcome = ta.propagate_until(t_end)[0]
+            if run.missed is None or run.status or switch.done:
+                break
+            g, t_past = run.missed
+            run.missed = None
+            t_root, y_root = _first_root(comp, run, g, t_past)
+            ta.time = t_root
+            ta.state[:] = run.transition(g, t_root, y_root)
+    except InstantAccumulation as exc:
+        run.status, run.message, run.accumulation_time = 2, str(exc), ta.time
+        return
+    except Exception as exc:  # no admissible mode, a callback's error or heyoka's: keep what was computed
+        if run.status == 0:
+            run.status = -1
+            run.message = str(exc) if type(exc) is RuntimeError else f"{type(exc).__name__}: {exc}"
+        return
+    if switch.done and run.status == 0:
+        run.message = switch.done_message()
+    elif run.status == 0 and outcome != hy.taylor_outcome.time_limit:
+        # not a callback's stop: a non-finite state (err_nf_state) or another failure
+        run.status = -1
+        run.message = f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode {switch.system.mode_names[run.mode]!r}"
 
 
 def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list]:

@@ -38,60 +38,65 @@ def check_system(system) -> None:
         raise ValueError("modes: a system needs at least one mode")
     _duplicates("mode", system.mode_names)
     _duplicates("guard", system.guard_names)
-    states, modes = set(system.states), set(system.mode_names)
-    allowed = states | set(params)
-    n = len(system.states)
+    allowed = set(system.states) | set(params)
     for m in system.modes:
-        where = f"mode {m.name!r}"
-        if m.field and isinstance(m.field[0], tuple):
-            given = [k for k, _ in m.field]
-            _duplicates(f"{where}: field state", given)
-            extra = sorted(set(given) - states)
-            if extra:
-                raise ValueError(f"{where}: field gives rates for {extra}, which are not states "
-                                 f"(the states are {list(system.states)})")
-            missing = [s for s in system.states if s not in given]
-            if missing:
-                raise ValueError(f"{where}: field gives no rate for the states {missing} "
-                                 f"(a vector field needs one rate per state: {list(system.states)})")
-            exprs = [e for _, e in m.field]
-        else:
-            if len(m.field) != n:
-                raise ValueError(f"{where}: field has {len(m.field)} rates, the system has {n} states "
-                                 f"{list(system.states)}")
-            exprs = list(m.field)
-        for i, e in enumerate(exprs):
-            _check_symbols(f"{where}: the rate of {system.states[i]!r}", e, allowed)
-        for i, c in enumerate(m.entry):
-            _check_symbols(f"{where}: entry[{i}]", c, allowed)
-        for q, e in m.integrands:
-            if q not in system.integrals:
-                raise ValueError(f"{where}: integrand for {q!r}, which is not a declared integral "
-                                 f"(the integrals are {list(system.integrals)})")
-            _check_symbols(f"{where}: the integrand of {q!r}", e, allowed)
+        _check_mode(system, m, allowed)
     for g in system.guards:
-        where = f"guard {g.name!r}"
-        _check_symbols(f"{where}: expression", g.expression, allowed)
-        if not g.armed:
-            raise ValueError(f"{where} is armed in no mode (armed=...: the modes in which it can fire)")
-        for name, kind in [(a, "armed") for a in g.armed] + [(t, "to") for t in g.to]:
-            if name not in modes:
-                raise ValueError(f"{where}: {kind} names the mode {name!r}, which the system does not have "
-                                 f"(its modes are {list(system.mode_names)})")
-        for key, e in g.reset:
-            if key not in states:
-                raise ValueError(f"{where}: reset of {key!r}, which is not a state (the reset map has one "
-                                 f"entry per state it changes, among {list(system.states)})")
-            _check_symbols(f"{where}: the reset of {key!r}", e, allowed)
-        _duplicates(f"{where}: reset state", [k for k, _ in g.reset])
-        if len(g.to) > 1:
-            for t in g.to[:-1]:
-                target = system.modes[system.mode_names.index(t)]
-                if not target.entry:
-                    raise ValueError(f"{where}: the candidate mode {t!r} has no entry, so the candidates after "
-                                     f"it ({list(g.to[g.to.index(t) + 1:])}) could never be taken")
+        _check_guard(system, g, allowed)
     if system.section is not None and system.section not in system.guard_names:
         raise ValueError(f"section names the guard {system.section!r}, which the system does not have "
                          f"(its guards are {list(system.guard_names)})")
     if system.period is not None:
         _check_symbols("period", system.period, set(params))
+
+
+def _check_mode(system, m, allowed: set[str]) -> None:
+    where = f"mode {m.name!r}"
+    states, n = set(system.states), len(system.states)
+    if m.field and isinstance(m.field[0], tuple):
+        given = [k for k, _ in m.field]
+        _duplicates(f"{where}: field state", given)
+        extra = sorted(set(given) - states)
+        if extra:
+            raise ValueError(f"{where}: field gives rates for {extra}, which are not states "
+                             f"(the states are {list(system.states)})")
+        missing = [s for s in system.states if s not in given]
+        if missing:
+            raise ValueError(f"{where}: field gives no rate for the states {missing} "
+                             f"(a vector field needs one rate per state: {list(system.states)})")
+        exprs = [dict(m.field)[s] for s in system.states]
+    else:
+        if len(m.field) != n:
+            raise ValueError(f"{where}: field has {len(m.field)} rates, the system has {n} states "
+                             f"{list(system.states)}")
+        exprs = list(m.field)
+    for i, e in enumerate(exprs):
+        _check_symbols(f"{where}: the rate of {system.states[i]!r}", e, allowed)
+    for i, c in enumerate(m.entry):
+        _check_symbols(f"{where}: entry[{i}]", c, allowed)
+    for q, e in m.integrands:
+        if q not in system.integrals:
+            raise ValueError(f"{where}: integrand for {q!r}, which is not a declared integral "
+                             f"(the integrals are {list(system.integrals)})")
+        _check_symbols(f"{where}: the integrand of {q!r}", e, allowed)
+
+
+def _check_guard(system, g, allowed: set[str]) -> None:
+    where = f"guard {g.name!r}"
+    _check_symbols(f"{where}: expression", g.expression, allowed)
+    if not g.armed:
+        raise ValueError(f"{where} is armed in no mode (armed=...: the modes in which it can fire)")
+    for name, kind in [(a, "armed") for a in g.armed] + [(t, "to") for t in g.to]:
+        if name not in system.mode_names:
+            raise ValueError(f"{where}: {kind} names the mode {name!r}, which the system does not have "
+                             f"(its modes are {list(system.mode_names)})")
+    for key, e in g.reset:
+        if key not in system.states:
+            raise ValueError(f"{where}: reset of {key!r}, which is not a state (the reset map has one "
+                             f"entry per state it changes, among {list(system.states)})")
+        _check_symbols(f"{where}: the reset of {key!r}", e, allowed)
+    _duplicates(f"{where}: reset state", [k for k, _ in g.reset])
+    for i, t in enumerate(g.to[:-1]):
+        if not system.modes[system.mode_names.index(t)].entry:
+            raise ValueError(f"{where}: the candidate mode {t!r} has no entry conditions, so the candidates after "
+                             f"it ({list(g.to[i + 1:])}) could never be taken")
