@@ -178,3 +178,12 @@ def test_two_guards_at_one_instant_both_fire(backend):
     sol = impactosc.simulate(system, 2.0, [0.0, 0.0], mode="A", backend=backend)
     assert sol.mode_final == "D" and len(sol.events) == 2
     assert all(e.t == pytest.approx(1.0, abs=1e-12) for e in sol.events)
+
+
+@pytest.mark.parametrize("backend", ["heyoka", "scipy"])
+def test_a_system_without_guards_and_with_an_unused_parameter(backend):
+    """x' = -k x: exp(-k t); the parameter q appears in no expression."""
+    system = HybridSystem("x", {"k": 0.5, "q": 3.0}, [HybridMode("decay", {x: -k * x})], name="decay")
+    sol = impactosc.simulate(system, 2.0, [1.0], backend=backend)
+    assert sol.status == 0 and sol.events == []
+    assert sol.state_final[0] == pytest.approx(math.exp(-1.0), rel=1e-11)

@@ -127,6 +127,7 @@ class CompiledSystem:
         # pars left out: heyoka sizes them to the highest index the expressions use (see load)
         self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all, t_events=events,
                                      tol=tol, compact_mode=False)
+        self.has_events = bool(events)
         self.pars = self.ta.pars
         self.state = self.ta.state
         self.lock = threading.Lock()
@@ -379,7 +380,8 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
     try:
         g = switch.pending(run.mode, t0, y0)
         ta.state[:] = run.transition(g, t0, y0) if g >= 0 else y0
-        ta.reset_cooldowns()
+        if comp.has_events:
+            ta.reset_cooldowns()
         while True:
             outcome = ta.propagate_until(t_end)[0]
             if run.missed is None or run.status or switch.done:
