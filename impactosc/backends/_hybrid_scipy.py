@@ -32,14 +32,21 @@ def _event(fn, index: int, direction: int):
     return event
 
 
-class _Piecewise:
-    """The loop's state between pieces."""
+class _Loop:
+    """The scipy loop's state: where the run is, and what it has found."""
 
-    def __init__(self, system: HybridSystem, switch: Switch, options: dict):
+    def __init__(self, system: HybridSystem, switch: Switch, options: dict, zeno_tol: float, graze_tol: float):
         self.system = system
         self.switch = switch
         self.p = system.parameter_values
         self.options = options
+        self.accumulation = Accumulation(zeno_tol)
+        self.graze_tol = graze_tol
+        self.t, self.mode = 0.0, 0
+        self.y: list = []
+        self.status, self.message = 0, ""
+        self.estimate: float | None = None
+        self.quiet = -1  # a guard whose extremum the current piece starts at (its extremum event is off)
 
     def field(self, mode: int):
         fn, p = self.switch.rules.field[mode], self.p
@@ -65,17 +72,68 @@ class _Piecewise:
                 what.append((g, True))
         return fns, what
 
+    def piece(self, t_end: float) -> bool:
+        """Integrate one piece and handle its event; False when the run has reached ``t_end`` or failed."""
+        from scipy.integrate import solve_ivp
 
-def _first_root(loop: _Piecewise, switch: Switch, mode: int, g: int, t0: float, y0: list, t1: float, method: str,
-                rtol: float, atol: float) -> tuple[float, list]:
+        fns, what = self.events(self.mode, self.quiet)
+        sol = solve_ivp(self.field(self.mode), (self.t, t_end), self.y, events=fns, **self.options)
+        self.t, self.y = float(sol.t[-1]), sol.y[:, -1].tolist()
+        if sol.status == -1:
+            self.status = -1
+            self.message = (f"solve_ivp failed at t={self.t!r} in mode {self.system.mode_names[self.mode]!r}: "
+                            f"{sol.message}")
+            return False
+        if sol.status == 0:
+            self.t = t_end
+            return False
+        i = next(i for i, te in enumerate(sol.t_events) if len(te))
+        self.t, self.y = float(sol.t_events[i][0]), sol.y_events[i][0].tolist()
+        g, extremum = what[i]
+        self.quiet = -1
+        if extremum:
+            self.extremum(g)
+        elif not self.switch.terminal[g]:
+            self.switch.events.append((self.t, g, MARKER, self.mode, self.mode, tuple(self.y), tuple(self.y)))
+            self.switch.pieces.append((self.t, self.mode, tuple(self.y)))
+            self.switch.count(g)
+        else:
+            self.mode, self.y = self.switch.transition(g, self.mode, self.t, self.y)
+            self.estimate = self.accumulation.add(self.t)
+            if self.estimate is not None:
+                self.status = 2
+                self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at "
+                                f"t={self.t!r}, the accumulation time is estimated at {self.estimate!r}.")
+        return True
+
+    def extremum(self, g: int) -> None:
+        """Guard ``g`` at an extremum: a crossing lost inside a step, a grazing, or nothing."""
+        switch, t, y = self.switch, self.t, self.y
+        h = switch.guard_value(g, t, y)
+        d = switch.direction[g]
+        t_start, _, y_start = switch.pieces[-1]
+        if d * h > 0.0 and -d * switch.guard_value(g, t_start, list(y_start)) >= 0.0:
+            # the guard went past zero and back within a step: its first root lies between the
+            # piece start and this extremum
+            self.t, self.y = _first_root(self, g, t_start, list(y_start), t)
+            self.mode, self.y = switch.transition(g, self.mode, self.t, self.y)
+            return
+        self.quiet = g
+        at_start = t - t_start <= 16.0 * 2.0**-52 * (1.0 + abs(t))  # the extremum the piece starts at
+        if not at_start and abs(h) <= self.graze_tol * (1.0 + max(abs(c) for c in y[:self.system.dimension])):
+            switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
+        switch.pieces.append((t, self.mode, tuple(y)))
+
+
+def _first_root(loop: _Loop, g: int, t0: float, y0: list, t1: float) -> tuple[float, list]:
     """The root of guard ``g`` in ``(t0, t1]`` of the piece from ``(t0, y0)`` (Brent's method on its dense output)."""
     from scipy.integrate import solve_ivp
     from scipy.optimize import brentq
 
-    dense = solve_ivp(loop.field(mode), (t0, t1), y0, method=method, rtol=rtol, atol=atol, dense_output=True).sol
+    dense = solve_ivp(loop.field(loop.mode), (t0, t1), y0, dense_output=True, **loop.options).sol
 
     def h(s: float) -> float:
-        return switch.guard_value(g, s, dense(s).tolist())
+        return loop.switch.guard_value(g, s, dense(s).tolist())
 
     start = t0
     if h(start) == 0.0:  # the piece starts on the guard: step off it
@@ -109,88 +167,33 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
                zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
                until: tuple[str, int] | None = None) -> HybridSolution:
     """Run ``system`` with scipy's ``solve_ivp`` from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
-    from scipy.integrate import solve_ivp
-
     t0, t_end = _v.real("t0", t0), _v.real("t_end", t_end)
     if not t_end > t0:
         raise ValueError(f"t_end must be > t0={t0!r}, got {t_end!r}")
-    rtol, atol = _v.positive("rtol", rtol), _v.positive("atol", atol)
+    options = dict(method=method, rtol=_v.positive("rtol", rtol), atol=_v.positive("atol", atol))
     max_events = _v.integer("max_events", max_events)
-    accumulation = Accumulation(_v.positive("zeno_tol", zeno_tol))
-    graze_tol = _v.positive("graze_tol", graze_tol)
     y = check_state(system, state0) + [0.0] * len(system.integrals)
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
     if until is not None:
         switch.stop_after(*until)
-    loop = _Piecewise(system, switch, {})
-    n = system.dimension
-    t, current = t0, switch.initial_mode(mode, t0, y)
-    switch.pieces.append((t, current, tuple(y)))
-    status, message, estimate = 0, "", None
-
-    def transition(g: int, t: float, y: list, current: int):
-        return switch.transition(g, current, t, y)
-
-    quiet = -1
+    run = _Loop(system, switch, options, _v.positive("zeno_tol", zeno_tol), _v.positive("graze_tol", graze_tol))
+    run.t, run.y, run.mode = t0, y, switch.initial_mode(mode, t0, y)
+    switch.pieces.append((t0, run.mode, tuple(y)))
     try:
-        g = switch.pending(current, t, y)
+        g = switch.pending(run.mode, t0, y)
         if g >= 0:
-            current, y = transition(g, t, y, current)
-        while status == 0:
-            fns, what = loop.events(current, quiet)
-            sol = solve_ivp(loop.field(current), (t, t_end), y, method=method, rtol=rtol, atol=atol, events=fns)
-            if sol.status == -1:
-                status = -1
-                message = (f"solve_ivp failed at t={float(sol.t[-1])!r} in mode {system.mode_names[current]!r}: "
-                           f"{sol.message}")
-                t, y = float(sol.t[-1]), sol.y[:, -1].tolist()
-                break
-            t, y = float(sol.t[-1]), sol.y[:, -1].tolist()
-            if sol.status == 0:
-                t = t_end
-                break
-            fired = [i for i, te in enumerate(sol.t_events) if len(te)]
-            i = fired[0]
-            y = sol.y_events[i][0].tolist()
-            t = float(sol.t_events[i][0])
-            g, extremum = what[i]
-            quiet = -1
-            if extremum:
-                h = switch.guard_value(g, t, y)
-                d = switch.direction[g]
-                t_start, _, y_start = switch.pieces[-1]
-                at_start = t - t_start <= 16.0 * 2.0**-52 * (1.0 + abs(t))  # the extremum the piece starts at
-                if d * h > 0.0 and -d * switch.guard_value(g, t_start, list(y_start)) >= 0.0:
-                    # the guard went past zero and back within a step: its first root lies
-                    # between the piece start and this extremum
-                    t, y = _first_root(loop, switch, current, g, t_start, list(y_start), t, method, rtol, atol)
-                    current, y = transition(g, t, y, current)
-                else:
-                    quiet = g
-                    if not at_start and abs(h) <= graze_tol * (1.0 + max(abs(c) for c in y[:n])):
-                        switch.events.append((t, g, GRAZING, current, current, tuple(y), tuple(y)))
-                    switch.pieces.append((t, current, tuple(y)))
-            elif not switch.terminal[g]:
-                switch.events.append((t, g, MARKER, current, current, tuple(y), tuple(y)))
-                switch.pieces.append((t, current, tuple(y)))
-                switch.count(g)
-            else:
-                current, y = transition(g, t, y, current)
-                estimate = accumulation.add(t)
-                if estimate is not None:
-                    status = 2
-                    message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at t={t!r}, "
-                               f"the accumulation time is estimated at {estimate!r}.")
+            run.mode, run.y = switch.transition(g, run.mode, t0, y)
+        while run.status == 0 and run.piece(t_end):
             if switch.done:
-                message = switch.done_message()
+                run.message = switch.done_message()
                 break
-            if status == 0 and len(switch.events) >= max_events:
-                status = 1
-                message = f"The event limit max_events={max_events} was reached at t={t!r}; results are kept."
+            if run.status == 0 and len(switch.events) >= max_events:
+                run.status = 1
+                run.message = f"The event limit max_events={max_events} was reached at t={run.t!r}; results are kept."
     except InstantAccumulation as exc:
-        status, estimate, message = 2, t, str(exc)
+        run.status, run.estimate, run.message = 2, run.t, str(exc)
     except RuntimeError as exc:
-        status, message = -1, str(exc)
-    evaluate = _Dense(system, method, rtol, atol)
-    return HybridSolution(system, "scipy", t_end, t, status, message or STATUS_MESSAGES[status], switch.events,
-                          switch.pieces, y, current, evaluate, estimate)
+        run.status, run.message = -1, str(exc)
+    return HybridSolution(system, "scipy", t_end, run.t, run.status, run.message or STATUS_MESSAGES[run.status],
+                          switch.events, switch.pieces, run.y, run.mode, _Dense(system, method, rtol, atol),
+                          run.estimate)
