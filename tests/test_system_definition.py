@@ -21,6 +21,11 @@ def test_definition_reads_back():
     assert sys.dimension == 2 and sys.parameter_names == ("g", "e") and sys.mode_names == ("flight",)
     assert sys.with_parameters(e=0.5).parameter_values == (9.81, 0.5)
     assert sys.with_parameters(e=0.5).structure == sys.structure
+    assert sys.period_value() is None
+    w = symbols("w")
+    forced = HybridSystem("x v", {"w": 2.0}, [HybridMode("m", {x: v, v: -x})], period=2 * 3.141592653589793 / w)
+    assert forced.period_value() == pytest.approx(3.141592653589793, rel=1e-15)
+    assert forced.modes[0].field[1] is not None and len(forced.modes[0].field) == 2
     assert impactosc.HybridSystem is HybridSystem
 
 

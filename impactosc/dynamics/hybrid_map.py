@@ -180,15 +180,8 @@ class HybridMap:
         self.mode = mode
         self.t0 = float(t0)
         self.tol = tol
-        import heyoka as hy
-
-        num = numeric(system)
-        from ..model.hybrid._numeric import evaluator
-
         if self.section is None:
-            period = num.with_params(system.period)
-            self._period = evaluator(num, [period] + [hy.diff(period, hy.par[k]) for k in range(num.n_params)],
-                                     "the period")
+            self._period = numeric(system).period_function()
 
     def values(self) -> tuple:
         """The map's parameters' values in the system."""

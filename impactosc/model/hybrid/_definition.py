@@ -243,6 +243,8 @@ class HybridSystem:
     parameters : mapping str -> float, optional
         The parameters and their values; the expressions use them as symbols of the same name.
     modes : sequence of HybridMode
+        Their fields are completed at construction: a tuple of rates in the order of the
+        states, then of the integrals (0 where a mode gives no integrand).
     guards : sequence of Guard
     integrals : str or sequence of str, optional
         Names of integrals (a contact force's impulse, a dissipated energy), each integrated
@@ -344,10 +346,6 @@ class HybridSystem:
         except ValueError:
             raise ValueError(f"{self.name}: no mode named {name!r}; the modes are {list(self.mode_names)}") from None
 
-    def rates(self, mode: HybridMode) -> tuple:
-        """The vector field of ``mode`` as a tuple of expressions, one per state, then one per integral."""
-        return mode.field
-
     def with_parameters(self, **values: float) -> HybridSystem:
         """A copy with new parameter values (the same structure: compiled code is reused).
 
@@ -373,19 +371,14 @@ class HybridSystem:
         """The forcing period at the current parameter values (None when there is none)."""
         if self.period is None:
             return None
-        hy = _hy()
-        subs = {k: hy.expression(v) for k, v in self.parameters}
-        value = hy.cfunc([hy.subs(self.period, subs)], [])(_empty())[0]
+        from ._numeric import numeric
+
+        num = numeric(self)
+        value = num.period_function()(0.0, [0.0] * len(num.states), self.parameter_values)[0]
         if not (math.isfinite(value) and value > 0.0):
             raise ValueError(f"{self.name}: the period {self.period} is {value!r} at the parameters "
                              f"{dict(self.parameters)}; it must be finite and > 0")
         return float(value)
-
-
-def _empty():
-    import numpy as np
-
-    return np.zeros(0)
 
 
 def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:

@@ -63,6 +63,7 @@ class Numeric:
         self.system = system
         self.rules: Rules | None = None  # the per-event functions, built on first use
         self.second: dict = {}  # (mode, guard) -> the guard's second Lie derivative, built on first use
+        self._period = None
         names = list(system.states) + list(system.integrals)
         self.states = list(hy.make_vars(*names)) if len(names) > 1 else [hy.make_vars(*names)]
         self.n_params = len(system.parameters)
@@ -102,6 +103,16 @@ class Numeric:
         out = [hy.diff(timed, str(var)) for var in self.states] + [hy.diff(timed, _TIME_VAR)]
         out += [hy.diff(timed, hy.par[k]) for k in range(self.n_params)]
         return [hy.subs(e, {_TIME_VAR: hy.time}) for e in out]
+
+    def period_function(self):
+        """``f(t, y, p) -> (T, dT/dp_1, ..., dT/dp_P)`` of the system's forcing period (built on first use)."""
+        import heyoka as hy
+
+        if self._period is None:
+            period = self.with_params(self.system.period)
+            exprs = [period] + [hy.diff(period, hy.par[k]) for k in range(self.n_params)]
+            self._period = evaluator(self, exprs, "the period")
+        return self._period
 
     def with_params(self, expr):
         """``expr`` (in the named parameters) with the parameters as ``par[i]``."""
