@@ -76,3 +76,13 @@ def test_examples_in_the_docstrings_run(module):
 
     result = doctest.testmod(importlib.import_module(module))
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_a_period_or_a_section_is_part_of_the_structure():
+    """Systems that differ only in their period share no compiled code (the period's function was missing)."""
+    w = symbols("w")
+    plain = HybridSystem("x v", {"w": 2.0}, [HybridMode("m", {x: v, v: -x})], name="plain")
+    impactosc.simulate(plain, 1.0, [1.0, 0.0])
+    forced = HybridSystem("x v", {"w": 2.0}, [HybridMode("m", {x: v, v: -x})], period=6.0 / w, name="forced")
+    assert forced.structure != plain.structure
+    assert forced.period_value() == pytest.approx(3.0, rel=1e-15)

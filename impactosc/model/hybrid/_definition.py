@@ -396,7 +396,8 @@ def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:
 
 def _structure(system: HybridSystem) -> str:
     """Everything a backend compiles, as text: the key of its cache (parameter values left out)."""
-    parts = [f"states={system.states}", f"integrals={system.integrals}", f"params={system.parameter_names}"]
+    parts = [f"states={system.states}", f"integrals={system.integrals}", f"params={system.parameter_names}",
+             f"period={system.period}", f"section={system.section}"]
     for m in system.modes:
         parts.append(f"mode {m.name}: {[str(f) for f in m.field]} entry {[str(c) for c in m.entry]}")
     for g in system.guards:
