@@ -106,6 +106,8 @@ def test_bad_map_arguments_are_named():
     with pytest.raises(ValueError, match="'q' is not a parameter"):
         HybridMap(impact_oscillator(), names=["q"])
     assert "2 finite numbers" in HybridMap(impact_oscillator()).evaluate([0.0]).failure
+    narrowed = HybridMap(impact_oscillator(), 2).with_names(["e"])
+    assert narrowed.names == ("e",) and narrowed.n == 2 and narrowed.evaluate([0.1, 0.3]).dp.shape == (2, 1)
 
 
 def relay(section="switch on"):

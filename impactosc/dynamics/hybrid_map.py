@@ -183,6 +183,16 @@ class HybridMap:
         if self.section is None:
             self._period = numeric(system).period_function()
 
+    @property
+    def n(self) -> int:
+        """Forcing periods (or section returns) per map, as the continuation's map problem names it."""
+        return self.iterates
+
+    def with_names(self, names) -> HybridMap:
+        """The same map with other free parameters."""
+        return HybridMap(self.system, self.iterates, names=names, mode=self.mode, t0=self.t0, tol=self.tol,
+                         max_time=self.max_time)
+
     def values(self) -> tuple:
         """The map's parameters' values in the system."""
         current = dict(self.system.parameters)
