@@ -16,10 +16,12 @@ cannot reproduce uses the compiled function.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._definition import HybridSystem
+if TYPE_CHECKING:  # annotations only: the definition imports this module for its period
+    from ._definition import HybridSystem
 
 __all__ = ["Numeric", "numeric", "evaluator", "Rules", "rules", "gated_sum"]
 
