@@ -26,10 +26,12 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from .backends import simulate
     from .engine import EVENT_KINDS, Mode
     from .model import Oscillator, TapeDrive
+    from .model.hybrid import Guard, HybridMode, HybridSystem, stick_slip, symbols
     from .results import Solution
     from .sweeps import load_sweep, sweep
 
-__all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS"]
+__all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
+           "HybridSystem", "HybridMode", "Guard", "symbols", "stick_slip"]
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -41,6 +43,11 @@ _LAZY = {
     "Solution": "results",
     "Mode": "engine",
     "EVENT_KINDS": "engine",
+    "HybridSystem": "model.hybrid",
+    "HybridMode": "model.hybrid",
+    "Guard": "model.hybrid",
+    "symbols": "model.hybrid",
+    "stick_slip": "model.hybrid",
 }
 _SUBPACKAGES = ("dynamics", "signal")
 

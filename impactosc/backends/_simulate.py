@@ -45,6 +45,10 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
              max_events: int = DEFAULT_MAX_EVENTS, sample_at=None, **options) -> Solution:
     """Integrate the impact oscillator event by event from ``(x0, v0)`` at ``Lambda = 0``.
 
+    ``simulate(system, t_end, state0, backend=..., **options)`` runs a user's
+    :class:`~impactosc.HybridSystem` instead (see ``impactosc.backends._hybrid.simulate_system``
+    for its options) and returns a :class:`~impactosc.results._hybrid.HybridSolution`.
+
     Parameters
     ----------
     osc : Oscillator
@@ -101,6 +105,11 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
         and the next run works normally. To bound a run and keep what it computed, use
         ``max_events`` or heyoka's ``max_wall_time``.
     """
+    if type(osc).__name__ == "HybridSystem":  # a user's system (checked by name: no heyoka import for the rest)
+        from ._hybrid import simulate_system
+
+        return simulate_system(osc, t_end, x0, v0, backend=backend, record=record, max_events=max_events,
+                               sample_at=sample_at, **options)
     get_backend(backend)  # an unknown name fails first
     osc, t_end, x0, v0, max_events = check_run_arguments(osc, t_end, x0, v0, max_events)
     _v.choice("record", record, RECORD_OPTIONS)

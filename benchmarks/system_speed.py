@@ -1,0 +1,116 @@
+"""Speed of user hybrid systems: the paper's eq. 3 written as a HybridSystem against the built-in paths.
+
+Run: ``.venv/bin/python benchmarks/system_speed.py [--quick]``. Prints a markdown table.
+On the contact case (``F=0.5, Omega=1.1, beta=0.01, K=1e4``, ``t_end=400``, 328 events), side by
+side in one run (interleaved repeats, medians): the user system on its heyoka loop
+(``impactosc.model.hybrid.oscillator_system``), the built-in heyoka path, the compiled RK4 at its
+default step, and the user system on the scipy loop (the cross-check, a few repeats).
+Targets: the user system within 1.5x of the built-in heyoka path per event; its ratio to the RK4.
+A fourth row runs the user system's compiled integrator with callbacks that only switch the
+mode (no resets, records or checks): the loop's Python cost per event is the difference.
+The compile of the user system's integrator is timed once (cold, in this process).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import impactosc as io
+from impactosc.backends._hybrid_heyoka import compiled
+from impactosc.model.hybrid import oscillator_system
+from impactosc.model.hybrid._numeric import numeric
+
+CONTACT = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
+T_END = 400.0
+
+
+def raw_run(system, comp):
+    """The user system's compiled integrator with the loop's Python stripped to the mode switch.
+
+    The callbacks of the cached integrator are pointed at a stand-in run whose ``crossing``
+    only moves the indicator to the guard's last candidate mode (no reset, records, chained
+    guards, accumulation check) and whose ``extremum`` does nothing: the cost of the
+    integration itself and of heyoka calling back into Python at each event.
+    """
+    num = numeric(system)
+    P = comp.P
+    last = [system.mode_index(g.to[-1]) if g.to else -1 for g in system.guards]
+
+    class Stand:
+        mode = 0
+        events = 0
+
+        def crossing(self, ta, g):
+            target = last[g]
+            if target >= 0:
+                pars = comp.pars
+                pars[P + self.mode] = 0.0
+                pars[P + target] = 1.0
+                self.mode = target
+            self.events += 1
+            return True
+
+        def extremum(self, ta, guards):
+            return True
+
+    stand = Stand()
+    mode0 = system.mode_index("free-")
+    stand.mode = mode0
+    comp.holder.run = stand
+    comp.load(system.parameter_values, mode0, 1.0)
+    comp.ta.time = 0.0
+    comp.ta.state[:] = [0.95, 0.0] + [0.0] * (len(num.states) - 2)
+    comp.ta.reset_cooldowns()
+    comp.ta.propagate_until(T_END)
+    comp.holder.run = None
+    return stand.events
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="few repeats (smoke test)")
+    args = ap.parse_args(argv)
+    reps = 3 if args.quick else 25
+    system = oscillator_system(CONTACT)
+    t = time.perf_counter()
+    compiled(system)
+    compile_s = time.perf_counter() - t
+    comp = compiled(system)
+    cases = {
+        "user system (heyoka loop)": lambda: io.simulate(system, T_END, [0.95, 0.0]),
+        "user system's integrator, raw callbacks": lambda: raw_run(system, comp),
+        "built-in heyoka path": lambda: io.simulate(CONTACT, T_END),
+        "built-in compiled RK4 (default dt)": lambda: io.simulate(CONTACT, T_END, backend="rk4"),
+    }
+    events = {}
+    for name, fn in cases.items():  # warm-up: compiles, caches
+        out = fn()
+        events[name] = out if isinstance(out, int) else len(out.events)
+    times: dict[str, list[float]] = {name: [] for name in cases}
+    for _ in range(reps):  # interleaved, so that a busy machine slows every case alike
+        for name, fn in cases.items():
+            t = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t)
+    t = time.perf_counter()
+    scipy_sol = io.simulate(system, T_END, [0.95, 0.0], backend="scipy")
+    scipy_s = time.perf_counter() - t
+
+    med = {name: statistics.median(ts) for name, ts in times.items()}
+    builtin, rk4 = med["built-in heyoka path"], med["built-in compiled RK4 (default dt)"]
+    print(f"user system integrator compile (cold, tol=eps): {compile_s:.2f} s; repeats: {reps}\n")
+    print("| case | events | median [ms] | best [ms] | per event [us] | / built-in heyoka | RK4 / case |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for name in cases:
+        m, n = med[name], events[name]
+        print(f"| {name} | {n} | {m * 1e3:.2f} | {min(times[name]) * 1e3:.2f} | {m / n * 1e6:.1f} | "
+              f"{m / builtin:.2f} | {rk4 / m:.1f} |")
+    print(f"| user system (scipy loop, 1 run) | {len(scipy_sol.events)} | {scipy_s * 1e3:.1f} | | "
+          f"{scipy_s / len(scipy_sol.events) * 1e6:.0f} | {scipy_s / builtin:.0f} | {rk4 / scipy_s:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

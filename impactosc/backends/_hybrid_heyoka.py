@@ -1,0 +1,468 @@
+"""The heyoka event loop for user hybrid systems: one compiled integrator per system, transitions in callbacks.
+
+The integrator
+--------------
+One ``taylor_adaptive`` per system structure and tolerance (cached, reused across runs and
+parameter values). Its runtime parameters are the system's parameters, one indicator per
+mode and one switch ``on`` for the events::
+
+    pars = [p_1 .. p_P, [mode == 1] .. [mode == M], on]
+    y'   = sum_m [mode == m] f_m(y, t; p)          (modes with the same rate share its term)
+
+Every guard ``h`` is a terminal event ``a h + (1 - a)`` gated by ``a = on * sum of the
+indicators of the modes that arm it`` (the constant 1, which has no root, where it is not
+armed), filtered by its direction, so heyoka locates it on each step's Taylor polynomial.
+A guard's extrema are where its Lie derivative ``h' = dh/dt + grad h . f`` vanishes; that
+derivative, gated the same way, is a second terminal event (minima for a guard that fires
+falling, maxima for one that fires rising): at each the guard's value is checked, so a
+guard that touches zero without changing sign (a grazing) is recorded, and one that went
+past zero and back without a located root (a double root lost to rounding) is applied at
+its first root, found on the piece again (:func:`_first_root`).
+
+Events are shared: guards and extremum checks with the same expression and direction are
+one event whatever the modes, and events armed in disjoint sets of modes are merged into
+one whose expression is the active mode's (a gated sum, like the vector field). A step
+then isolates the roots of a few polynomials (eq. 3 with friction and two spring flanges:
+4 events for its 16 guards and their extremum checks), and the callback dispatches on the mode.
+
+The loop
+--------
+The whole run is one ``propagate_until``: each terminal event's callback applies the
+transition (the engine's :class:`~impactosc.engine._hybrid.Switch`: reset, entry
+conditions, a guard the new state lies on), writes the new state and two indicators, and
+records the event, in a few microseconds of Python per event. A callback that returns
+False stops the run: the event limit, an accumulation of events, a failed transition.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from .._util import validation as _v
+from .._util.notice import notice
+from ..engine._hybrid import (
+    GRAZING,
+    MARKER,
+    Accumulation,
+    InstantAccumulation,
+    Switch,
+    check_state,
+)
+from ..model.hybrid._definition import HybridSystem
+from ..model.hybrid._numeric import Numeric, gated_sum, numeric
+from ..results._hybrid import STATUS_MESSAGES, HybridSolution
+
+__all__ = ["run_system", "compiled", "CompiledSystem"]
+
+DEFAULT_TOL = 2.0**-52
+#: The usable tolerances (those of the built-in heyoka backend: below eps nothing improves while
+#: the Taylor order and the compile time grow; above 1e-2 events are off by more than 1e-3).
+MIN_TOL, MAX_TOL = 1e-18, 1e-2
+#: How long (in the system's time unit) an event is ignored after it fired: longer than the
+#: rounding roots a reset leaves next to the surface (a ball bounced off ``x = 0`` restarts at
+#: ``x ~ 1e-17``: a spurious root ``1e-17 / v`` later, which also defeats heyoka's polynomial
+#: root isolation), far shorter than the intervals of an accumulation when it is declared
+#: (``zeno_tol``). heyoka's automatic cooldown is not used: it grows like ``1 / |h'|`` and, at
+#: the double root of a release from sticking, hid the next genuine stop for seconds.
+DEFAULT_COOLDOWN = 1e-12
+
+
+class _Holder:
+    """The run that the callbacks of a cached integrator serve (one at a time per thread's integrator)."""
+
+    __slots__ = ("run",)
+
+    def __init__(self):
+        self.run = None
+
+
+class _Callback:
+    """The callback of one heyoka event (a slot): the guard crossing and the extremum checks it stands for.
+
+    ``cross[mode]`` is the guard that crosses when the slot's expression has its root in
+    ``mode``; ``extrema[mode]`` the guards whose extremum it is there (their values are
+    checked first). heyoka copies callbacks deeply; ``__deepcopy__`` returns the object
+    itself so that every copy reaches the same holder.
+    """
+
+    __slots__ = ("holder", "cross", "extrema")
+
+    def __init__(self, holder: _Holder):
+        self.holder = holder
+        self.cross: dict[int, int] = {}
+        self.extrema: dict[int, list[int]] = {}
+
+    def __deepcopy__(self, memo):
+        return self
+
+    def __call__(self, ta, d_sgn) -> bool:
+        run = self.holder.run
+        mode = run.mode
+        checks = self.extrema.get(mode)
+        if checks is not None and not run.extremum(ta, checks):
+            return False
+        g = self.cross.get(mode, -1)
+        if g < 0 or run.mode != mode:
+            return True
+        return run.crossing(ta, g)
+
+
+class CompiledSystem:
+    """The cached integrator of one system structure and tolerance, and what the loop reads from it."""
+
+    def __init__(self, system: HybridSystem, tol: float, cooldown: float = 0.0):
+        import heyoka as hy
+
+        num: Numeric = numeric(system)
+        self.num = num
+        P, M = num.n_params, len(system.modes)
+        self.P, self.M = P, M
+        ind = [hy.par[P + m] for m in range(M)]
+        n_all = len(num.states)
+        rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
+        self.holder = _Holder()
+        events = _events(system, num, ind, hy.par[P + M], self.holder, cooldown)
+        # pars left out: heyoka sizes them to the highest index the expressions use (see load)
+        self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all, t_events=events,
+                                     tol=tol, compact_mode=False)
+        self.has_events = bool(events)
+        self.pars = self.ta.pars
+        self.state = self.ta.state
+        self.lock = threading.Lock()
+
+    def load(self, params, mode: int, on: float) -> None:
+        """The parameters, ``mode``'s indicator and the events' switch (indices the expressions do not use
+        are not in heyoka's vector: a parameter used nowhere, a mode with no rate and no guard, no guards)."""
+        pars = self.pars
+        size = len(pars)
+        pars[:] = 0.0
+        used = min(self.P, size)
+        pars[:used] = params[:used]
+        for index, value in ((self.P + mode, 1.0), (self.P + self.M, on)):
+            if index < size:
+                pars[index] = value
+
+
+def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldown: float) -> list:
+    """The heyoka events of every guard and extremum check, shared as the module docstring says."""
+    import heyoka as hy
+
+    # One slot per distinct (expression, direction): the guards that share it in different
+    # modes, and the extremum checks whose Lie derivative it is.
+    slots: dict[tuple[str, int], tuple] = {}
+
+    def slot(expr, d):
+        key = (str(expr), d)
+        if key not in slots:
+            slots[key] = (expr, d, set(), _Callback(holder))
+        return slots[key]
+
+    for g, guard in enumerate(system.guards):
+        d = guard.direction
+        for m in num.armed[g]:
+            _, _, modes, cb = slot(num.guards[g], d)
+            modes.add(m)
+            cb.cross[m] = g
+            lie = num.lie[(m, g)]
+            if not guard.terminal or (not hy.get_variables(lie) and "t" not in _words(str(lie))):
+                continue  # a marker, or a constant rate: no extremum to check
+            # the extrema that can touch zero from the side the guard fires from
+            _, _, modes, cb = slot(lie, -d)
+            modes.add(m)
+            cb.extrema.setdefault(m, []).append(g)
+    # Slots armed in disjoint sets of modes share one event: its expression is the active
+    # mode's (a gated sum, like the vector field), so a step isolates the roots of a few
+    # polynomials, not one per guard (eq. 3: 20 slots in 4 events).
+    bins: list[tuple[int, set, list]] = []  # (direction, modes, slots)
+    for expr, d, modes, cb in slots.values():
+        for b_d, b_modes, b_slots in bins:
+            if b_d == d and not (b_modes & modes):
+                b_modes.update(modes)
+                b_slots.append((expr, modes, cb))
+                break
+        else:
+            bins.append((d, set(modes), [(expr, modes, cb)]))
+    direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative, 0: hy.event_direction.any}
+    events = []
+    for d, modes, members in bins:
+        merged = _Callback(holder)
+        terms = []
+        for expr, ms, cb in members:
+            merged.cross.update(cb.cross)
+            merged.extrema.update(cb.extrema)
+            terms.append(_indicator(sorted(ms), ind) * expr)
+        armed = on * _indicator(sorted(modes), ind)
+        value = on * (terms[0] if len(terms) == 1 else hy.sum(terms))
+        events.append(hy.t_event(value + (1.0 - armed), direction=direction[d], callback=merged, cooldown=cooldown))
+    return events
+
+
+def _indicator(modes: list[int], ind):
+    """``sum of [mode == m]`` over ``modes``: 1 in those modes, 0 elsewhere."""
+    import heyoka as hy
+
+    return ind[modes[0]] if len(modes) == 1 else hy.sum([ind[m] for m in modes])
+
+
+def _words(text: str) -> set[str]:
+    return set(text.replace("(", " ").replace(")", " ").replace(",", " ").split())
+
+
+_cache: dict[tuple[str, float, float], CompiledSystem] = {}
+_cache_lock = threading.Lock()
+
+
+def compiled(system: HybridSystem, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN) -> CompiledSystem:
+    """The :class:`CompiledSystem` of ``system`` at ``tol`` (compiled once per structure and tolerance)."""
+    key = (system.structure, tol, cooldown)
+    found = _cache.get(key)
+    if found is None:
+        with _cache_lock:
+            found = _cache.get(key)
+            if found is None:
+                notice(f"hybrid-compile:{hash(key)}",
+                       f"impactosc: heyoka is compiling the integrator of the system {system.name!r} "
+                       f"(tol={tol:g}); this process compiles it once and reuses it for every run and parameter value")
+                found = _cache[key] = CompiledSystem(system, tol, cooldown)
+    return found
+
+
+class _Run:
+    """One run's state as the callbacks see it."""
+
+    def __init__(self, comp: CompiledSystem, switch: Switch, mode: int, max_events: int, zeno_tol: float,
+                 graze_tol: float):
+        self.comp = comp
+        self.switch = switch
+        self.mode = mode
+        self.max_events = max_events
+        self.accumulation = Accumulation(zeno_tol)
+        self.graze_tol = graze_tol
+        self.status = 0
+        self.message = ""
+        self.accumulation_time: float | None = None
+        self.P = comp.P
+        self.n = switch.n
+        self.missed: tuple[int, float] | None = None  # (guard, time of the extremum past its zero)
+        self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
+
+    def transition(self, g: int, t: float, y: list) -> list:
+        """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
+
+        Raises the errors of :meth:`Switch.transition`.
+        """
+        mode, y = self.switch.transition(g, self.mode, t, y)
+        pars = self.comp.pars
+        pars[self.P + self.mode] = 0.0
+        pars[self.P + mode] = 1.0
+        self.mode = mode
+        return y
+
+    def crossing(self, ta, g: int) -> bool:
+        t = ta.time
+        state = ta.state
+        y = state.tolist()
+        switch = self.switch
+        if not switch.terminal[g]:
+            switch.events.append((t, g, MARKER, self.mode, self.mode, tuple(y), tuple(y)))
+            return not switch.count(g) and self._go_on(t)
+        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, self.mode, t, y):
+            return True  # a rounding root at the start of the piece (see Switch.leaves)
+        try:
+            after = self.transition(g, t, y)
+        except InstantAccumulation as exc:
+            self.status, self.message, self.accumulation_time = 2, str(exc), t
+            return False
+        except RuntimeError as exc:
+            self.status, self.message = -1, str(exc)
+            return False
+        if after != y:
+            state[:] = after
+        if switch.done:
+            return False  # the event the run was to end after (until=...)
+        estimate = self.accumulation.add(t)
+        if estimate is not None:
+            self.status = 2
+            self.accumulation_time = estimate
+            self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at t={t!r}, "
+                            f"the accumulation time is estimated at {estimate!r}.")
+            return False
+        return self._go_on(t)
+
+    def _go_on(self, t: float) -> bool:
+        if len(self.switch.events) >= self.max_events:
+            self.status = 1
+            self.message = f"The event limit max_events={self.max_events} was reached at t={t!r}; results are kept."
+            return False
+        return True
+
+    def extremum(self, ta, guards) -> bool:
+        """Check the values of ``guards`` at one of their extrema: a grazing, or a crossing lost to rounding."""
+        t = ta.time
+        y = ta.state.tolist()
+        switch = self.switch
+        for g in guards:
+            h = switch.guard_value(g, t, y)
+            d = switch.direction[g]
+            if d * h > 0.0 and self._started_before(g):
+                # Past zero and back within a step, its roots not located (rounding): stop the
+                # propagation; the loop applies the guard at its first root (see _first_root).
+                self.missed = (g, t)
+                return False
+            if abs(h) <= self.graze_tol * (1.0 + max(abs(c) for c in y[:self.n])):
+                switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
+                if not self._go_on(t):
+                    return False
+        return True
+
+    def _started_before(self, g: int) -> bool:
+        """Whether the guard was on the side it fires from at the start of the current piece."""
+        t0, mode, y0 = self.switch.pieces[-1]
+        return -self.switch.direction[g] * self.switch.guard_value(g, t0, list(y0)) >= 0.0
+
+
+def check_tol(tol) -> float:
+    """``tol`` as a float in ``[MIN_TOL, MAX_TOL]``, or an error naming it."""
+    tol = _v.real("tol", tol)
+    if not MIN_TOL <= tol <= MAX_TOL:
+        raise ValueError(f"tol must be in [{MIN_TOL!r}, {MAX_TOL!r}] for the heyoka loop, got {tol!r}: below about "
+                         "machine epsilon a double-precision run gains nothing while the Taylor order and the compile "
+                         "time grow; above 1e-2 event times are off by more than 1e-3")
+    return tol
+
+
+def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
+               max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
+               zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
+               until: tuple[str, int] | None = None) -> HybridSolution:
+    """Run ``system`` with heyoka from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
+    t0 = _v.real("t0", t0)
+    t_end = _v.real("t_end", t_end)
+    if not t_end > t0:
+        raise ValueError(f"t_end must be > t0={t0!r}, got {t_end!r}")
+    tol = check_tol(tol)
+    max_events = _v.integer("max_events", max_events)
+    zeno_tol = _v.positive("zeno_tol", zeno_tol)
+    y0 = check_state(system, state0) + [0.0] * len(system.integrals)
+    cooldown = _v.nonnegative("cooldown", cooldown)
+    comp = compiled(system, tol, cooldown)
+    switch = Switch(system, _v.positive("touch_tol", touch_tol))
+    if until is not None:
+        switch.stop_after(*until)
+    mode0 = switch.initial_mode(mode, t0, y0)
+    with comp.lock:
+        run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
+        comp.holder.run = run
+        try:
+            _propagate(run, comp, t0, y0, t_end)
+        finally:
+            comp.holder.run = None
+        ta = comp.ta
+        t_final = ta.time if run.status or switch.done else t_end
+        state_final = ta.state.copy()
+    return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
+                          switch.events, switch.pieces, state_final, run.mode, _Dense(system, tol, cooldown),
+                          run.accumulation_time)
+
+
+def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float) -> None:
+    """The run from ``(t0, y0)``: the transitions at the start, then one ``propagate_until`` (more after a
+    lost root); its end is in ``run.status``/``run.message`` and the integrator's time and state."""
+    import heyoka as hy
+
+    ta, switch = comp.ta, run.switch
+    comp.load(switch.system.parameter_values, run.mode, 1.0)
+    ta.time = t0
+    ta.state[:] = y0
+    switch.pieces.append((t0, run.mode, tuple(y0)))
+    try:
+        g = switch.pending(run.mode, t0, y0)
+        ta.state[:] = run.transition(g, t0, y0) if g >= 0 else y0
+        if comp.has_events:
+            ta.reset_cooldowns()
+        while True:
+            outcome = ta.propagate_until(t_end)[0]
+            if run.missed is None or run.status or switch.done:
+                break
+            g, t_past = run.missed
+            run.missed = None
+            t_root, y_root = _first_root(comp, run, g, t_past)
+            ta.time = t_root
+            ta.state[:] = run.transition(g, t_root, y_root)
+    except InstantAccumulation as exc:
+        run.status, run.message, run.accumulation_time = 2, str(exc), ta.time
+        return
+    except Exception as exc:  # no admissible mode, a callback's error or heyoka's: keep what was computed
+        if run.status == 0:
+            run.status = -1
+            run.message = str(exc) if type(exc) is RuntimeError else f"{type(exc).__name__}: {exc}"
+        return
+    if switch.done and run.status == 0:
+        run.message = switch.done_message()
+    elif run.status == 0 and outcome != hy.taylor_outcome.time_limit:
+        # not a callback's stop: a non-finite state (err_nf_state) or another failure
+        run.status = -1
+        run.message = f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode {switch.system.mode_names[run.mode]!r}"
+
+
+def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list]:
+    """The first root of guard ``g`` between the current piece's start and ``t1`` (Brent's method).
+
+    The guard's value at ``t`` comes from a copy of the integrator, events off, propagated
+    from the piece start: a rare path (a double root that the Taylor polynomial's root
+    isolation lost), so its cost does not matter.
+    """
+    from copy import copy
+
+    from scipy.optimize import brentq
+
+    t0, mode, y0 = run.switch.pieces[-1]
+    ta = copy(comp.ta)
+    ta.pars[comp.P + comp.M] = 0.0  # events off
+
+    def state(s: float) -> list:
+        ta.time = t0
+        ta.state[:] = y0
+        if s > t0:
+            ta.propagate_until(s)
+        return ta.state.tolist()
+
+    def h(s: float) -> float:
+        return run.switch.guard_value(g, s, state(s))
+
+    start = t0 if h(t0) != 0.0 else t0 + 1e-3 * (t1 - t0)
+    root = float(brentq(h, start, t1, xtol=4.0 * 2.0**-52 * (1.0 + abs(t1)), rtol=4.0 * 2.0**-52))
+    return root, state(root)
+
+
+class _Dense:
+    """Dense output of a run: a piece integrated again, events off (picklable: the integrator is looked up)."""
+
+    def __init__(self, system: HybridSystem, tol: float, cooldown: float):
+        self.system, self.tol, self.cooldown = system, tol, cooldown
+
+    def __call__(self, mode: int, t_start: float, state, times) -> np.ndarray:
+        return _dense(self.system, self.tol, self.cooldown, self.system.parameter_values, mode, t_start, state,
+                      times)
+
+
+def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,
+           times) -> np.ndarray:
+    """The states at ``times`` (not before ``t_start``) in ``mode`` from ``state``, events off."""
+    comp = compiled(system, tol, cooldown)
+    times = np.asarray(times, dtype=float)
+    grid, where = np.unique(times, return_inverse=True)
+    out = np.empty((grid.size, len(state)))
+    with comp.lock:
+        comp.load(params, mode, 0.0)
+        ta = comp.ta
+        ta.time = t_start
+        ta.state[:] = state
+        later = grid > t_start
+        out[~later] = state
+        if later.any():
+            res = ta.propagate_grid(np.concatenate(([t_start], grid[later])))
+            out[later] = np.asarray(res[-1])[1:]
+    return out[where.reshape(-1)]

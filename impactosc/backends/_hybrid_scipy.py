@@ -1,0 +1,199 @@
+"""The scipy event loop for user hybrid systems: one ``solve_ivp`` per smooth piece, the cross-check.
+
+The same definition as the heyoka loop, turned into numeric functions (the vector fields,
+guards and Lie derivatives of :mod:`impactosc.model.hybrid._numeric`), and the same
+transitions (:class:`~impactosc.engine._hybrid.Switch`). Each piece is one ``solve_ivp``
+in a fixed mode with every armed guard as a terminal event in its direction, and the
+guard's Lie derivative as a terminal event at the extrema that can touch zero: there
+the guard's value is checked, as in the heyoka loop. After an extremum of a guard, that
+guard's extremum events are off until the next event (scipy would find the same zero again
+at the restart).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._util import validation as _v
+from ..engine._hybrid import GRAZING, MARKER, Accumulation, InstantAccumulation, Switch, check_state
+from ..model.hybrid._definition import HybridSystem
+from ..model.hybrid._numeric import rules
+from ..results._hybrid import STATUS_MESSAGES, HybridSolution
+
+__all__ = ["run_system"]
+
+
+def _event(fn, index: int, direction: int):
+    def event(t, y):
+        return fn(t, y, None)[index]
+
+    event.terminal = True  # type: ignore[attr-defined]
+    event.direction = direction  # type: ignore[attr-defined]
+    return event
+
+
+class _Loop:
+    """The scipy loop's state: where the run is, and what it has found."""
+
+    def __init__(self, system: HybridSystem, switch: Switch, options: dict, zeno_tol: float, graze_tol: float):
+        self.system = system
+        self.switch = switch
+        self.p = system.parameter_values
+        self.options = options
+        self.accumulation = Accumulation(zeno_tol)
+        self.graze_tol = graze_tol
+        self.t, self.mode = 0.0, 0
+        self.y: list = []
+        self.status, self.message = 0, ""
+        self.estimate: float | None = None
+        self.quiet = -1  # a guard whose extremum the current piece starts at (its extremum event is off)
+
+    def field(self, mode: int):
+        fn, p = self.switch.rules.field[mode], self.p
+        return lambda t, y: fn(t, y, p)
+
+    def events(self, mode: int, quiet: int):
+        """``(functions, what)``: the events of ``mode``; ``what[i] = (guard, is_extremum)``."""
+        switch, p = self.switch, self.p
+        armed = switch.num.armed_in[mode]
+        probe = switch.rules.probe[mode]
+        k = len(armed)
+
+        def values(t, y, _):
+            return probe(t, y, p)
+
+        fns, what = [], []
+        for i, g in enumerate(armed):
+            d = switch.direction[g]
+            fns.append(_event(values, i, d))
+            what.append((g, False))
+            if switch.terminal[g] and g != quiet:
+                fns.append(_event(values, k + i, -d))
+                what.append((g, True))
+        return fns, what
+
+    def piece(self, t_end: float) -> bool:
+        """Integrate one piece and handle its event; False when the run has reached ``t_end`` or failed."""
+        from scipy.integrate import solve_ivp
+
+        fns, what = self.events(self.mode, self.quiet)
+        sol = solve_ivp(self.field(self.mode), (self.t, t_end), self.y, events=fns, **self.options)
+        self.t, self.y = float(sol.t[-1]), sol.y[:, -1].tolist()
+        if sol.status == -1:
+            self.status = -1
+            self.message = (f"solve_ivp failed at t={self.t!r} in mode {self.system.mode_names[self.mode]!r}: "
+                            f"{sol.message}")
+            return False
+        if sol.status == 0:
+            self.t = t_end
+            return False
+        i = next(i for i, te in enumerate(sol.t_events) if len(te))
+        self.t, self.y = float(sol.t_events[i][0]), sol.y_events[i][0].tolist()
+        g, extremum = what[i]
+        self.quiet = -1
+        if extremum:
+            self.extremum(g)
+        elif not self.switch.terminal[g]:
+            self.switch.events.append((self.t, g, MARKER, self.mode, self.mode, tuple(self.y), tuple(self.y)))
+            self.switch.pieces.append((self.t, self.mode, tuple(self.y)))
+            self.switch.count(g)
+        else:
+            self.mode, self.y = self.switch.transition(g, self.mode, self.t, self.y)
+            self.estimate = self.accumulation.add(self.t)
+            if self.estimate is not None:
+                self.status = 2
+                self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at "
+                                f"t={self.t!r}, the accumulation time is estimated at {self.estimate!r}.")
+        return True
+
+    def extremum(self, g: int) -> None:
+        """Guard ``g`` at an extremum: a crossing lost inside a step, a grazing, or nothing."""
+        switch, t, y = self.switch, self.t, self.y
+        h = switch.guard_value(g, t, y)
+        d = switch.direction[g]
+        t_start, _, y_start = switch.pieces[-1]
+        if d * h > 0.0 and -d * switch.guard_value(g, t_start, list(y_start)) >= 0.0:
+            # the guard went past zero and back within a step: its first root lies between the
+            # piece start and this extremum
+            self.t, self.y = _first_root(self, g, t_start, list(y_start), t)
+            self.mode, self.y = switch.transition(g, self.mode, self.t, self.y)
+            return
+        self.quiet = g
+        at_start = t - t_start <= 16.0 * 2.0**-52 * (1.0 + abs(t))  # the extremum the piece starts at
+        if not at_start and abs(h) <= self.graze_tol * (1.0 + max(abs(c) for c in y[:self.system.dimension])):
+            switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
+        switch.pieces.append((t, self.mode, tuple(y)))
+
+
+def _first_root(loop: _Loop, g: int, t0: float, y0: list, t1: float) -> tuple[float, list]:
+    """The root of guard ``g`` in ``(t0, t1]`` of the piece from ``(t0, y0)`` (Brent's method on its dense output)."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    dense = solve_ivp(loop.field(loop.mode), (t0, t1), y0, dense_output=True, **loop.options).sol
+
+    def h(s: float) -> float:
+        return loop.switch.guard_value(g, s, dense(s).tolist())
+
+    start = t0
+    if h(start) == 0.0:  # the piece starts on the guard: step off it
+        start = t0 + 1e-3 * (t1 - t0)
+    root = brentq(h, start, t1, xtol=4.0 * 2.0**-52 * (1.0 + abs(t1)), rtol=4.0 * 2.0**-52)
+    return float(root), dense(root).tolist()
+
+
+class _Dense:
+    """Dense output of a run: a piece integrated again with ``dense_output`` (picklable)."""
+
+    def __init__(self, system: HybridSystem, method: str, rtol: float, atol: float):
+        self.system, self.method, self.rtol, self.atol = system, method, rtol, atol
+
+    def __call__(self, mode: int, t_start: float, state, times) -> np.ndarray:
+        from scipy.integrate import solve_ivp
+
+        fn, p = rules(self.system).field[mode], self.system.parameter_values
+        times = np.asarray(times, dtype=float)
+        out = np.tile(np.asarray(state, dtype=float), (times.size, 1))
+        later = times > t_start
+        if later.any():
+            dense = solve_ivp(lambda s, u: fn(s, u, p), (t_start, times[later].max()), list(state),
+                              method=self.method, rtol=self.rtol, atol=self.atol, dense_output=True)
+            out[later] = dense.sol(times[later]).T
+        return out
+
+
+def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
+               max_events: int = 1_000_000, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
+               zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
+               until: tuple[str, int] | None = None) -> HybridSolution:
+    """Run ``system`` with scipy's ``solve_ivp`` from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
+    t0, t_end = _v.real("t0", t0), _v.real("t_end", t_end)
+    if not t_end > t0:
+        raise ValueError(f"t_end must be > t0={t0!r}, got {t_end!r}")
+    options = dict(method=method, rtol=_v.positive("rtol", rtol), atol=_v.positive("atol", atol))
+    max_events = _v.integer("max_events", max_events)
+    y = check_state(system, state0) + [0.0] * len(system.integrals)
+    switch = Switch(system, _v.positive("touch_tol", touch_tol))
+    if until is not None:
+        switch.stop_after(*until)
+    run = _Loop(system, switch, options, _v.positive("zeno_tol", zeno_tol), _v.positive("graze_tol", graze_tol))
+    run.t, run.y, run.mode = t0, y, switch.initial_mode(mode, t0, y)
+    switch.pieces.append((t0, run.mode, tuple(y)))
+    try:
+        g = switch.pending(run.mode, t0, y)
+        if g >= 0:
+            run.mode, run.y = switch.transition(g, run.mode, t0, y)
+        while run.status == 0 and run.piece(t_end):
+            if switch.done:
+                run.message = switch.done_message()
+                break
+            if run.status == 0 and len(switch.events) >= max_events:
+                run.status = 1
+                run.message = f"The event limit max_events={max_events} was reached at t={run.t!r}; results are kept."
+    except InstantAccumulation as exc:
+        run.status, run.estimate, run.message = 2, run.t, str(exc)
+    except RuntimeError as exc:
+        run.status, run.message = -1, str(exc)
+    return HybridSolution(system, "scipy", t_end, run.t, run.status, run.message or STATUS_MESSAGES[run.status],
+                          switch.events, switch.pieces, run.y, run.mode, _Dense(system, method, rtol, atol),
+                          run.estimate)

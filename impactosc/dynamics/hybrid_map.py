@@ -1,0 +1,369 @@
+"""The stroboscopic map of a user hybrid system, its Jacobians from saltation products, periodic orbits.
+
+For a :class:`~impactosc.HybridSystem` with a forcing period ``T``, the map
+``P(z; p) = y(t0 + n T)`` of the run from ``y(t0) = z`` (for an autonomous system with a
+``section`` guard instead: the state at its ``n``-th event, ``P = y(tau_n)``) is
+differentiated exactly along the run: on each smooth piece the state-transition matrix and
+the parameter sensitivities come from heyoka's variational equations (``heyoka.var_ode_sys``)
+of the same compiled vector fields, and at each event the sensitivity ``J = [dy/dz | dy/dp]`` jumps by the saltation
+rule::
+
+    J+ = R_y J + [0 | R_p] + (f+ - R_y f- - R_t) (n^T J + [0 | h_p]) / (n . f- + h_t)
+
+with ``n = dh/dy``, ``h_t``, ``h_p`` the guard's derivatives and ``R_y``, ``R_t``, ``R_p`` the
+reset's, all symbolic derivatives of the definition, ``f-``/``f+`` the vector fields before and
+after. Without parameters and time dependence this is ``S = R + (f+ - R f-) n^T / (n . f-)``.
+Where ``n . f- + h_t`` vanishes (the orbit reaches the guard tangentially: a grazing) the map
+is not differentiable: the evaluation says so (``singular``), with the guard and the time,
+instead of returning a huge number. Everything is n-dimensional: the paper's eq. 3
+(:func:`~impactosc.model.hybrid.oscillator_system`) is one case.
+
+:class:`HybridMap` has the interface of the continuation's map problem (``evaluate(z, params)``
+giving the image, ``dP/dz``, ``dP/dp`` and the event signature); :func:`periodic_orbit_of`
+finds a fixed point of ``P`` by Newton's method with the Floquet multipliers.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..backends._hybrid import simulate_system
+from ..backends._hybrid_heyoka import DEFAULT_TOL
+from ..model.hybrid._definition import HybridSystem
+from ..model.hybrid._numeric import gated_sum, numeric, rules
+
+__all__ = ["HybridMap", "HybridMapValue", "HybridOrbit", "periodic_orbit_of"]
+
+#: ``|n . f- + h_t|`` below this fraction of ``|n| |f-| + |h_t|`` is a grazing: the map's derivative does not
+#: exist. Near a double root of the guard its time is only known to about ``sqrt(eps)`` (1.5e-8) relative,
+#: and so is the crossing speed: an exact tangency is located with a speed of that order, not 0.
+GRAZING_RATIO = 1e-7
+
+
+@dataclass(frozen=True, eq=False)
+class HybridMapValue:
+    """``P(z; p)`` with ``dP/dz``, ``dP/dp``, the event signature, or why not."""
+
+    z: np.ndarray
+    params: tuple
+    image: np.ndarray | None  #: the states at ``t0 + n T`` (None when the run failed)
+    monodromy: np.ndarray  #: ``dP/dz`` (NaN when singular)
+    dp: np.ndarray  #: ``dP/dp_k`` for the map's parameter names, one column each (NaN when singular)
+    signature: tuple  #: ``(guard, mode before, mode after)`` of every crossing, in order
+    failure: str = ""  #: why the run failed ("" when it ran)
+    singular: str = ""  #: why the map is not differentiable here ("" when it is)
+
+    @property
+    def ok(self) -> bool:
+        return self.image is not None
+
+    @property
+    def residual(self) -> np.ndarray:
+        return self.image - self.z
+
+
+class _Tangent:
+    """The variational integrator of one system structure: states and parameter sensitivities per piece."""
+
+    def __init__(self, system: HybridSystem, tol: float):
+        import heyoka as hy
+
+        num = numeric(system)
+        P, M = num.n_params, len(system.modes)
+        ind = [hy.par[P + m] for m in range(M)]
+        n_all = len(num.states)
+        rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
+        args = list(num.states) + [hy.par[k] for k in range(P)]
+        vsys = hy.var_ode_sys(list(zip(num.states, rates, strict=True)), args, order=1)
+        # pars left out: heyoka sizes them to the highest index the expressions use
+        self.ta = hy.taylor_adaptive(vsys, [0.0] * n_all, tol=tol, compact_mode=True)
+        self.n_all, self.P, self.M = n_all, P, M
+        self.width = n_all + P
+        start = np.zeros((n_all, self.width))
+        start[:, :n_all] = np.eye(n_all)
+        self.start = start.ravel()  # dy/dy = I, dy/dp = 0 at the piece start
+        self.lock = threading.Lock()
+
+    def piece(self, params, mode: int, t0: float, y0, t1: float) -> np.ndarray:
+        """``[dy(t1)/dy(t0) | dy(t1)/dp]`` of the piece in ``mode`` (n_all x (n_all + P))."""
+        if t1 <= t0:
+            out = np.zeros((self.n_all, self.width))
+            out[:, :self.n_all] = np.eye(self.n_all)
+            return out
+        ta = self.ta
+        pars = ta.pars
+        size = len(pars)
+        pars[:] = 0.0
+        used = min(self.P, size)
+        pars[:used] = params[:used]
+        if self.P + mode < size:  # a mode whose field is zero has no indicator in the expressions
+            pars[self.P + mode] = 1.0
+        ta.time = t0
+        ta.state[:self.n_all] = y0
+        ta.state[self.n_all:] = self.start
+        outcome = ta.propagate_until(t1)[0]
+        import heyoka as hy
+
+        if outcome != hy.taylor_outcome.time_limit:
+            raise FloatingPointError(f"the variational equations failed ({outcome!r}) on the piece from t={t0!r}")
+        return np.array(ta.state[self.n_all:]).reshape(self.n_all, self.width)
+
+
+_tangents: dict[tuple[str, float], _Tangent] = {}
+
+
+def _tangent(system: HybridSystem, tol: float) -> _Tangent:
+    key = (system.structure, tol)
+    found = _tangents.get(key)
+    if found is None:
+        found = _tangents[key] = _Tangent(system, tol)
+    return found
+
+
+class HybridMap:
+    """The map over ``iterates`` forcing periods of a user system, differentiable by saltation.
+
+    Parameters
+    ----------
+    system : HybridSystem
+        With a forcing ``period`` (a number or an expression in its parameters), or, for an
+        autonomous system without one, a ``section`` guard.
+    iterates : int
+        Forcing periods per map, or returns to the section (default 1).
+    names : sequence of str, optional
+        The parameters of ``dP/dp`` and of :meth:`evaluate` (default: all of the system's).
+    mode : str, optional
+        The mode at the section (default: the first whose entry conditions hold there).
+    t0 : float
+        The section time (default 0).
+    tol : float
+        heyoka's tolerance for the run and the variational equations.
+    max_time : float
+        Section maps: how long a run may take to return (default 1e3): longer is a failure.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import impactosc
+    >>> from impactosc.dynamics.hybrid_map import HybridMap
+    >>> from impactosc.model.hybrid import oscillator_system
+    >>> system = oscillator_system(impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4))
+    >>> value = HybridMap(system, names=["F"]).evaluate([0.95, 0.0])
+    >>> value.monodromy.shape, value.dp.shape
+    ((2, 2), (2, 1))
+    """
+
+    def __init__(self, system: HybridSystem, iterates: int = 1, *, names=None, mode: str | None = None,
+                 t0: float = 0.0, tol: float = DEFAULT_TOL, max_time: float = 1e3):
+        if not isinstance(system, HybridSystem):
+            raise TypeError(f"system must be an impactosc.HybridSystem, got {system!r}")
+        if system.period is None and system.section is None:
+            raise ValueError(f"{system.name}: a map needs the system's forcing period (period=...) or, for an "
+                             "autonomous system, a section guard (section=...)")
+        #: The section guard of an autonomous system's map (None: the stroboscopic map of the period).
+        self.section = system.section if system.period is None else None
+        self.max_time = float(max_time)
+        if isinstance(iterates, bool) or not isinstance(iterates, int) or iterates < 1:
+            raise ValueError(f"iterates must be an integer >= 1, got {iterates!r}")
+        self.system = system
+        self.iterates = iterates
+        self.names = tuple(system.parameter_names if names is None else names)
+        for name in self.names:
+            if name not in system.parameter_names:
+                raise ValueError(f"{system.name}: {name!r} is not a parameter; the parameters are "
+                                 f"{list(system.parameter_names)}")
+        self.columns = [system.parameter_names.index(name) for name in self.names]
+        self.mode = mode
+        self.t0 = float(t0)
+        self.tol = tol
+        if self.section is None:
+            self._period = numeric(system).period_function()
+
+    @property
+    def n(self) -> int:
+        """Forcing periods (or section returns) per map, as the continuation's map problem names it."""
+        return self.iterates
+
+    def with_names(self, names) -> HybridMap:
+        """The same map with other free parameters."""
+        return HybridMap(self.system, self.iterates, names=names, mode=self.mode, t0=self.t0, tol=self.tol,
+                         max_time=self.max_time)
+
+    def values(self) -> tuple:
+        """The map's parameters' values in the system."""
+        current = dict(self.system.parameters)
+        return tuple(current[name] for name in self.names)
+
+    def evaluate(self, z, params=None) -> HybridMapValue:
+        """``P(z; params)`` and its Jacobians (``params``: values of :attr:`names`, default the system's)."""
+        system = self.system
+        n = system.dimension
+        z = np.asarray(z, dtype=float).ravel()
+        params = self.values() if params is None else tuple(float(p) for p in params)
+        k = len(self.names)
+        nan_m, nan_p = np.full((n, n), math.nan), np.full((n, k), math.nan)
+        if z.size != n or not np.all(np.isfinite(z)):
+            return HybridMapValue(z, params, None, nan_m, nan_p, (), f"z must be {n} finite numbers, got {z}")
+        sys_p = system.with_parameters(**dict(zip(self.names, params, strict=True)))
+        p = sys_p.parameter_values
+        if self.section is None:
+            period_and_rates = self._period(0.0, [0.0] * len(numeric(system).states), p)
+            span = self.iterates * period_and_rates[0]
+            if not (math.isfinite(span) and span > 0.0):
+                return HybridMapValue(z, params, None, nan_m, nan_p, (), f"the period is {period_and_rates[0]!r}")
+            sol = simulate_system(sys_p, self.t0 + span, z, backend="heyoka", mode=self.mode, t0=self.t0,
+                                  tol=self.tol)
+        else:
+            sol = simulate_system(sys_p, self.t0 + self.max_time, z, backend="heyoka", mode=self.mode, t0=self.t0,
+                                  tol=self.tol, until=(self.section, self.iterates))
+        signature = tuple((e.guard, e.mode_before, e.mode_after) for e in sol.events if e.kind == "crossing")
+        if sol.status != 0:
+            return HybridMapValue(z, params, None, nan_m, nan_p, signature, sol.message)
+        if self.section is not None and not (sol.events and sol.events[-1].guard == self.section
+                                             and "as asked" in sol.message):
+            return HybridMapValue(z, params, None, nan_m, nan_p, signature,
+                                  f"no return {self.iterates} to the section {self.section!r} within "
+                                  f"max_time={self.max_time!r}")
+        image = sol.state_final[:n].copy()
+        grazings = [e for e in sol.events if e.kind == "grazing"]
+        if grazings:
+            e = grazings[0]
+            return HybridMapValue(z, params, image, nan_m, nan_p, signature, "",
+                                  f"guard {e.guard!r} grazes at t={e.t!r} (its value has an extremum on zero)")
+        try:
+            J = self._sensitivity(sys_p, sol, p)
+        except ZeroDivisionError as exc:
+            return HybridMapValue(z, params, image, nan_m, nan_p, signature, "", str(exc))
+        n_all = J.shape[0]
+        dp = J[:n, [n_all + c for c in self.columns]].copy()
+        if self.section is not None:  # the map ends on the section: no end time to move
+            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature)
+        # the map ends at t0 + iterates T(p): a parameter that moves T moves the end
+        f_end = np.array(rules(system).field[sys_p.mode_index(sol.mode_final)](self.t0 + span,
+                                                                                sol.state_final.tolist(), p))
+        for j, c in enumerate(self.columns):
+            dT = self.iterates * period_and_rates[1 + c]
+            if dT != 0.0:
+                dp[:, j] += f_end[:n] * dT
+        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature)
+
+    def _sensitivity(self, system: HybridSystem, sol, p) -> np.ndarray:
+        """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn."""
+        tangent = _tangent(self.system, self.tol)
+        rule = rules(self.system)
+        n, n_all, P = system.dimension, tangent.n_all, tangent.P
+        J = np.zeros((n_all, n_all + P))
+        J[:, :n_all] = np.eye(n_all)
+        t, mode_name, y = sol.pieces[0]
+        mode = system.mode_index(mode_name)
+        last = len(sol.events) - 1
+        with tangent.lock:
+            for i, e in enumerate(sol.events):
+                on_section = self.section is not None and i == last
+                if e.kind != "crossing" and not on_section:
+                    continue
+                J = _compose(tangent.piece(p, mode, t, y, e.t), J, n_all)
+                J, dtau, f_plus = self._saltation(rule, system, e, p, J, n, n_all, P, reset=e.kind == "crossing")
+                if on_section:
+                    # the map's value is the state on the section, at the perturbed return time
+                    J = J - np.outer(f_plus, dtau)
+                t, mode, y = e.t, system.mode_index(e.mode_after), e.state_after
+            J = _compose(tangent.piece(p, mode, t, y, sol.t_final), J, n_all)
+        return J
+
+    @staticmethod
+    def _saltation(rule, system, e, p, J, n, n_all, P, reset: bool = True) -> tuple:
+        """``(J+, dtau, f+)``: the sensitivity after the event, ``-d(event time)/d(z, p)`` and the field after.
+
+        ``reset=False`` (a marker guard): no transition, ``J+ = J``.
+        """
+        g = system.guard_names.index(e.guard)
+        guard_fn, reset_fn = rule.jacobians(g)
+        before, after = list(e.state_before), list(e.state_after)
+        f_minus = np.array(rule.field[system.mode_index(e.mode_before)](e.t, before, p))
+        f_plus = np.array(rule.field[system.mode_index(e.mode_after)](e.t, after, p))
+        dh = np.array(guard_fn(e.t, before, p))
+        normal, h_t, h_p = dh[:n_all], dh[n_all], dh[n_all + 1:]
+        R_y = np.eye(n_all)
+        R_t = np.zeros(n_all)
+        R_p = np.zeros((n_all, P))
+        if reset_fn is not None and reset:
+            rows = np.array(reset_fn(e.t, before, p)).reshape(n, n_all + 1 + P)
+            R_y[:n] = rows[:, :n_all]
+            R_t[:n] = rows[:, n_all]
+            R_p[:n] = rows[:, n_all + 1:]
+        speed = float(normal @ f_minus + h_t)
+        if abs(speed) <= GRAZING_RATIO * (np.linalg.norm(normal) * np.linalg.norm(f_minus) + abs(h_t)):
+            raise ZeroDivisionError(f"guard {e.guard!r} is reached tangentially at t={e.t!r} (n . f- + h_t = "
+                                    f"{speed!r}): a grazing, where the map has no derivative")
+        crossing = normal @ J
+        crossing[n_all:] += h_p
+        dtau = crossing / speed
+        if not reset:
+            return J, dtau, f_minus
+        J_new = R_y @ J
+        J_new[:, n_all:] += R_p
+        J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
+        return J_new, dtau, f_plus
+
+
+def _compose(piece: np.ndarray, J: np.ndarray, n_all: int) -> np.ndarray:
+    """``[Phi_y | Phi_p]`` after ``J = [dy/dz | dy/dp]``: ``[Phi_y J_z | Phi_y J_p + Phi_p]``."""
+    out = piece[:, :n_all] @ J
+    out[:, n_all:] += piece[:, n_all:]
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class HybridOrbit:
+    """A fixed point of a :class:`HybridMap` (or the last Newton iterate, see ``status``)."""
+
+    z: np.ndarray
+    monodromy: np.ndarray
+    multipliers: np.ndarray  #: eigenvalues of ``dP/dz``, largest modulus first
+    signature: tuple
+    status: int  #: 0 converged, 1 not converged, 2 not differentiable (``message``), -1 a run failed
+    message: str
+    iterations: int
+    residual: float
+
+
+def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: int = 30) -> HybridOrbit:
+    """A fixed point of ``hmap`` by Newton's method from ``guess``, with its Floquet multipliers.
+
+    Newton's step solves ``(M - I) dz = -(P(z) - z)`` (least squares when ``M - I`` is
+    singular), halving while the residual grows; convergence when
+    ``|P(z) - z| <= tol max(1, |z|)``.
+    """
+    z = np.asarray(guess, dtype=float).ravel()
+    n = z.size
+    value = hmap.evaluate(z)
+    for it in range(max_iter + 1):
+        if not value.ok:
+            return HybridOrbit(z, value.monodromy, np.full(n, np.nan), value.signature, -1, value.failure, it,
+                               math.nan)
+        res = value.residual
+        rnorm = float(np.linalg.norm(res))
+        if value.singular:
+            return HybridOrbit(z, value.monodromy, np.full(n, np.nan), value.signature, 2, value.singular, it, rnorm)
+        if rnorm <= tol * max(1.0, float(np.linalg.norm(z))):
+            mu = np.linalg.eigvals(value.monodromy)
+            mu = mu[np.argsort(-np.abs(mu))]
+            return HybridOrbit(z, value.monodromy, mu, value.signature, 0, "converged", it, rnorm)
+        if it == max_iter:
+            break
+        step = np.linalg.lstsq(value.monodromy - np.eye(n), -res, rcond=None)[0]
+        scale = 1.0
+        while True:
+            trial = hmap.evaluate(z + scale * step)
+            if trial.ok and np.linalg.norm(trial.residual) < rnorm or scale < 1e-6:
+                break
+            scale *= 0.5
+        z, value = z + scale * step, trial
+    mu = np.full(n, np.nan)
+    return HybridOrbit(z, value.monodromy, mu, value.signature, 1, f"Newton did not converge in {max_iter} iterations",
+                       max_iter, float(np.linalg.norm(value.residual)) if value.ok else math.nan)

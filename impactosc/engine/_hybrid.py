@@ -1,0 +1,268 @@
+"""The transition rule of a user's hybrid system, shared by every event loop that runs one.
+
+A backend integrates in a fixed mode until an armed guard fires; :class:`Switch` then
+applies the guard's transition (the reset, then the first candidate mode whose entry
+conditions hold), checks whether the new state already lies on a guard of the new mode
+that it crosses (two guards at one instant, a reset that lands on a guard), and keeps the
+event records. :class:`Accumulation` watches the event times for a Zeno accumulation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model.hybrid._definition import HybridSystem
+from ..model.hybrid._numeric import evaluator, numeric, rules
+
+__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER",
+           "MAX_EVENTS_AT_AN_INSTANT"]
+
+#: Event kinds: a guard crossed (its transition applied), a guard's extremum on zero without a
+#: crossing (recorded, no transition), a non-terminal guard crossed (recorded only).
+CROSSING, GRAZING, MARKER = "crossing", "grazing", "marker"
+
+#: Most transitions applied at one instant before the run stops as an accumulation (status 2).
+MAX_EVENTS_AT_AN_INSTANT = 64
+
+
+class InstantAccumulation(Exception):
+    """More than :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at one instant (the message says where)."""
+
+
+class Accumulation:
+    """Watches event times for a geometric accumulation (Zeno): intervals shrinking at a steady ratio.
+
+    :meth:`add` returns the estimated accumulation time ``t + dt r / (1 - r)`` when the last
+    ``span`` intervals each shrink by a ratio ``r < 1`` steady within 10 %, and the time
+    left, ``dt r / (1 - r)``, is below ``tol * (1 + |t|)``; otherwise None.
+    """
+
+    def __init__(self, tol: float, span: int = 6):
+        self.tol = tol
+        self.span = span
+        # An interval above quick (1 + |t|) cannot end an accumulation with a ratio r >= 0.01
+        # whose time left, dt r / (1 - r), is within tol (1 + |t|): the common case costs one test.
+        self.quick = 99.0 * tol
+        self.times: list[float] = []
+        self.last = -math.inf
+
+    def add(self, t: float) -> float | None:
+        dt = t - self.last
+        self.last = t
+        scale = 1.0 + abs(t)
+        if dt > self.quick * scale:
+            self.times = [t]
+            return None
+        times = self.times
+        times.append(t)
+        if len(times) > self.span + 2:
+            del times[0]
+        if len(times) < self.span + 2:
+            return None
+        dts = [b - a for a, b in zip(times, times[1:], strict=False)]
+        if all(d <= 0.0 for d in dts):
+            return t  # every event at one instant
+        ratios = [b / a for a, b in zip(dts, dts[1:], strict=False) if a > 0.0]
+        if len(ratios) < self.span or not all(0.0 < r < 1.0 for r in ratios) or max(ratios) > 1.1 * min(ratios):
+            return None
+        r = ratios[-1]
+        left = dts[-1] * r / (1.0 - r)
+        return t + left if left <= self.tol * scale else None
+
+
+class Switch:
+    """The transitions of one run of ``system`` (its parameter values), and the records they leave.
+
+    Attributes
+    ----------
+    events : list of tuple
+        ``(t, guard, kind, mode_before, mode_after, state_before, state_after)`` with the
+        guard and modes as indices and the states as tuples (states then integrals).
+    pieces : list of tuple
+        ``(t, mode, state)`` at the start of every smooth piece (for dense output).
+    """
+
+    def __init__(self, system: HybridSystem, touch_tol: float = 1e-12):
+        self.system = system
+        self.num = numeric(system)
+        self.rules = rules(system)
+        self.p = system.parameter_values
+        self.n = system.dimension
+        self.direction = [g.direction for g in system.guards]
+        self.terminal = [g.terminal for g in system.guards]
+        self.to = [tuple(system.mode_index(m) for m in g.to) for g in system.guards]
+        self.touch_tol = touch_tol
+        self.events: list[tuple] = []
+        self.pieces: list[tuple] = []
+        self.until_guard, self.until_count, self.seen, self.done = -1, 0, 0, False
+        self._second: dict = self.num.second
+
+    def initial_mode(self, mode, t: float, y) -> int:
+        """The index of ``mode`` (a name), or of the first mode whose entry conditions hold at ``(t, y)``."""
+        if mode is not None:
+            if not isinstance(mode, str):
+                raise TypeError(f"mode must be the name of a mode of {self.system.name}, got {mode!r}")
+            return self.system.mode_index(mode)
+        for m, entry in enumerate(self.rules.entry):
+            if entry is None or all(c >= 0.0 for c in entry(t, y, self.p)):
+                return m
+        raise ValueError(f"{self.system.name}: no mode's entry conditions hold at t={t!r}, state={list(y)}; "
+                         "give the initial mode (mode=...)")
+
+    def apply(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
+        """``(next mode, state after)`` of guard ``g`` firing in ``mode`` at ``(t, y)``.
+
+        Raises
+        ------
+        RuntimeError
+            When no candidate mode's entry conditions hold after the reset (named).
+        """
+        reset = self.rules.reset[g]
+        after = list(y)
+        if reset is not None:
+            after[:self.n] = reset(t, y, self.p)
+        targets = self.to[g]
+        if not targets:
+            return mode, after
+        if len(targets) == 1:
+            return targets[0], after
+        entry = self.rules.entry
+        for m in targets:
+            conditions = entry[m]
+            if conditions is None or all(c >= 0.0 for c in conditions(t, after, self.p)):
+                return m, after
+        names = [self.system.mode_names[m] for m in targets]
+        raise RuntimeError(f"guard {self.system.guard_names[g]!r} fired at t={t!r} with the state {after}, "
+                           f"where the entry conditions of none of its modes {names} hold")
+
+    def stop_after(self, guard: str, count: int) -> None:
+        """End the run right after the ``count``-th event of ``guard`` (a Poincare section's return)."""
+        if guard not in self.system.guard_names:
+            raise ValueError(f"until names the guard {guard!r}, which {self.system.name} does not have "
+                             f"(its guards are {list(self.system.guard_names)})")
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise ValueError(f"until=({guard!r}, {count!r}): the count must be an integer >= 1")
+        self.until_guard, self.until_count = self.system.guard_names.index(guard), count
+
+    def done_message(self) -> str:
+        name = self.system.guard_names[self.until_guard]
+        return f"The run ended after event {self.until_count} of guard {name!r}, as asked (until=...)."
+
+    def count(self, g: int) -> bool:
+        """Note an event of guard ``g``; True when it is the one the run ends after (see :meth:`stop_after`)."""
+        if g == self.until_guard:
+            self.seen += 1
+            if self.seen == self.until_count:
+                self.done = True
+        return self.done
+
+    def transition(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
+        """Apply guard ``g`` in ``mode`` at ``(t, y)``, then every guard the new state lies on and crosses.
+
+        Records each event and the new piece; returns ``(mode, state)`` after the last.
+
+        Raises
+        ------
+        RuntimeError
+            When no candidate mode's entry conditions hold (see :meth:`apply`).
+        InstantAccumulation
+            After :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at ``t``.
+        """
+        chained = 0
+        while g >= 0:
+            target, after = self.apply(g, mode, t, y)
+            self.events.append((t, g, CROSSING, mode, target, tuple(y), tuple(after)))
+            mode, y = target, after
+            chained += 1
+            if chained > MAX_EVENTS_AT_AN_INSTANT:
+                last = self.system.guard_names[g]
+                raise InstantAccumulation(f"More than {MAX_EVENTS_AT_AN_INSTANT} transitions at t={t!r} (the last "
+                                          f"by guard {last!r}): events accumulate at one instant.")
+            if self.count(g):
+                break  # the run ends right after this event
+            g = self.pending(mode, t, y)
+        self.pieces.append((t, mode, tuple(y)))
+        return mode, y
+
+    def pending(self, mode: int, t: float, y) -> int:
+        """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.
+
+        On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way,
+        or, where it is zero within the same tolerance (a tangency, such as the slip-end guard
+        of a mass just released), the second Lie derivative does.
+        """
+        armed = self.num.armed_in[mode]
+        if not armed:
+            return -1
+        values = self.rules.probe[mode](t, y, self.p)
+        k = len(armed)
+        near = min(abs(h) for h in values[:k])
+        if near > self.touch_tol * (1.0 + max(map(abs, y))):  # the common case: on no guard
+            return -1
+        scale = self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
+        for i, g in enumerate(armed):
+            if abs(values[i]) <= scale and self.terminal[g]:
+                d, rate = self.direction[g], values[k + i]
+                if abs(rate) > scale:
+                    if d == 0 or d * rate > 0.0:
+                        return g
+                elif d != 0 and d * self.second_derivative(g, mode, t, y) > 0.0:
+                    return g  # tangent to the guard, curving across it
+        return -1
+
+    def leaves(self, g: int, mode: int, t: float, y) -> bool:
+        """Whether guard ``g``, on zero at ``(t, y)`` in ``mode``, moves away from the side it fires towards.
+
+        The root a solver reports at the start of a piece can be a rounding artefact of a
+        double root: a mass released from sticking starts with ``v = 0`` and ``v' = 0``, and
+        its slip-end guard ``v`` must not fire there although rounding may make ``v``
+        slightly negative. The sign of the first Lie derivative, or of the second where the
+        first is zero within ``touch_tol``, says where the guard goes.
+        """
+        armed = self.num.armed_in[mode]
+        if g not in armed:
+            return False
+        values = self.rules.probe[mode](t, y, self.p)
+        k, i = len(armed), armed.index(g)
+        d = self.direction[g]
+        if d == 0:
+            return False
+        rate = values[k + i]
+        if abs(rate) > self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n])):
+            return d * rate < 0.0
+        return d * self.second_derivative(g, mode, t, y) < 0.0
+
+    def second_derivative(self, g: int, mode: int, t: float, y) -> float:
+        """``h''`` of guard ``g`` along the flow of ``mode`` at ``(t, y)`` (built on first use)."""
+        key = (mode, g)
+        fn = self._second.get(key)
+        if fn is None:
+            num = self.num
+            expr = num.lie_derivative(num.lie[key], num.rates[mode])
+            label = f"second derivative of guard {self.system.guard_names[g]!r}"
+            fn = self._second[key] = evaluator(num, [expr], label)
+        return fn(t, y, self.p)[0]
+
+    def guard_value(self, g: int, t: float, y) -> float:
+        return self.rules.guard[g](t, y, self.p)[0]
+
+
+def finite_state(y) -> bool:
+    return all(math.isfinite(c) for c in y)
+
+
+def check_state(system: HybridSystem, state0) -> list:
+    """``state0`` as a list of floats of the system's dimension, or an error naming it."""
+    try:
+        values = [float(c) for c in np.asarray(state0, dtype=float).ravel()]
+    except (TypeError, ValueError):
+        raise TypeError(f"state0 must be a sequence of {system.dimension} numbers {list(system.states)}, "
+                        f"got {state0!r}") from None
+    if len(values) != system.dimension:
+        raise ValueError(f"state0 has {len(values)} values, the system {system.name!r} has {system.dimension} states "
+                         f"{list(system.states)}")
+    if not all(np.isfinite(values)):
+        raise ValueError(f"state0 must be finite, got {values}")
+    return values

@@ -1,0 +1,406 @@
+"""The definition of a user's piecewise-smooth (hybrid) system: states, parameters, modes, guards.
+
+A hybrid system is a finite set of *modes*, each a smooth vector field ``y' = f_m(y, t; p)``
+written as heyoka expressions in the named states, the time ``hy.time`` and the named
+parameters, and a set of *guards*, each a scalar expression ``h(y, t; p)`` with a crossing
+direction, the modes in which it is armed and a transition: the next mode (or an ordered
+list of candidates, the first whose entry holds) and a reset map ``y -> g(y, t; p)``
+(identity where not given). Sticking and sliding are modes of their own with release
+guards (see :func:`stick_slip`).
+
+Everything is symbolic: the backends compile the expressions (heyoka's Taylor integrator,
+heyoka's compiled functions for scipy) and differentiate them (Lie derivatives of the
+guards for grazing detection). The classes are frozen dataclasses; the parameter values
+are data (:meth:`HybridSystem.with_parameters`), the structure is what a backend compiles
+once (:attr:`HybridSystem.structure`).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import numbers
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from ._checks import check_system
+
+__all__ = ["symbols", "HybridMode", "Guard", "HybridSystem", "DIRECTIONS"]
+
+#: Crossing directions of a guard: +1 (``h`` rises through 0), -1 (falls), 0 (either way).
+DIRECTIONS = (-1, 0, 1)
+
+
+def _hy():
+    import heyoka as hy
+
+    return hy
+
+
+def symbols(names: str | Sequence[str]):
+    """Named symbols (heyoka variables) for states and parameters: ``x, v = symbols("x v")``.
+
+    Parameters
+    ----------
+    names : str or sequence of str
+        Whitespace- or comma-separated names, or a sequence of names.
+
+    Returns
+    -------
+    heyoka.expression or tuple of heyoka.expression
+        One variable per name (a single name gives the variable itself).
+
+    Examples
+    --------
+    >>> from impactosc import symbols
+    >>> x, v, g = symbols("x v g")
+    >>> str(v * g)
+    '(v * g)'
+    """
+    if isinstance(names, str):
+        names = names.replace(",", " ").split()
+    names = [str(n) for n in names]
+    if not names:
+        raise ValueError("symbols() needs at least one name, got none")
+    return _hy().make_vars(*names)
+
+
+def _is_expression(value) -> bool:
+    return type(value).__name__ == "expression"
+
+
+def _expression(where: str, value):
+    """``value`` as a heyoka expression (numbers become constants), or a TypeError naming ``where``."""
+    if _is_expression(value):
+        return value
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        if not math.isfinite(float(value)):
+            raise ValueError(f"{where} must be finite, got {value!r}")
+        return _hy().expression(float(value))
+    raise TypeError(f"{where} must be a heyoka expression or a number, got {value!r} of type {type(value).__name__}")
+
+
+def _name_of(where: str, key) -> str:
+    """A state or integral named by a string or by its variable."""
+    if isinstance(key, str):
+        return key
+    if _is_expression(key):
+        names = _hy().get_variables(key)
+        if len(names) == 1 and str(key) == names[0]:
+            return names[0]
+    raise TypeError(f"{where}: a key must be a state's name or its variable, got {key!r}")
+
+
+def _by_name(where: str, values) -> tuple[tuple[str, Any], ...]:
+    """A mapping name -> expression as a tuple of pairs, in the mapping's order."""
+    if values is None:
+        return ()
+    if not isinstance(values, Mapping):
+        raise TypeError(f"{where} must be a mapping of state names (or variables) to expressions, got {values!r}")
+    out = []
+    for key, value in values.items():
+        name = _name_of(where, key)
+        out.append((name, _expression(f"{where}[{name!r}]", value)))
+    return tuple(out)
+
+
+def _names(where: str, value) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    if isinstance(value, str):
+        value = value.replace(",", " ").split()
+    out = tuple(value)
+    for name in out:
+        if not isinstance(name, str):
+            raise TypeError(f"{where} must name modes by strings, got {name!r}")
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class HybridMode:
+    """One mode of a hybrid system: a smooth vector field and, optionally, entry conditions.
+
+    Parameters
+    ----------
+    name : str
+        The mode's name (unique in the system).
+    field : mapping or sequence
+        The vector field: a mapping from each state (its name or its variable) to its rate,
+        or a sequence with one rate per state in the system's order. Rates are heyoka
+        expressions in the states, ``heyoka.time`` and the parameters (or numbers).
+    entry : sequence of expressions, optional
+        Entry conditions ``c(y, t; p) >= 0``, all of which must hold for the mode to be
+        entered: a transition with several candidate modes takes the first whose
+        conditions hold at the state after the reset (how a Filippov stick mode is entered
+        or not, see :func:`stick_slip`), and a run without a given initial mode starts in
+        the first mode whose conditions hold. They may use ``heyoka.select`` and the
+        comparisons ``heyoka.gt``/``heyoka.lt`` (they are evaluated, never integrated).
+    integrands : mapping, optional
+        The rate of each of the system's :attr:`HybridSystem.integrals` in this mode
+        (default 0), integrated with the flow as an extra state.
+
+    Examples
+    --------
+    >>> from impactosc import HybridMode, symbols
+    >>> x, v, g = symbols("x v g")
+    >>> flight = HybridMode("flight", {x: v, v: -g}, entry=[x])
+    >>> flight.name
+    'flight'
+    """
+
+    name: str
+    field: Any
+    entry: tuple = ()
+    integrands: Any = ()
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise TypeError(f"a mode's name must be a non-empty string, got {self.name!r}")
+        where = f"mode {self.name!r}"
+        if isinstance(self.field, Mapping):
+            rates: Any = _by_name(f"{where}: field", self.field)
+        elif isinstance(self.field, Sequence) and not isinstance(self.field, str):
+            rates = tuple(_expression(f"{where}: field[{i}]", f) for i, f in enumerate(self.field))
+        else:
+            raise TypeError(f"{where}: field must be a mapping state -> rate or a sequence of rates, "
+                            f"got {self.field!r}")
+        object.__setattr__(self, "field", rates)
+        entry = self.entry
+        if _is_expression(entry) or isinstance(entry, numbers.Real):
+            entry = (entry,)
+        object.__setattr__(self, "entry", tuple(_expression(f"{where}: entry[{i}]", c)
+                                                 for i, c in enumerate(entry)))
+        object.__setattr__(self, "integrands", _by_name(f"{where}: integrands", dict(self.integrands)))
+
+
+@dataclass(frozen=True, eq=False)
+class Guard:
+    """A switching surface ``h(y, t; p) = 0``: where it is armed, which way it fires, what follows.
+
+    Parameters
+    ----------
+    name : str
+        The guard's name (unique in the system); events carry it.
+    expression : heyoka expression
+        ``h`` in the states, ``heyoka.time`` and the parameters.
+    direction : {-1, 0, 1}
+        Fire when ``h`` falls through 0 (-1), rises through 0 (+1) or either (0).
+    armed : str or sequence of str
+        The modes in which the guard is armed.
+    to : str or sequence of str, optional
+        The next mode, or candidates in order (the first whose :attr:`HybridMode.entry` holds
+        after the reset). ``None`` (default): the mode does not change.
+    reset : mapping, optional
+        The reset map: the new value of each state it changes, an expression in the states
+        (their values just before the event), the time and the parameters. States left
+        out keep their values.
+    terminal : bool, optional
+        False: the guard only marks an event (a Poincare section, a crossing to count):
+        no transition, no reset. Default True.
+
+    Examples
+    --------
+    >>> from impactosc import Guard, symbols
+    >>> x, v, e = symbols("x v e")
+    >>> impact = Guard("impact", x, direction=-1, armed="flight", to="flight", reset={v: -e * v})
+    >>> impact.armed
+    ('flight',)
+    """
+
+    name: str
+    expression: Any
+    direction: int
+    armed: Any
+    to: Any = None
+    reset: Any = ()
+    terminal: bool = True
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise TypeError(f"a guard's name must be a non-empty string, got {self.name!r}")
+        where = f"guard {self.name!r}"
+        object.__setattr__(self, "expression", _expression(f"{where}: expression", self.expression))
+        if self.direction not in DIRECTIONS or isinstance(self.direction, bool):
+            raise ValueError(f"{where}: direction must be -1, 0 or 1, got {self.direction!r}")
+        object.__setattr__(self, "direction", int(self.direction))
+        object.__setattr__(self, "armed", _names(f"{where}: armed", self.armed))
+        object.__setattr__(self, "to", _names(f"{where}: to", self.to))
+        object.__setattr__(self, "reset", _by_name(f"{where}: reset", dict(self.reset)))
+        if not self.terminal and (self.to or self.reset):
+            raise ValueError(f"{where}: a non-terminal guard (terminal=False) has no transition or reset, "
+                             f"got to={self.to!r}, reset={dict(self.reset)!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class HybridSystem:
+    """A piecewise-smooth system of any dimension: states, parameters, modes and guards.
+
+    Parameters
+    ----------
+    states : str or sequence of str
+        The state names in order (``"x v"`` or ``("x", "v")``).
+    parameters : mapping str -> float, optional
+        The parameters and their values; the expressions use them as symbols of the same name.
+    modes : sequence of HybridMode
+        Their fields are completed at construction: a tuple of rates in the order of the
+        states, then of the integrals (0 where a mode gives no integrand).
+    guards : sequence of Guard
+    integrals : str or sequence of str, optional
+        Names of integrals (a contact force's impulse, a dissipated energy), each integrated
+        exactly with the flow as an extra state, with the rate each mode gives in
+        :attr:`HybridMode.integrands`.
+    period : float or expression, optional
+        The forcing period (for stroboscopic maps), a number or an expression in the
+        parameters such as ``2 * pi / Omega``.
+    section : str, optional
+        The name of a guard whose events are the Poincare section of an autonomous system
+        (:class:`impactosc.dynamics.hybrid_map.HybridMap` maps the state on it to its next
+        return when the system has no period).
+    name : str, optional
+        A label for messages and tables.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the mode, guard or expression at fault: an unknown symbol, a vector field or
+        reset of the wrong size, a guard armed in no mode or in an unknown one, a transition
+        to an unknown mode, a duplicate name.
+
+    Examples
+    --------
+    The bouncing ball, ``x'' = -g`` with ``v -> -e v`` at ``x = 0``:
+
+    >>> from impactosc import Guard, HybridSystem, HybridMode, symbols
+    >>> x, v, g, e = symbols("x v g e")
+    >>> ball = HybridSystem(
+    ...     states="x v", parameters={"g": 9.81, "e": 0.8},
+    ...     modes=[HybridMode("flight", {x: v, v: -g})],
+    ...     guards=[Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v})])
+    >>> ball.dimension, ball.parameter_names
+    (2, ('g', 'e'))
+    """
+
+    states: Any
+    parameters: Any = ()
+    modes: Any = ()
+    guards: Any = ()
+    integrals: Any = ()
+    period: Any = None
+    section: str | None = None
+    name: str = "system"
+    structure: str = field(init=False, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "states", _names("states", self.states))
+        object.__setattr__(self, "integrals", _names("integrals", self.integrals))
+        params = dict(self.parameters)
+        values = []
+        for key, value in params.items():
+            if not isinstance(key, str):
+                raise TypeError(f"parameters: names must be strings, got {key!r}")
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
+                raise ValueError(f"parameter {key!r} must be a finite real number, got {value!r}")
+            values.append((key, float(value)))
+        object.__setattr__(self, "parameters", tuple(values))
+        object.__setattr__(self, "modes", tuple(self.modes))
+        object.__setattr__(self, "guards", tuple(self.guards))
+        if self.period is not None:
+            object.__setattr__(self, "period", _expression("period", self.period))
+        for m in self.modes:
+            if not isinstance(m, HybridMode):
+                raise TypeError(f"modes must be impactosc.HybridMode objects, got {m!r}")
+        for g in self.guards:
+            if not isinstance(g, Guard):
+                raise TypeError(f"guards must be impactosc.Guard objects, got {g!r}")
+        check_system(self)
+        object.__setattr__(self, "modes", tuple(_complete_mode(self, m) for m in self.modes))
+        object.__setattr__(self, "structure", _structure(self))
+
+    # -- names and indices ------------------------------------------------------------
+    @property
+    def dimension(self) -> int:
+        """The number of states."""
+        return len(self.states)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(k for k, _ in self.parameters)
+
+    @property
+    def parameter_values(self) -> tuple[float, ...]:
+        return tuple(v for _, v in self.parameters)
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        return tuple(m.name for m in self.modes)
+
+    @property
+    def guard_names(self) -> tuple[str, ...]:
+        return tuple(g.name for g in self.guards)
+
+    def mode_index(self, name: str) -> int:
+        """The index of the mode ``name``, or a ValueError listing the modes."""
+        try:
+            return self.mode_names.index(name)
+        except ValueError:
+            raise ValueError(f"{self.name}: no mode named {name!r}; the modes are {list(self.mode_names)}") from None
+
+    def with_parameters(self, **values: float) -> HybridSystem:
+        """A copy with new parameter values (the same structure: compiled code is reused).
+
+        Raises
+        ------
+        ValueError
+            For a name that is not a parameter of the system.
+        """
+        known = dict(self.parameters)
+        for key in values:
+            if key not in known:
+                raise ValueError(f"{self.name}: {key!r} is not a parameter; the parameters are {list(known)}")
+        for key, value in values.items():
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
+                raise ValueError(f"parameter {key!r} must be a finite real number, got {value!r}")
+            known[key] = float(value)
+        # The structure is unchanged, and validated: a copy with the new values, not a new construction.
+        new = copy.copy(self)
+        object.__setattr__(new, "parameters", tuple(known.items()))
+        return new
+
+    def period_value(self) -> float | None:
+        """The forcing period at the current parameter values (None when there is none)."""
+        if self.period is None:
+            return None
+        from ._numeric import numeric
+
+        num = numeric(self)
+        value = num.period_function()(0.0, [0.0] * len(num.states), self.parameter_values)[0]
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"{self.name}: the period {self.period} is {value!r} at the parameters "
+                             f"{dict(self.parameters)}; it must be finite and > 0")
+        return float(value)
+
+
+def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:
+    """``mode`` with its field as a tuple of rates in state order, then the integrands in integral order."""
+    zero = _hy().expression(0.0)
+    if mode.field and isinstance(mode.field[0], tuple):
+        given = dict(mode.field)
+        rates = [given[s] for s in system.states]
+    else:
+        rates = list(mode.field)
+    integrands = dict(mode.integrands)
+    rates += [integrands.get(q, zero) for q in system.integrals]
+    return replace(mode, field=tuple(rates), integrands=mode.integrands)
+
+
+def _structure(system: HybridSystem) -> str:
+    """Everything a backend compiles, as text: the key of its cache (parameter values left out)."""
+    parts = [f"states={system.states}", f"integrals={system.integrals}", f"params={system.parameter_names}",
+             f"period={system.period}", f"section={system.section}"]
+    for m in system.modes:
+        parts.append(f"mode {m.name}: {[str(f) for f in m.field]} entry {[str(c) for c in m.entry]}")
+    for g in system.guards:
+        parts.append(f"guard {g.name}: {g.expression} dir {g.direction} armed {g.armed} to {g.to} "
+                     f"reset {[(k, str(e)) for k, e in g.reset]} terminal {g.terminal}")
+    return "\n".join(parts)

@@ -1,0 +1,277 @@
+"""A hybrid system's expressions in numeric form: parameters as ``par[i]``, Lie derivatives, evaluators.
+
+The backends need the definition in three forms: heyoka expressions with the parameters
+as runtime parameters ``hy.par[i]`` (for the Taylor integrator), the Lie derivative
+``h' = dh/dt + grad h . f`` of every guard in every mode (its zeros are the guard's
+extrema, where a grazing is checked), and functions that evaluate the small per-event
+expressions (resets, guard values at a new state, entry conditions, vector fields for
+scipy) at a point.
+
+The per-event functions are Python functions generated from the expressions' text (about
+1 us a call), checked against heyoka's compiled function (``hy.cfunc``, about 7 us a call
+from Python) at a random point when they are built; an expression the generated code
+cannot reproduce uses the compiled function.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # annotations only: the definition imports this module for its period
+    from ._definition import HybridSystem
+
+__all__ = ["Numeric", "numeric", "evaluator", "Rules", "rules", "gated_sum"]
+
+_TIME_VAR = "_time"  # the time as a variable, to differentiate with respect to it
+
+
+def _select(cond, a, b):
+    return a if cond else b
+
+
+def _sigmoid(x):
+    return 1.0 / (1.0 + math.exp(-x))
+
+
+_NAMESPACE = {
+    **{name: getattr(math, name) for name in ("sin", "cos", "tan", "exp", "log", "sqrt", "asin", "acos", "atan",
+                                              "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh", "erf")},
+    "select": _select, "relu": lambda x: x if x > 0.0 else 0.0, "sigmoid": _sigmoid,
+    "__builtins__": {},
+}
+
+
+class Numeric:
+    """The numeric forms of one system's structure (shared by every parameter value).
+
+    Attributes
+    ----------
+    states : list of heyoka variables
+        The state variables, then the integrals' (the integrator's state vector).
+    rates : list of list of expressions
+        ``rates[m]`` the vector field of mode ``m`` (states then integrands), parameters as ``par[i]``.
+    guards : list of expressions
+        Each guard's expression, parameters as ``par[i]``.
+    lie : dict (mode, guard) -> expression
+        The Lie derivative of each guard armed in each mode.
+    """
+
+    def __init__(self, system: HybridSystem):
+        import heyoka as hy
+
+        self.system = system
+        self.rules: Rules | None = None  # the per-event functions, built on first use
+        self.second: dict = {}  # (mode, guard) -> the guard's second Lie derivative, built on first use
+        self._period = None
+        names = list(system.states) + list(system.integrals)
+        self.states = list(hy.make_vars(*names)) if len(names) > 1 else [hy.make_vars(*names)]
+        self.n_params = len(system.parameters)
+        subs = {name: hy.par[i] for i, name in enumerate(system.parameter_names)}
+        self._subs = subs
+        self.rates = [[hy.subs(r, subs) for r in m.field] for m in system.modes]
+        self.guards = [hy.subs(g.expression, subs) for g in system.guards]
+        self.armed = [tuple(system.mode_names.index(a) for a in g.armed) for g in system.guards]
+        self.armed_in = [tuple(g for g, modes in enumerate(self.armed) if m in modes)
+                         for m in range(len(system.modes))]
+        self.lie = {(m, g): self.lie_derivative(self.guards[g], self.rates[m])
+                    for g, modes in enumerate(self.armed) for m in modes}
+
+    def lie_derivative(self, expr, rates):
+        """``dh/dt + sum_i dh/dy_i f_i`` of ``expr`` along ``rates``.
+
+        heyoka differentiates with respect to variables only: the time becomes the variable
+        ``_time`` for the derivative and is put back after.
+        """
+        import heyoka as hy
+
+        tvar = hy.make_vars(_TIME_VAR)
+        timed = hy.subs(expr, {hy.time: tvar})
+        used = set(hy.get_variables(expr))
+        terms = [hy.diff(timed, _TIME_VAR)]
+        terms += [hy.diff(timed, str(var)) * rate for var, rate in zip(self.states, rates, strict=True)
+                  if str(var) in used]
+        total = hy.sum(terms) if len(terms) > 1 else terms[0]
+        return hy.subs(total, {_TIME_VAR: hy.time})
+
+    def derivatives(self, expr) -> list:
+        """``[d expr / d y_j for every state and integral] + [d expr / dt] + [d expr / d p_k for every parameter]``."""
+        import heyoka as hy
+
+        tvar = hy.make_vars(_TIME_VAR)
+        timed = hy.subs(expr, {hy.time: tvar})
+        out = [hy.diff(timed, str(var)) for var in self.states] + [hy.diff(timed, _TIME_VAR)]
+        out += [hy.diff(timed, hy.par[k]) for k in range(self.n_params)]
+        return [hy.subs(e, {_TIME_VAR: hy.time}) for e in out]
+
+    def period_function(self):
+        """``f(t, y, p) -> (T, dT/dp_1, ..., dT/dp_P)`` of the system's forcing period (built on first use)."""
+        import heyoka as hy
+
+        if self._period is None:
+            period = self.with_params(self.system.period)
+            exprs = [period] + [hy.diff(period, hy.par[k]) for k in range(self.n_params)]
+            self._period = evaluator(self, exprs, "the period")
+        return self._period
+
+    def with_params(self, expr):
+        """``expr`` (in the named parameters) with the parameters as ``par[i]``."""
+        import heyoka as hy
+
+        return hy.subs(expr, self._subs)
+
+
+_by_structure: dict[str, Numeric] = {}
+
+
+def numeric(system: HybridSystem) -> Numeric:
+    """The :class:`Numeric` of ``system``'s structure (cached: shared across parameter values)."""
+    found = _by_structure.get(system.structure)
+    if found is None:
+        found = _by_structure[system.structure] = Numeric(system)
+    return found
+
+
+def evaluator(num: Numeric, exprs, label: str):
+    """A function ``f(t, y, p) -> tuple of float`` evaluating ``exprs`` (parameters as ``par[i]``).
+
+    Generated Python source from the expressions' text, checked against ``hy.cfunc`` at a
+    random point; the compiled function is used when the two disagree or the text uses a
+    function the generated code does not know. ``label`` names the expressions in errors.
+    """
+    import heyoka as hy
+
+    exprs = list(exprs)
+    n = len(num.states)
+    names = [f"_y{i}" for i in range(n)]
+    internal = hy.make_vars(*names) if n > 1 else [hy.make_vars(*names)]
+    renamed = [hy.subs(e, {str(v): w for v, w in zip(num.states, internal, strict=True)}) for e in exprs]
+    if not exprs:
+        return lambda t, y, p: ()
+    compiled = hy.cfunc(exprs, num.states)
+    args = ", ".join(names)
+    pars = ", ".join(f"p{i}" for i in range(num.n_params))
+    body = ["def _f(t, y, p):", f"    {args}{',' if n == 1 else ''} = y"]
+    if num.n_params:
+        body.append(f"    {pars}{',' if num.n_params == 1 else ''} = p")
+    body.append(f"    return ({', '.join(str(e) for e in renamed)},)")
+    source = "\n".join(body)
+    rng = np.random.default_rng(12345)
+    y = rng.uniform(0.3, 0.9, n)
+    p = rng.uniform(0.3, 0.9, num.n_params)
+    t = 0.37
+    n_pars = compiled.nparams
+    with np.errstate(all="ignore"):
+        want = compiled(y, pars=p[:n_pars], time=t) if n_pars else compiled(y, time=t)
+    try:
+        space = dict(_NAMESPACE)
+        exec(compile(source, f"<{label}>", "exec"), space)  # noqa: S102 - our own text of heyoka expressions
+        fast = space["_f"]
+        got = np.array(fast(t, tuple(y), tuple(p)), dtype=float)
+        agree = bool(np.allclose(got, want, rtol=1e-12, atol=1e-300, equal_nan=True))
+    except Exception:  # an operator or function the generated code does not reproduce
+        agree = False
+    if agree:
+        return fast
+    out = np.empty(len(exprs))
+
+    def slow(t, y, p):
+        pars = np.asarray(p[:n_pars], dtype=float)
+        compiled(np.asarray(y, dtype=float), pars=pars, time=t, outputs=out)
+        return tuple(out.tolist())
+
+    return slow
+
+
+class Rules:
+    """The per-event functions of one structure, built on first use and kept (see :func:`rules`).
+
+    ``reset[g]`` (``None`` for the identity), ``entry[m]`` (``None`` without conditions) and
+    ``probe[m]``, which gives the values of the guards armed in ``m`` followed by their Lie
+    derivatives, each ``f(t, y, p) -> tuple``.
+    """
+
+    def __init__(self, num: Numeric):
+        system = num.system
+        n = system.dimension
+        self.reset: list = []
+        for guard in system.guards:
+            given = dict(guard.reset)
+            if not given:
+                self.reset.append(None)
+                continue
+            exprs = [num.with_params(given[s]) if s in given else num.states[i] for i, s in enumerate(system.states)]
+            self.reset.append(evaluator(num, exprs, f"reset of guard {guard.name!r}"))
+        self.entry = [evaluator(num, [num.with_params(c) for c in m.entry], f"entry of mode {m.name!r}")
+                      if m.entry else None for m in system.modes]
+        self.probe = []
+        for m, mode in enumerate(system.modes):
+            armed = num.armed_in[m]
+            exprs = [num.guards[g] for g in armed] + [num.lie[(m, g)] for g in armed]
+            self.probe.append(evaluator(num, exprs, f"guards of mode {mode.name!r}"))
+        self.field = [evaluator(num, num.rates[m], f"vector field of mode {system.modes[m].name!r}")
+                      for m in range(len(system.modes))]
+        self.guard = [evaluator(num, [num.guards[g]], f"guard {system.guards[g].name!r}")
+                      for g in range(len(system.guards))]
+        self.dimension = n
+        self._num = num
+        self._jacobians: dict[int, tuple] = {}
+
+    def jacobians(self, g: int) -> tuple:
+        """``(guard, reset)`` functions of guard ``g``'s derivatives (built on first use), each ``f(t, y, p)``.
+
+        ``guard`` gives ``dh/dy`` (every state and integral), ``dh/dt`` and ``dh/dp`` (every
+        parameter); ``reset`` gives, row by row for each state, ``dR_i/dy``, ``dR_i/dt``,
+        ``dR_i/dp`` (``None`` for the identity reset).
+        """
+        found = self._jacobians.get(g)
+        if found is None:
+            num = self._num
+            guard = num.system.guards[g]
+            h = num.guards[g]
+            guard_fn = evaluator(num, num.derivatives(h), f"derivatives of guard {guard.name!r}")
+            reset_fn = None
+            given = dict(guard.reset)
+            if given:
+                rows = []
+                for i, s in enumerate(num.system.states):
+                    rows += num.derivatives(num.with_params(given[s]) if s in given else num.states[i])
+                reset_fn = evaluator(num, rows, f"derivatives of the reset of guard {guard.name!r}")
+            found = self._jacobians[g] = (guard_fn, reset_fn)
+        return found
+
+
+def rules(system: HybridSystem) -> Rules:
+    """The :class:`Rules` of ``system``'s structure (built once per structure)."""
+    num = numeric(system)
+    found = num.rules
+    if found is None:
+        found = num.rules = Rules(num)
+    return found
+
+
+def gated_sum(exprs_by_mode, indicators):
+    """``sum_m [mode == m] e_m``, one term per distinct expression, zeros left out.
+
+    ``indicators[m]`` is the expression of ``[mode == m]`` (a runtime parameter): the vector
+    field of every mode in one expression, for one integrator per system.
+    """
+    import heyoka as hy
+
+    groups: dict[str, tuple] = {}
+    for m, e in enumerate(exprs_by_mode):
+        key = str(e)
+        if e == hy.expression(0.0):
+            continue
+        expr, modes = groups.get(key, (e, []))
+        modes.append(m)
+        groups[key] = (expr, modes)
+    terms = []
+    for expr, modes in groups.values():
+        gate = indicators[modes[0]] if len(modes) == 1 else hy.sum([indicators[m] for m in modes])
+        terms.append(gate * expr)
+    if not terms:
+        return hy.expression(0.0)
+    return terms[0] if len(terms) == 1 else hy.sum(terms)

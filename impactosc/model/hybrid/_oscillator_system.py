@@ -1,0 +1,100 @@
+"""The paper's oscillator family written as a user hybrid system (eq. 3 with spring or rigid flanges)."""
+
+from __future__ import annotations
+
+import math
+
+from .._oscillator import Oscillator
+from ._definition import Guard, HybridSystem
+from ._friction import stick_slip
+
+__all__ = ["oscillator_system"]
+
+
+def oscillator_system(osc: Oscillator) -> HybridSystem:
+    """The member ``osc`` of the family as a :class:`HybridSystem` (paper eq. 3 and its family).
+
+    ``X'' + 2 zeta X' + X + beta sgn(X') = sum_i F_i cos(Omega_i t + phase_i) - flange(X)``
+    with Coulomb friction as :func:`stick_slip` modes in each region (``free``, ``upper``,
+    ``lower``: ``"free+"``, ``"free0"``, ``"free-"``, ...). A spring flange compresses
+    with the force ``K (X - gap_upper)`` (upper) or ``K (X + gap_lower)`` (lower), and the
+    integral ``Q`` is the flange impulse ``int K d dt``; a rigid flange is a guard with the
+    reset ``V -> -e V`` in the free modes (a mass coming to rest against it is an
+    accumulation of impacts: the run ends with status 2). The parameters keep the
+    oscillator's names (``F, Omega, phase, beta, beta_s, K, zeta, e, gap_upper,
+    gap_lower``, and ``F2, Omega2, phase2, ...`` for the harmonics); the forcing period
+    is ``2 pi / Omega``.
+
+    Raises
+    ------
+    ValueError
+        For a power-law flange (``exponent != 1``): ``d^p`` is not analytic at ``d = 0``,
+        where a Taylor integrator starts each contact.
+
+    Examples
+    --------
+    >>> import impactosc
+    >>> from impactosc.model.hybrid import oscillator_system
+    >>> system = oscillator_system(impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4))
+    >>> system.mode_names[:3], system.integrals
+    (('free0', 'free+', 'free-'), ('Q',))
+    """
+    import heyoka as hy
+
+    from ._definition import symbols
+
+    if not isinstance(osc, Oscillator):
+        raise TypeError(f"osc must be an impactosc.Oscillator, got {osc!r}")
+    if osc.exponent != 1.0 and not osc.rigid:
+        raise ValueError(f"exponent={osc.exponent!r}: a power-law flange d^p is not analytic at d = 0, where each "
+                         "contact starts; oscillator_system writes linear (exponent=1) and rigid flanges only")
+    x, v = symbols("x v")
+    params: dict[str, float] = {}
+
+    def par(name: str, value: float):
+        params[name] = float(value)
+        return symbols(name)
+
+    forcing = None
+    for i, (F, Om, ph) in enumerate(osc.terms):
+        tag = "" if i == 0 else str(i + 1)
+        term = par(f"F{tag}", F) * hy.cos(par(f"Omega{tag}", Om) * hy.time + par(f"phase{tag}", ph))
+        forcing = term if forcing is None else forcing + term
+    beta, beta_s = par("beta", osc.beta), par("beta_s", osc.beta_s)
+    base = forcing - x
+    if osc.zeta != 0.0:
+        base = base - 2.0 * par("zeta", osc.zeta) * v
+    flanges = [(side, gap) for side, gap in ((1, osc.gap_upper), (-1, osc.gap_lower)) if gap != math.inf]
+    gaps = {side: par("gap_upper" if side > 0 else "gap_lower", gap) for side, gap in flanges}
+    modes, guards = [], []
+    # the region of each mode's entry: between the flanges, or into one (an initial state decides)
+    inside = [gaps[side] - side * x for side, _ in flanges]
+    regions = [("free", base, None, inside)]
+    if not osc.rigid:
+        K = par("K", osc.K)
+        for side, _ in flanges:
+            wall = side * gaps[side]
+            regions.append(("upper" if side > 0 else "lower", base - K * (x - wall), side * K * (x - wall),
+                            [side * x - gaps[side]]))
+    for prefix, force, impulse, region in regions:
+        ints: dict = {"Q": impulse} if impulse is not None else {}
+        m, g = stick_slip(prefix, v, force, beta, beta_s, rates={x: v}, integrands=ints, stick_integrands=ints,
+                          entry=region)
+        modes += m
+        guards += g
+    if osc.rigid:
+        e = par("e", osc.restitution)
+        for side, _ in flanges:
+            up = side > 0
+            name = "upper" if up else "lower"
+            guards.append(Guard(f"impact {name}", x - side * gaps[side], side, armed="free+" if up else "free-",
+                                to="free-" if up else "free+", reset={v: -e * v}))
+    else:
+        for side, _ in flanges:
+            name, into, out = ("upper", "+", "-") if side > 0 else ("lower", "-", "+")
+            surface = x - side * gaps[side]
+            guards.append(Guard(f"enter {name}", surface, side, armed=f"free{into}", to=f"{name}{into}"))
+            guards.append(Guard(f"leave {name}", surface, -side, armed=f"{name}{out}", to=f"free{out}"))
+    period = 2.0 * math.pi / symbols("Omega") if osc.Omega > 0.0 else None
+    return HybridSystem("x v", params, modes, guards, integrals=() if osc.rigid else "Q", period=period,
+                        name="eq3" if not osc.rigid else "eq3 rigid")
