@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from contextlib import contextmanager
 
 import numpy as np
@@ -16,6 +15,7 @@ from .._common import (
     check_base,
     check_study_parameter,
     forcing_period,
+    on_a_terminal,
     oscillator_of,
     parameter_value,
     with_parameter,
@@ -190,7 +190,7 @@ def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, ba
 @contextmanager
 def _progress(progress, desc: str):
     """A callback for every accepted point that moves a tqdm bar, or None (no bar: off when not a terminal)."""
-    show = sys.stderr.isatty() if progress is None else bool(progress)
+    show = on_a_terminal() if progress is None else bool(progress)
     if not show:
         yield None
         return
