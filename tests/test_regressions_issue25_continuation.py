@@ -45,6 +45,23 @@ def test_item6_branch_point_lies_where_a_multiplier_is_one():
     assert abs(bp.parameter - PITCHFORK_OMEGA) < 1e-6 and bp.accuracy < 1e-6
 
 
+def test_item6_a_branch_point_the_correctors_cannot_reach_says_so():
+    # a fuzzed member: its located "branch point" had a complex pair of multipliers (0.23 +- 0.93i)
+    F, W, b, K, z, lo, hi = (0.2057224293734115, 1.3304081462985655, 0.03690047492817563, 3311.9521849606685,
+                             0.005857519745025499, 0.9216060475500816, 1.8834445153440098)
+    orb = dy.periodic_orbit(io.Oscillator(F, W, b, K, zeta=z), backend="exact")
+    br = continuation(orb, "Omega", (lo, hi), max_points=200)
+    bps = br.find("branch_point")
+    assert bps
+    for bp in bps:
+        miss = float(np.min(np.abs(bp.multipliers - 1.0)))
+        assert (bp.located and miss <= 1e-6) or (not bp.located and bp.message.startswith("not located")), bp
+        if not bp.located:  # its bracket holds the sign change of det(M - I) between two branch points
+            i = bp.index
+            lo_p, hi_p = sorted((br.points[i].parameter, br.points[i + 1].parameter))
+            assert lo_p - 1e-12 <= bp.parameter <= hi_p + 1e-12 and bp.accuracy <= hi_p - lo_p + 1e-12
+
+
 def test_issue26_item6_a_crossing_in_the_first_backward_step_keeps_its_kind():
     # the start's tangent points forward; the first backward step must not read as a turn
     orb = dy.periodic_orbit(pitchfork_member(0.99), backend="exact")

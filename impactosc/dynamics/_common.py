@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import sys
 from fractions import Fraction
 
 import numpy as np
@@ -31,6 +32,15 @@ _OSC_NAMES = {"F": "forcing amplitude F", "Omega": "forcing frequency Omega", "b
               "beta_static": "static friction level", "exponent": "flange law exponent p",
               "restitution": "coefficient of restitution e", "gap_lower": "distance to the lower flange",
               "gap_upper": "distance to the upper flange"}
+
+
+def on_a_terminal() -> bool:
+    """Whether standard error is a terminal: where a progress bar is shown by default.
+
+    No bar in a notebook, a pipe, a log file, or without a standard error at all.
+    """
+    isatty = getattr(sys.stderr, "isatty", None)
+    return bool(isatty()) if callable(isatty) else False
 
 
 def check_base(base) -> Oscillator | TapeDrive:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import inspect
 import math
-import sys
 
 import numpy as np
 
@@ -22,6 +21,7 @@ from ._common import (
     check_base,
     check_study_parameter,
     check_values,
+    on_a_terminal,
     oscillator_of,
     parameter_attrs,
     parameter_value,
@@ -103,7 +103,7 @@ def onset_chart(base, parameter: str, bracket, grid: dict, *, executor=None, pro
     def on_result(ij, result):
         crit[ij], status[ij], message[ij], direc[ij], stable[ij] = result
 
-    show = sys.stderr.isatty() if progress is None else bool(progress)
+    show = on_a_terminal() if progress is None else bool(progress)
     run_points(_chart_point, points, (base, parameter, bracket, kwargs), executor=executor, on_result=on_result,
                on_lost=lambda ij, msg: on_result(ij, (math.nan, -3, msg, 0, math.nan)), progress=show,
                desc=f"onset of {parameter}", unit="point", what="onset_chart", try_here_first=True)

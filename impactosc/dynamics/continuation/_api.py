@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from contextlib import contextmanager
 
 import numpy as np
@@ -16,6 +15,7 @@ from .._common import (
     check_base,
     check_study_parameter,
     forcing_period,
+    on_a_terminal,
     oscillator_of,
     parameter_value,
     with_parameter,
@@ -190,7 +190,7 @@ def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, ba
 @contextmanager
 def _progress(progress, desc: str):
     """A callback for every accepted point that moves a tqdm bar, or None (no bar: off when not a terminal)."""
-    show = sys.stderr.isatty() if progress is None else bool(progress)
+    show = on_a_terminal() if progress is None else bool(progress)
     if not show:
         yield None
         return
@@ -370,8 +370,9 @@ def _run(problem: MapProblem, z0, limits, direction: str, settings: Settings, ma
     return assemble(problem, nodes, found, ends, nb)
 
 
-#: A test value this small at a located point is a zero whatever the bracket (rounding of det(M -+ I)).
-SMOOTH_CROSSING_TEST = 1e-8
+#: Largest distance of a located point's critical multiplier from +1 (fold, branch point), -1 (period
+#: doubling) or the unit circle (Neimark-Sacker): the yardstick of a smooth crossing in :mod:`._follow`.
+LOCATED = 1e-6
 #: Kinds located on a test function of the multipliers, and the test's name.
 _SMOOTH = {"fold": "fold", "branch_point": "fold", "period_doubling": "period_doubling",
            "neimark_sacker": "neimark_sacker"}
@@ -381,13 +382,14 @@ def _vetted(problem: MapProblem, f: Found, nodes: list[Node], settings: Settings
     """``f`` where its test function vanishes: checked, located again, or marked "not located".
 
     Near a pitchfork the pseudo-arclength corrector's Jacobian is singular and the locator
-    may stop early, keeping a node far from the zero (its multipliers far from +1). A
-    located point's test value, divided by the test's slope between the bracketing branch
-    points, must not exceed its stated accuracy. Where it does, the zero is located again
-    by regula falsi in the parameter itself (each value a Newton solve at that value, which
-    a branch point does not disturb the way it does the arclength corrector); where that
-    fails too, the point is reported in its bracket, at the zero of the test function
-    interpolated between the two branch points, and its message begins "not located".
+    may stop early, keeping a node far from the zero (its multipliers far from +1, or even a
+    complex pair). A located point's critical multiplier must lie within :data:`LOCATED` of
+    its critical value. Where it does not, the zero is located again by regula falsi in the
+    parameter itself (each value a Newton solve at that value, which a branch point does
+    not disturb the way it does the arclength corrector). Where that fails too, the point
+    is reported with its message beginning "not located": at the last point the parameter
+    search reached, or at the zero of the test function interpolated between the two branch
+    points, with the width of that bracket as its accuracy.
     """
     test = _SMOOTH.get(f.kind)
     if test is None or not 0 <= f.index < len(nodes) - 1:
@@ -397,28 +399,41 @@ def _vetted(problem: MapProblem, f: Found, nodes: list[Node], settings: Settings
     pa, pb = (float(n.u[2] * problem.scales[0]) for n in (a, b))
     if not all(map(math.isfinite, (va, vb, vf))) or va * vb >= 0.0 or pa == pb:
         return f
-    slope = abs(vb - va) / abs(pb - pa)
 
-    def on_its_zero(value: float, accuracy: float) -> bool:
-        return abs(value) <= SMOOTH_CROSSING_TEST or abs(value) <= slope * max(accuracy, 1e-12 * max(1.0, abs(pa)))
+    def on_its_zero(node: Node) -> bool:
+        return _critical_miss(node.info.multipliers, test) <= LOCATED
 
-    if on_its_zero(vf, f.accuracy):
+    if on_its_zero(f.node):
         return f
     again = _locate_in_parameter(problem, a, b, test, settings)
     # a corrector at a fixed parameter may land on another orbit near a branch point: the point found
     # must itself lie on the zero of the test function
-    if again is not None and on_its_zero(float(again[0].info.tests[test]), again[1]):
+    if again is not None and on_its_zero(again[0]):
         f.node, f.accuracy = again
         f.extra = {**f.extra, "test": f"{test} (in the parameter)"}
         return f
-    where = pa + va * (pb - pa) / (va - vb)
-    f.extra = {**f.extra, "value": where}
-    f.accuracy = abs(pb - pa)
-    f.message = (f"not located: {f.message}, somewhere between {problem.names[0]} = {pa!r} and {pb!r} (the corrector "
-                 f"failed next to it, and the last point it reached has test value {vf:.3g}, multipliers "
-                 f"{np.round(f.node.info.multipliers, 6)}); the parameter given is the zero of the test function "
-                 f"interpolated between the two branch points")
+    before = f.message
+    if again is not None and math.isfinite(float(again[0].info.tests[test])):
+        f.node, f.accuracy = again
+        where = f"located only to within {f.accuracy:.3g} in {problem.names[0]}"
+    else:
+        f.extra = {**f.extra, "value": pa + va * (pb - pa) / (va - vb)}
+        f.accuracy = abs(pb - pa)
+        where = (f"somewhere between {problem.names[0]} = {pa!r} and {pb!r}; the parameter given is the zero of the "
+                 "test function interpolated between the two branch points")
+    f.message = (f"not located: {before}, {where} (the correctors fail next to it; the last point reached has test "
+                 f"value {float(f.node.info.tests[test]):.3g} and multipliers {np.round(f.node.info.multipliers, 6)})")
     return f
+
+
+def _critical_miss(mus, test: str) -> float:
+    """Distance of the multiplier nearest the critical value of ``test`` from it (inf when none is defined)."""
+    mus = np.asarray(mus, dtype=complex)
+    if not np.all(np.isfinite(mus)):
+        return math.inf
+    if test == "neimark_sacker":
+        return float(np.min(np.abs(np.abs(mus) - 1.0))) if np.any(mus.imag != 0.0) else math.inf
+    return float(np.min(np.abs(mus - (1.0 if test == "fold" else -1.0))))
 
 
 def _locate_in_parameter(problem: MapProblem, a: Node, b: Node, test: str, settings: Settings):
