@@ -24,12 +24,15 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from . import dynamics as dynamics
     from . import signal as signal
     from .backends import simulate
+    from .backends.exact_mdof import simulate_mechanical
     from .engine import EVENT_KINDS, Mode
-    from .model import Oscillator, TapeDrive
+    from .model import MechanicalSystem, Oscillator, TapeDrive
     from .results import Solution
+    from .results._mechanical import MechanicalSolution
     from .sweeps import load_sweep, sweep
 
-__all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS"]
+__all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
+           "MechanicalSystem", "simulate_mechanical", "MechanicalSolution"]
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -41,6 +44,9 @@ _LAZY = {
     "Solution": "results",
     "Mode": "engine",
     "EVENT_KINDS": "engine",
+    "MechanicalSystem": "model",
+    "simulate_mechanical": "backends.exact_mdof",
+    "MechanicalSolution": "results._mechanical",
 }
 _SUBPACKAGES = ("dynamics", "signal")
 

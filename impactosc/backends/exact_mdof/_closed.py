@@ -1,0 +1,336 @@
+"""The closed form of one piece of a linear mechanical system, and its certified guard search (compiled).
+
+In a mode the reduced first-order state ``Y = (z, z')`` obeys ``Y' = A Y + b(t)`` with
+``b(t) = Re sum_j beta_j e^{i omega_j t}`` (``omega_0 = 0``: the constant forces). In the
+eigenbasis ``A = V diag(lambda) V^-1`` each modal coordinate solves
+``eta_k' = lambda_k eta_k + sum_j beta_kj e^{i omega_j tau}``, so
+
+    eta_k(tau) = e^{lambda_k tau} eta_k(0) + sum_j beta_kj E(lambda_k, i omega_j, tau),
+    E(lambda, mu, tau) = (e^{mu tau} - e^{lambda tau}) / (mu - lambda) = e^{lambda tau} tau phi1((mu - lambda) tau),
+
+with ``phi1(z) = (e^z - 1) / z``, finite at resonance (``mu = lambda``: ``E = tau e^{lambda tau}``).
+Off resonance ``E`` splits into the classical form ``P (e^{mu tau} - e^{lambda tau})`` with
+``P = beta / (mu - lambda)``; a pair with ``|mu - lambda|`` below :data:`RESONANCE` times
+``max(|lambda|, |mu|)`` keeps the stable ``E`` (its amplitudes would cancel). A guard,
+any linear functional of the state and the forcing, is then
+
+    h(tau) = c0 + Re[ sum_k W_k e^{lambda_k tau} + sum_j D_j e^{i omega_j tau}
+                      + sum_r R_r E(lambda_{k_r}, i omega_{j_r}, tau) ].
+
+Certified root isolation
+------------------------
+On ``[a, b]`` each term's derivatives are bounded in closed form:
+``|d^p/dtau^p W e^{lambda tau}| <= |W| |lambda|^p max(e^{Re lambda a}, e^{Re lambda b})``,
+``|D (i omega)^p|`` and, for a resonant term (``E^(p)`` is a divided difference of
+``z^p e^{z tau}`` over the segment ``[lambda, mu]``, so the mean-value theorem bounds it by the
+derivative in ``z``), ``|R| (p rho^{p-1} + b rho^p) e^{max(Re lambda, 0) b}`` with
+``rho = max(|lambda|, |mu|)``. With ``M2 >= |h''|`` and ``M3 >= |h'''|`` the bracketing of
+:func:`impactosc._util.roots.first_rising` proves that an interval holds no root, or exactly
+one simple crossing (``h'`` of one sign), and bisects otherwise; a tangency (a grazing) is
+bisected until its extremum is separated from zero or the interval is a few ulps wide. So
+no crossing is missed and none is reported twice.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+import numpy as np
+
+from ..._util.jit import njit
+from ..._util.roots import SEARCH_FAILED
+from ..._util.roots import first_rising_jit as first_rising
+from ..._util.roots import refine_jit as refine
+
+__all__ = ["RESONANCE", "setup_piece", "search", "state_at", "integrals", "guard_values"]
+
+_EPS = 2.0**-52
+#: Relative distance ``|mu - lambda| / max(|lambda|, |mu|)`` below which a pair keeps the stable form ``E``.
+RESONANCE = 1e-3
+# Bisection stops at this many ulps of t when neither sign nor monotonicity can be proven.
+_MIN_WIDTH_ULPS = 4.0
+# A guard within this many ulps of its terms' size at a piece start counts as on its zero.
+_START_ULPS = 64.0
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
+# phi1(z) = sum z^k / (k+1)!, k = 0..12: below an ulp for |z| < 0.25.
+_PHI1_COEFFS = np.array([1.0 / math.factorial(k + 1) for k in reversed(range(13))])
+
+
+@njit
+def _phi1(z):
+    """``(e^z - 1) / z`` for complex ``z``, without cancellation near 0."""
+    if abs(z) < 0.25:
+        s = 0j
+        for c in _PHI1_COEFFS:
+            s = c + z * s
+        return s
+    return (cmath.exp(z) - 1.0) / z
+
+
+@njit
+def _E(lam, mu, tau):
+    """``(e^{mu tau} - e^{lam tau}) / (mu - lam)``, finite at ``mu = lam``."""
+    return cmath.exp(lam * tau) * tau * _phi1((mu - lam) * tau)
+
+
+@njit
+def setup_piece(lam, gin, gv, wk, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
+    """The coefficients of the piece that starts at ``(t0, q0, v0)`` in a mode.
+
+    Returns ``(a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale)``: the modal amplitudes of
+    the classical form, the particular amplitudes, the modal forcing, the resonance flags,
+    for every guard its exponential, harmonic and resonant coefficients and constant, the
+    frequencies (``omt[0] = 0``) and the size of the terms of each constant (its rounding scale).
+    """
+    m2 = lam.shape[0]
+    nh = om.shape[0]
+    jt = nh + 1
+    omt = np.zeros(jt)
+    omt[1:] = om
+    eta0 = gv @ (v0 + 0j)
+    f0 = const - kmode @ q0
+    beta = np.empty((m2, jt), dtype=np.complex128)
+    beta[:, 0] = gin @ (f0 + 0j)
+    for j in range(nh):
+        beta[:, j + 1] = gin @ (fh[j] * cmath.exp(1j * om[j] * t0))
+    P = np.zeros((m2, jt), dtype=np.complex128)
+    res = np.zeros((m2, jt), dtype=np.bool_)
+    a = eta0.copy()
+    nres = 0
+    for k in range(m2):
+        for j in range(jt):
+            mu = 1j * omt[j]
+            d = mu - lam[k]
+            if abs(d) <= RESONANCE * max(abs(lam[k]), omt[j]):
+                res[k, j] = True
+                nres += 1
+            else:
+                P[k, j] = beta[k, j] / d
+                a[k] -= P[k, j]
+    ng = wk.shape[0]
+    W = np.empty((ng, m2), dtype=np.complex128)
+    D = np.zeros((ng, jt), dtype=np.complex128)
+    rk = np.empty(nres, dtype=np.int64)
+    rj = np.empty(nres, dtype=np.int64)
+    RG = np.zeros((ng, nres), dtype=np.complex128)
+    r = 0
+    for k in range(m2):
+        for j in range(jt):
+            if res[k, j]:
+                rk[r], rj[r] = k, j
+                r += 1
+    c0 = ga @ q0 + gc
+    cscale = np.abs(ga) @ np.abs(q0) + np.abs(gc)
+    for g in range(ng):
+        for k in range(m2):
+            W[g, k] = wk[g, k] * a[k]
+        for j in range(jt):
+            s = 0j
+            for k in range(m2):
+                s += wk[g, k] * P[k, j]
+            D[g, j] = s
+        for j in range(nh):  # the guard's direct dependence on the harmonic forces
+            s = 0j
+            for i in range(q0.shape[0]):
+                s += gu[g, i] * fh[j, i]
+            D[g, j + 1] += s * cmath.exp(1j * om[j] * t0)
+        for rr in range(nres):
+            RG[g, rr] = wk[g, rk[rr]] * beta[rk[rr], rj[rr]]
+    return a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale
+
+
+@njit
+def _h(st, tau):
+    """``(h, h')`` of guard ``st[0]`` at ``tau``."""
+    g, lam, W, omt, D, rk, rj, RG, c0 = st
+    h = 0j
+    dh = 0j
+    for k in range(lam.shape[0]):
+        e = W[g, k] * cmath.exp(lam[k] * tau)
+        h += e
+        dh += lam[k] * e
+    for j in range(omt.shape[0]):
+        mu = 1j * omt[j]
+        e = D[g, j] * cmath.exp(mu * tau)
+        h += e
+        dh += mu * e
+    for r in range(rk.shape[0]):
+        lk = lam[rk[r]]
+        mu = 1j * omt[rj[r]]
+        E = _E(lk, mu, tau)
+        h += RG[g, r] * E
+        dh += RG[g, r] * (lk * E + cmath.exp(mu * tau))
+    return c0[g] + h.real, dh.real
+
+
+@njit
+def _bounds(st, a, b):
+    """``M2 >= |h''|`` and ``M3 >= |h'''|`` of guard ``st[0]`` on ``[a, b]`` (module docstring)."""
+    g, lam, W, omt, D, rk, rj, RG, c0 = st
+    m2 = 0.0
+    m3 = 0.0
+    for k in range(lam.shape[0]):
+        r = abs(lam[k])
+        grow = math.exp(max(lam[k].real * a, lam[k].real * b))
+        w = abs(W[g, k]) * grow * r * r
+        m2 += w
+        m3 += w * r
+    for j in range(omt.shape[0]):
+        w = abs(D[g, j]) * omt[j] * omt[j]
+        m2 += w
+        m3 += w * omt[j]
+    for r in range(rk.shape[0]):
+        lk = lam[rk[r]]
+        rho = max(abs(lk), omt[rj[r]])
+        grow = math.exp(max(lk.real, 0.0) * b)
+        w = abs(RG[g, r]) * grow
+        m2 += w * (2.0 * rho + b * rho * rho)
+        m3 += w * (3.0 * rho * rho + b * rho * rho * rho)
+    # the rounding of the sums: a relative margin
+    return m2 * (1.0 + 1e-12), m3 * (1.0 + 1e-12)
+
+
+@njit
+def _size(st):
+    """The sizes of guard ``st[0]``'s terms and of its derivative's at ``tau = 0`` (their rounding scales)."""
+    g, lam, W, omt, D, rk, rj, RG, c0 = st
+    s = abs(c0[g])
+    d = 0.0
+    for k in range(lam.shape[0]):
+        s += abs(W[g, k])
+        d += abs(W[g, k] * lam[k])
+    for j in range(omt.shape[0]):
+        s += abs(D[g, j])
+        d += abs(D[g, j]) * omt[j]
+    for r in range(rk.shape[0]):
+        d += abs(RG[g, r])
+    return s, d
+
+
+@njit
+def guard_values(lam, W, omt, D, rk, rj, RG, c0, tau):
+    """``(h, h')`` of every guard at ``tau`` (for the transition rule and the tests)."""
+    ng = W.shape[0]
+    hs = np.empty(ng)
+    ds = np.empty(ng)
+    for g in range(ng):
+        hs[g], ds[g] = _h((g, lam, W, omt, D, rk, rj, RG, c0), tau)
+    return hs, ds
+
+
+@njit
+def search(lam, W, omt, D, rk, rj, RG, c0, cscale, armed, t0, T):
+    """The first armed guard that rises through zero in ``(0, T]``: ``(tau, guard, status)``.
+
+    ``guard`` is -1 when none does before ``T``. A guard that starts on its zero (within
+    rounding) and falls is not reported at ``tau = 0``; one that starts on or beyond its
+    zero and rises is (``tau = 0``).
+    """
+    ng = W.shape[0]
+    nu = 0.0
+    for k in range(lam.shape[0]):
+        nu = max(nu, abs(lam[k]))
+    for j in range(omt.shape[0]):
+        nu = max(nu, omt[j])
+    window = math.pi / nu if nu > 0.0 else T
+    ha = np.zeros(ng)
+    da = np.zeros(ng)
+    for g in range(ng):
+        if not armed[g]:
+            continue
+        st = (g, lam, W, omt, D, rk, rj, RG, c0)
+        h0, d0 = _h(st, 0.0)
+        size, dsize = _size(st)
+        tol = _START_ULPS * _EPS * (size + cscale[g])
+        if h0 >= -tol and (d0 > _START_ULPS * _EPS * dsize or h0 > tol):
+            return 0.0, g, 0
+        if h0 >= -tol:
+            # On the zero and not rising (within rounding): the guard just fired or was just
+            # armed; a rise that follows (h'' > 0) is found in the search below.
+            h0 = -1e-300
+        ha[g], da[g] = h0, d0
+    a = 0.0
+    while a < T:
+        b = min(T, a + window)
+        best = math.inf
+        best_g = -1
+        hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
+        for g in range(ng):
+            if not armed[g]:
+                continue
+            st = (g, lam, W, omt, D, rk, rj, RG, c0)
+            M2, M3 = _bounds(st, a, b)
+            hit, lo, hi, hlo, hhi, hb, db, status = first_rising(_h, st, a, ha[g], da[g], b, M2, M3, hmin)
+            if status == SEARCH_FAILED:
+                return a, g, status
+            if hit:
+                tau = refine(_h, st, lo, hi, hlo, hhi, t0)
+                if tau < best:
+                    best, best_g = tau, g
+            ha[g], da[g] = hb, db
+        if best_g >= 0:
+            return best, best_g, 0
+        a = b
+    return T, -1, 0
+
+
+@njit
+def modal_at(lam, a, P, beta, res, omt, tau):
+    """The modal coordinates ``eta(tau)`` of the piece (complex)."""
+    m2 = lam.shape[0]
+    eta = np.empty(m2, dtype=np.complex128)
+    for k in range(m2):
+        s = a[k] * cmath.exp(lam[k] * tau)
+        for j in range(omt.shape[0]):
+            mu = 1j * omt[j]
+            if res[k, j]:
+                s += beta[k, j] * _E(lam[k], mu, tau)
+            else:
+                s += P[k, j] * cmath.exp(mu * tau)
+        eta[k] = s
+    return eta
+
+
+@njit
+def state_at(vq, vv, lam, a, P, beta, res, omt, q0, tau):
+    """``(q, v)`` at ``tau`` after the piece start (``q = q0 + Re(Vq eta)``, ``v = Re(Vv eta)``)."""
+    eta = modal_at(lam, a, P, beta, res, omt, tau)
+    q = q0 + (vq @ eta).real
+    v = (vv @ eta).real
+    return q, v
+
+
+@njit
+def integrals(vq, vv, lam, a, P, beta, res, omt, q0, tau, csym, om, fh, t0):
+    """``(int f(t).v dt, int v.C v dt)`` over ``[0, tau]``: forcing work and viscous dissipation.
+
+    Composite 16-node Gauss-Legendre on sub-intervals no longer than half the shortest
+    period of the piece (the integrands are sums of exponentials and harmonics).
+    """
+    if tau <= 0.0:
+        return 0.0, 0.0
+    nu = 0.0
+    for k in range(lam.shape[0]):
+        nu = max(nu, abs(lam[k]))
+    for j in range(omt.shape[0]):
+        nu = max(nu, 2.0 * omt[j])
+    n = max(1, math.ceil(tau * nu / math.pi))
+    h = tau / n
+    work = 0.0
+    diss = 0.0
+    for i in range(n):
+        left = h * i
+        for p in range(_GL_NODES.shape[0]):
+            s = left + 0.5 * h * (_GL_NODES[p] + 1.0)
+            eta = modal_at(lam, a, P, beta, res, omt, s)
+            v = np.ascontiguousarray((vv @ eta).real)
+            f = 0.0
+            for j in range(om.shape[0]):
+                ph = cmath.exp(1j * om[j] * (t0 + s))
+                for i in range(v.shape[0]):
+                    f += (fh[j, i] * ph).real * v[i]
+            wgt = 0.5 * h * _GL_WEIGHTS[p]
+            work += wgt * f
+            diss += wgt * (v @ (csym @ v))
+    return work, diss

@@ -1,0 +1,285 @@
+"""The event loop of the exact n-DOF backend: closed-form pieces, the transition rule, the records.
+
+Each piece is set up, searched and evaluated by the compiled code of :mod:`._closed`; the
+transitions between modes are decided here (module docstring of
+:mod:`impactosc.model._mechanical` for the physics).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...model._mechanical import MechanicalSystem
+from ...results._mechanical import MechanicalSolution
+from . import _closed
+from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, Mode, build_mode, describe
+
+__all__ = ["run"]
+
+#: Rebounds on a rigid stop are summed into rest once the next flight rises less than this
+#: (relative to the stop's scale ``max(1, gap)``): the next impacts are below the rounding of
+#: the gap, where no integrator can measure them (the engine's chatter rule on one coordinate).
+_CHATTER_HEIGHT = 1e-13
+
+
+#: Transitions without time passing, per contact and friction entry, before a run gives up:
+#: the active-set iteration of coupled stick and lift-off tests settles in a few.
+_MAX_ZERO_TIME = 4
+
+
+class _Runner:
+    def __init__(self, system: MechanicalSystem, energy: bool):
+        self.system = system
+        self.energy = energy
+        self.modes: dict[tuple, Mode] = {}
+        n = system.n
+        harm = [(f, om, ph) for f, om, ph in system.harmonics if om > 0.0]
+        self.om = np.array([om for _, om, _ in harm], dtype=float)
+        self.fh = np.array([f * np.exp(1j * ph) for f, _, ph in harm], dtype=complex).reshape(len(harm), n)
+        self.csym = 0.5 * (system.C + system.C.T)
+        self.minv = system._minv
+        self.normals = [c.normal for c in system.contacts]
+
+    def mode(self, key: tuple) -> Mode:
+        mode = self.modes.get(key)
+        if mode is None:
+            mode = self.modes[key] = build_mode(self.system, key)
+        return mode
+
+    def setup(self, mode: Mode, t0: float, q0: np.ndarray, v0: np.ndarray):
+        return _closed.setup_piece(mode.lam, mode.gin, mode.gv, mode.wk, mode.ga, mode.gu, mode.gc, mode.kmode,
+                                   mode.const, self.om, self.fh, t0, q0, v0)
+
+    def evaluate(self, mode: Mode, piece, q0: np.ndarray, taus: np.ndarray):
+        a, P, beta, res, _, _, _, _, _, _, omt, _ = piece
+        qs = np.empty((taus.size, self.system.n))
+        vs = np.empty_like(qs)
+        for i, tau in enumerate(taus):
+            qs[i], vs[i] = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, q0, float(tau))
+        return qs, vs
+
+    # --- forces needed by the transition rule -------------------------------------------------
+    def residual_force(self, key: tuple, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``r = f(t) + const_mode - K_mode q - C v``: every force but the constraint forces of ``key``."""
+        mode = self.mode(key)
+        f = self.system.forcing(t)
+        return f + mode.const - self.system.K @ q - (mode.kmode - self.system.K) @ q - self.system.C @ v
+
+
+def _initial_key(runner: _Runner, q: np.ndarray, v: np.ndarray, t: float) -> tuple:
+    system = runner.system
+    engaged, resting = [], []
+    for c, contact in enumerate(system.contacts):
+        g = float(contact.normal @ q) - contact.gap
+        tol = 1e-12 * max(1.0, contact.gap)
+        if contact.rigid and g > tol:
+            raise ValueError(f"q0 penetrates the rigid stop contacts[{c}]: n . q0 - gap = {g!r} > 0")
+        engaged.append((not contact.rigid) and g > 0.0)
+        resting.append(False)
+    motion = [int(np.sign(v[f.coordinate])) for f in system.friction]
+    key = (tuple(engaged), tuple(resting), tuple(motion))
+    for c, contact in enumerate(system.contacts):
+        g = float(contact.normal @ q) - contact.gap
+        if contact.rigid and contact.restitution < 1.0 and abs(g) <= 1e-12 * max(1.0, contact.gap) \
+                and float(contact.normal @ v) == 0.0:
+            r = runner.residual_force(key, t, q, v)
+            if float(contact.normal @ runner.minv @ r) > 0.0:  # pushed into the stop
+                resting[c] = True
+    key = (tuple(engaged), tuple(resting), tuple(motion))
+    for i in range(len(system.friction)):
+        if motion[i] == 0:
+            motion[i] = _stick_test(runner, key, i, t, q, v)
+            key = (tuple(engaged), tuple(resting), tuple(motion))
+    return key
+
+
+def _stick_test(runner: _Runner, key: tuple, i: int, t: float, q: np.ndarray, v: np.ndarray) -> int:
+    """0 if friction entry ``i`` holds its coordinate at rest, else the direction it slips in.
+
+    The holding force is computed together with the forces of the other active constraints
+    (stuck coordinates, resting stops); a violation of theirs that this causes fires as
+    their guard at the start of the next piece (an active-set iteration).
+    """
+    fr = runner.system.friction[i]
+    motion = list(key[2])
+    motion[i] = 0
+    stuck = (key[0], key[1], tuple(motion))
+    mode = runner.mode(stuck)
+    push = float(mode.weights[mode.friction_row[i]] @ runner.residual_force(stuck, t, q, v))
+    if abs(push) <= fr.static:
+        return 0
+    return 1 if push > 0.0 else -1
+
+
+def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, energy: bool) -> MechanicalSolution:
+    """Run ``system`` from ``(q0, v0)`` at ``t = 0`` to ``t_end`` (see :func:`simulate_mechanical`)."""
+    runner = _Runner(system, energy)
+    n = system.n
+    q = np.array(q0, dtype=float)
+    v = np.array(v0, dtype=float)
+    t = 0.0
+    key = _initial_key(runner, q, v, t)
+    for s, fr in zip(key[2], system.friction, strict=True):
+        if s == 0:
+            v[fr.coordinate] = 0.0
+    events: list[tuple] = []
+    starts: list[float] = []
+    records: list[tuple] = []
+    e0 = float(system.energy(q, v))
+    terms = {"work": 0.0, "damping": 0.0, "friction": 0.0, "impacts": 0.0, "energy_max": abs(e0)}
+    status, message = 0, "reached t_end"
+    n_events = 0
+    zero_time = 0
+    while True:
+        try:
+            mode = runner.mode(key)
+        except ValueError as err:
+            status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
+            break
+        piece = runner.setup(mode, t, q, v)
+        a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale = piece
+        armed = np.ones(len(mode.guards), dtype=np.bool_)
+        tau, g, st = _closed.search(mode.lam, W, omt, D, rk, rj, RG, c0, cscale, armed, t, t_end - t)
+        starts.append(t)
+        records.append((key, q.copy(), v.copy()))
+        if st != 0:
+            status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
+                                   f"(guard {mode.guards[g]}): non-finite values or no certified bracket")
+            break
+        t1 = t + tau if g >= 0 else t_end
+        tau = t1 - t
+        q1, v1 = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, q, tau)
+        if energy:
+            work, diss = _closed.integrals(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, q, tau, runner.csym,
+                                           runner.om, runner.fh, t)
+            terms["work"] += work
+            terms["damping"] += diss
+            for i, fr in enumerate(system.friction):
+                if key[2][i] != 0:
+                    terms["friction"] += fr.kinetic * key[2][i] * (q1[fr.coordinate] - q[fr.coordinate])
+            # The work of the constant harmonics (omega = 0) is f . Delta q.
+            for f, om, ph in system.harmonics:
+                if om == 0.0:
+                    terms["work"] += float(f @ (q1 - q)) * math.cos(ph)
+        t, q, v = t1, q1, v1
+        if energy:
+            terms["energy_max"] = max(terms["energy_max"], abs(float(system.energy(q, v))))
+        if g < 0:
+            break
+        zero_time = zero_time + 1 if tau == 0.0 else 0
+        if zero_time > _MAX_ZERO_TIME * (1 + len(system.contacts) + len(system.friction)):
+            status, message = -1, (f"no consistent mode at t = {t!r}: the stick, lift-off and contact tests keep "
+                                   f"switching without time passing (last mode {describe(system, key)})")
+            break
+        key, q, v = _transition(runner, mode, g, key, t, q, v, events, terms)
+        n_events = len(events)
+        if n_events >= max_events:
+            status, message = 1, f"stopped after max_events = {max_events} events at t = {t!r}"
+            break
+    if energy:
+        terms["delta_energy"] = float(system.energy(q, v)) - e0
+    pieces = np.array(starts)
+
+    def evaluator(index: int, taus: np.ndarray):
+        k, qs, vs = records[index]
+        mode = runner.mode(k)
+        return runner.evaluate(mode, runner.setup(mode, starts[index], qs, vs), qs, taus)
+
+    return MechanicalSolution(n=n, t_end=t_end, events=events, pieces=pieces, evaluator=evaluator, t=t, q=q, v=v,
+                              status=status, message=message, energy=terms if energy else {})
+
+
+def _with(key: tuple, part: int, index: int, value) -> tuple:
+    items = list(key[part])
+    items[index] = value
+    out = list(key)
+    out[part] = tuple(items)
+    return tuple(out)
+
+
+def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np.ndarray, v: np.ndarray,
+                events: list, terms: dict):
+    """The next mode and state after guard ``g`` of ``mode`` fired at ``(t, q, v)``; events appended."""
+    system = runner.system
+    kind, index, sign = mode.guards[g]
+    if kind == ENTER:
+        key = _with(key, 0, index, True)
+        events.append((t, "contact_start", index, q, v))
+    elif kind == LEAVE:
+        key = _with(key, 0, index, False)
+        events.append((t, "contact_end", index, q, v))
+    elif kind == LIFT:
+        key = _with(key, 1, index, False)
+        events.append((t, "lift", index, q, v))
+    elif kind == SLIP_END:
+        coord = system.friction[index].coordinate
+        v = v.copy()
+        v[coord] = 0.0
+        s = _stick_test(runner, key, index, t, q, v)
+        key = _with(key, 2, index, s)
+        events.append((t, "stick" if s == 0 else "reversal", index, q, v))
+    elif kind == RELEASE:
+        key = _with(key, 2, index, sign)
+        events.append((t, "release", index, q, v))
+    elif kind == IMPACT:
+        key, v = _impact(runner, key, index, t, q, v, events, terms)
+    return key, q, v
+
+
+def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: list,
+            terms: dict):
+    """An impact on the rigid stop ``c``, then rest if the rebounds accumulate.
+
+    The impulse acts along ``M^-1 n_c``. A resting stop that it sets moving away lifts off;
+    one it drives into its stop takes an impact of its own at the same instant (sequential
+    impacts). A stuck coordinate it sets moving slips that way (friction has no impulse).
+    """
+    system = runner.system
+    ke = 0.5 * float(v @ system.M @ v)
+    pending = [c]
+    resting = list(key[1])
+    for _ in range(4 * len(system.contacts) + 4):
+        if not pending:
+            break
+        c = pending.pop(0)
+        contact = system.contacts[c]
+        nrm = contact.normal
+        mn = runner.minv @ nrm
+        nmn = float(nrm @ mn)
+        u = float(nrm @ v)
+        if u > 0.0:
+            v = v - (1.0 + contact.restitution) * u / nmn * mn
+        resting[c] = False
+        events.append((t, "impact", c, q, v))
+        for b, other in enumerate(system.contacts):
+            if b != c and resting[b]:
+                ub = float(other.normal @ v)
+                if ub < 0.0:
+                    resting[b] = False
+                    events.append((t, "lift", b, q, v))
+                elif ub > 0.0:
+                    pending.append(b)
+        # Chatter: the push into the stop and the height of the next flight decide rest.
+        rest_key = (key[0], tuple(resting[:c]) + (True,) + tuple(resting[c + 1:]), key[2])
+        try:
+            rest_mode = runner.mode(rest_key)
+        except ValueError:
+            continue  # no consistent rest on this stop (dependent constraints): it keeps bouncing
+        lam = float(rest_mode.weights[sum(resting[:c])] @ runner.residual_force(rest_key, t, q, v))
+        push = lam * nmn  # the acceleration into the stop in free flight
+        w = max(-float(nrm @ v), 0.0)
+        if contact.restitution < 1.0 and push > 0.0 and w * w / (2.0 * push) <= _CHATTER_HEIGHT * max(1.0, contact.gap):
+            v = v - float(nrm @ v) / nmn * mn
+            resting[c] = True
+            events.append((t, "rest", c, q, v))
+    terms["impacts"] += ke - 0.5 * float(v @ system.M @ v)
+    # Friction coordinates that the impulse set moving (or reversed) slip the new way.
+    motion = list(key[2])
+    key = (key[0], tuple(resting), key[2])
+    for i, fr in enumerate(system.friction):
+        s = int(np.sign(v[fr.coordinate]))
+        if s != motion[i] and s != 0:
+            motion[i] = s
+    return (key[0], key[1], tuple(motion)), v
