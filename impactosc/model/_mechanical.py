@@ -76,11 +76,11 @@ def _matrix(name: str, value, n: int) -> np.ndarray:
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise TypeError(f"{name} must be an {n}x{n} matrix of real numbers, got {value!r}") from None
+        raise TypeError(f"{name} must be a {n}x{n} matrix of real numbers, got {value!r}") from None
     if arr.ndim == 0:
         arr = arr * np.eye(n)
     if arr.shape != (n, n):
-        raise ValueError(f"{name} must be an {n}x{n} matrix (n = {n} coordinates, from M), got shape {arr.shape}")
+        raise ValueError(f"{name} must be {n}x{n} (n = {n} coordinates, from M), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {arr.tolist()!r}")
     arr.setflags(write=False)

@@ -75,13 +75,16 @@ def _E(lam, mu, tau):
 
 
 @njit
-def setup_piece(lam, gin, gv, wk, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
+def setup_piece(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
     """The coefficients of the piece that starts at ``(t0, q0, v0)`` in a mode.
 
-    Returns ``(a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale)``: the modal amplitudes of
-    the classical form, the particular amplitudes, the modal forcing, the resonance flags,
-    for every guard its exponential, harmonic and resonant coefficients and constant, the
-    frequencies (``omt[0] = 0``) and the size of the terms of each constant (its rounding scale).
+    Returns ``(a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X)``: the modal
+    amplitudes of the classical form, the particular amplitudes, the modal forcing, the
+    resonance flags, for every guard its exponential, harmonic and resonant coefficients and
+    constant, the frequencies (``omt[0] = 0``), the size of the terms of each constant (its
+    rounding scale), and the zero-eigenvalue block: each guard's polynomial coefficients
+    ``poly[g, p]`` (of ``tau^p``) and the block's coordinates
+    ``xi = sum_p Xi[p] tau^p + sum_j X[j] e^{i omega_j tau}``.
     """
     m2 = lam.shape[0]
     nh = om.shape[0]
@@ -137,15 +140,65 @@ def setup_piece(lam, gin, gv, wk, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
             D[g, j + 1] += s * cmath.exp(1j * om[j] * t0)
         for rr in range(nres):
             RG[g, rr] = wk[g, rk[rr]] * beta[rk[rr], rj[rr]]
-    return a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale
+    Xi, X = _zero_block(N, gin0, gv0, om, fh, t0, q0, v0, const, kmode)
+    k0 = N.shape[0]
+    poly = np.zeros((ng, k0 + 1))
+    for g in range(ng):
+        for p in range(k0 + 1):
+            poly[g, p] = (wk0[g] @ Xi[p]).real
+        for j in range(nh):
+            D[g, j + 1] += wk0[g] @ X[j + 1]
+    return a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X
+
+
+@njit
+def _zero_block(N, gin0, gv0, om, fh, t0, q0, v0, const, kmode):
+    """The zero-eigenvalue block ``xi' = N xi + beta_0 + sum_j beta_j e^{i omega_j tau}`` (``N`` nilpotent).
+
+    Its solution is a polynomial plus harmonics: with ``X_j = (i omega_j - N)^-1 beta_j`` and
+    ``x = xi(0) - sum_j X_j``,
+    ``xi = sum_p tau^p (N^p x + N^(p-1) beta_0) / p! + sum_j X_j e^{i omega_j tau}``
+    (``N^k0 = 0`` ends the sum at ``p = k0``): rigid-body motion, a multiple root of the
+    characteristic polynomial that an eigenbasis cannot hold.
+    """
+    k0 = N.shape[0]
+    nh = om.shape[0]
+    Xi = np.zeros((k0 + 1, k0), dtype=np.complex128)
+    X = np.zeros((nh + 1, k0), dtype=np.complex128)
+    if k0 == 0:
+        return Xi, X
+    x = gv0 @ (v0 + 0j)
+    b0 = gin0 @ (const - kmode @ q0 + 0j)
+    eye = np.eye(k0) + 0j
+    for j in range(nh):
+        bj = gin0 @ (fh[j] * cmath.exp(1j * om[j] * t0))
+        X[j + 1] = np.linalg.solve(1j * om[j] * eye - N, bj)
+        x = x - X[j + 1]
+    np_x = x
+    np_b = b0
+    fact = 1.0
+    Xi[0] = x
+    for p in range(1, k0 + 1):
+        fact *= p
+        Xi[p] = (N @ np_x + np_b) / fact
+        np_x = N @ np_x
+        np_b = N @ np_b
+    return Xi, X
 
 
 @njit
 def _h(st, tau):
     """``(h, h')`` of guard ``st[0]`` at ``tau``."""
-    g, lam, W, omt, D, rk, rj, RG, c0 = st
+    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
     h = 0j
     dh = 0j
+    ph = 0.0
+    pd = 0.0
+    for p in range(poly.shape[1] - 1, -1, -1):  # Horner: the polynomial and its derivative
+        pd = pd * tau + ph
+        ph = ph * tau + poly[g, p]
+    h += ph
+    dh += pd
     for k in range(lam.shape[0]):
         e = W[g, k] * cmath.exp(lam[k] * tau)
         h += e
@@ -167,9 +220,14 @@ def _h(st, tau):
 @njit
 def _bounds(st, a, b):
     """``M2 >= |h''|`` and ``M3 >= |h'''|`` of guard ``st[0]`` on ``[a, b]`` (module docstring)."""
-    g, lam, W, omt, D, rk, rj, RG, c0 = st
+    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
     m2 = 0.0
     m3 = 0.0
+    x = max(abs(a), abs(b))
+    for p in range(2, poly.shape[1]):
+        m2 += abs(poly[g, p]) * p * (p - 1) * x ** (p - 2)
+        if p >= 3:
+            m3 += abs(poly[g, p]) * p * (p - 1) * (p - 2) * x ** (p - 3)
     for k in range(lam.shape[0]):
         r = abs(lam[k])
         grow = math.exp(max(lam[k].real * a, lam[k].real * b))
@@ -194,9 +252,9 @@ def _bounds(st, a, b):
 @njit
 def _size(st):
     """The sizes of guard ``st[0]``'s terms and of its derivative's at ``tau = 0`` (their rounding scales)."""
-    g, lam, W, omt, D, rk, rj, RG, c0 = st
-    s = abs(c0[g])
-    d = 0.0
+    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
+    s = abs(c0[g]) + abs(poly[g, 0])
+    d = abs(poly[g, 1]) if poly.shape[1] > 1 else 0.0
     for k in range(lam.shape[0]):
         s += abs(W[g, k])
         d += abs(W[g, k] * lam[k])
@@ -209,23 +267,27 @@ def _size(st):
 
 
 @njit
-def guard_values(lam, W, omt, D, rk, rj, RG, c0, tau):
+def guard_values(lam, W, omt, D, rk, rj, RG, c0, poly, tau):
     """``(h, h')`` of every guard at ``tau`` (for the transition rule and the tests)."""
     ng = W.shape[0]
     hs = np.empty(ng)
     ds = np.empty(ng)
     for g in range(ng):
-        hs[g], ds[g] = _h((g, lam, W, omt, D, rk, rj, RG, c0), tau)
+        hs[g], ds[g] = _h((g, lam, W, omt, D, rk, rj, RG, c0, poly), tau)
     return hs, ds
 
 
 @njit
-def search(lam, W, omt, D, rk, rj, RG, c0, cscale, armed, t0, T):
+def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
     """The first armed guard that rises through zero in ``(0, T]``: ``(tau, guard, status)``.
 
     ``guard`` is -1 when none does before ``T``. A guard that starts on its zero (within
     rounding) and falls is not reported at ``tau = 0``; one that starts on or beyond its
-    zero and rises is (``tau = 0``).
+    zero and rises is (``tau = 0``). A guard that starts on its zero with a zero slope (a
+    lift-off, where the contact force and so the acceleration vanish; a release at the
+    kinetic level) stays within rounding of zero for a while: its search starts where it
+    has left the rounding band (a sign change inside the band is rounding, not a crossing),
+    or it is reported where it rises out of the band.
     """
     ng = W.shape[0]
     nu = 0.0
@@ -236,19 +298,38 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, armed, t0, T):
     window = math.pi / nu if nu > 0.0 else T
     ha = np.zeros(ng)
     da = np.zeros(ng)
+    start = np.zeros(ng)
     for g in range(ng):
         if not armed[g]:
             continue
-        st = (g, lam, W, omt, D, rk, rj, RG, c0)
+        st = (g, lam, W, omt, D, rk, rj, RG, c0, poly)
         h0, d0 = _h(st, 0.0)
         size, dsize = _size(st)
         tol = _START_ULPS * _EPS * (size + cscale[g])
-        if h0 >= -tol and (d0 > _START_ULPS * _EPS * dsize or h0 > tol):
+        dtol = _START_ULPS * _EPS * dsize
+        if h0 >= -tol and (d0 > dtol or h0 > tol):
             return 0.0, g, 0
+        if h0 >= -tol and d0 >= -dtol:
+            # Flat start: step out geometrically until the guard leaves the rounding band.
+            tau = _MIN_WIDTH_ULPS * _EPS * max(abs(t0), 1.0)
+            prev = 0.0
+            while tau < T:
+                h, d = _h(st, tau)
+                if h > tol:
+                    lo = prev
+                    hl, _ = _h(st, lo)
+                    return refine(_h, st, lo, tau, min(hl, -1e-300), h, t0), g, 0
+                if h < -tol:
+                    break
+                prev = tau
+                tau *= 2.0
+            if tau >= T:
+                start[g] = T
+                continue
+            start[g], ha[g], da[g] = tau, h, d
+            continue
         if h0 >= -tol:
-            # On the zero and not rising (within rounding): the guard just fired or was just
-            # armed; a rise that follows (h'' > 0) is found in the search below.
-            h0 = -1e-300
+            h0 = -1e-300  # on the zero and leaving it: the guard just fired or was just armed
         ha[g], da[g] = h0, d0
     a = 0.0
     while a < T:
@@ -257,13 +338,14 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, armed, t0, T):
         best_g = -1
         hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
         for g in range(ng):
-            if not armed[g]:
+            if not armed[g] or start[g] >= b:
                 continue
-            st = (g, lam, W, omt, D, rk, rj, RG, c0)
-            M2, M3 = _bounds(st, a, b)
-            hit, lo, hi, hlo, hhi, hb, db, status = first_rising(_h, st, a, ha[g], da[g], b, M2, M3, hmin)
+            lo_g = max(a, start[g])
+            st = (g, lam, W, omt, D, rk, rj, RG, c0, poly)
+            M2, M3 = _bounds(st, lo_g, b)
+            hit, lo, hi, hlo, hhi, hb, db, status = first_rising(_h, st, lo_g, ha[g], da[g], b, M2, M3, hmin)
             if status == SEARCH_FAILED:
-                return a, g, status
+                return lo_g, g, status
             if hit:
                 tau = refine(_h, st, lo, hi, hlo, hhi, t0)
                 if tau < best:
@@ -293,16 +375,29 @@ def modal_at(lam, a, P, beta, res, omt, tau):
 
 
 @njit
-def state_at(vq, vv, lam, a, P, beta, res, omt, q0, tau):
-    """``(q, v)`` at ``tau`` after the piece start (``q = q0 + Re(Vq eta)``, ``v = Re(Vv eta)``)."""
+def zero_at(Xi, X, omt, tau):
+    """The zero-eigenvalue block's coordinates ``xi(tau)`` (:func:`_zero_block`)."""
+    k0 = Xi.shape[1]
+    xi = np.zeros(k0, dtype=np.complex128)
+    for p in range(Xi.shape[0] - 1, -1, -1):
+        xi = xi * tau + Xi[p]
+    for j in range(1, X.shape[0]):
+        xi = xi + X[j] * cmath.exp(1j * omt[j] * tau)
+    return xi
+
+
+@njit
+def state_at(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau):
+    """``(q, v)`` at ``tau`` after the piece start: ``q = q0 + Re(Vq eta + Vq0 xi)``, ``v = Re(Vv eta + Vv0 xi)``."""
     eta = modal_at(lam, a, P, beta, res, omt, tau)
-    q = q0 + (vq @ eta).real
-    v = (vv @ eta).real
+    xi = zero_at(Xi, X, omt, tau)
+    q = q0 + (vq @ eta + vq0 @ xi).real
+    v = (vv @ eta + vv0 @ xi).real
     return q, v
 
 
 @njit
-def integrals(vq, vv, lam, a, P, beta, res, omt, q0, tau, csym, om, fh, t0):
+def integrals(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0):
     """``(int f(t).v dt, int v.C v dt)`` over ``[0, tau]``: forcing work and viscous dissipation.
 
     Composite 16-node Gauss-Legendre on sub-intervals no longer than half the shortest
@@ -324,7 +419,8 @@ def integrals(vq, vv, lam, a, P, beta, res, omt, q0, tau, csym, om, fh, t0):
         for p in range(_GL_NODES.shape[0]):
             s = left + 0.5 * h * (_GL_NODES[p] + 1.0)
             eta = modal_at(lam, a, P, beta, res, omt, s)
-            v = np.ascontiguousarray((vv @ eta).real)
+            xi = zero_at(Xi, X, omt, s)
+            v = np.ascontiguousarray((vv @ eta + vv0 @ xi).real)
             f = 0.0
             for j in range(om.shape[0]):
                 ph = cmath.exp(1j * om[j] * (t0 + s))

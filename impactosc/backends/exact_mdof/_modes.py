@@ -39,12 +39,18 @@ class Mode:
     lam: np.ndarray
     gin: np.ndarray  # modal forcing from a generalised force vector
     gv: np.ndarray  # modal initial state from the velocity (z0 = 0)
-    vq: np.ndarray
+    vq: np.ndarray  # q - q0 = Re(vq eta + vq0 xi)
     vv: np.ndarray
+    N: np.ndarray  # the nilpotent zero-eigenvalue block, and its maps as above
+    gin0: np.ndarray
+    gv0: np.ndarray
+    vq0: np.ndarray
+    vv0: np.ndarray
     kmode: np.ndarray
     const: np.ndarray
     guards: tuple  # (kind, index, sign) per guard
     wk: np.ndarray
+    wk0: np.ndarray
     ga: np.ndarray
     gb: np.ndarray
     gu: np.ndarray
@@ -104,12 +110,8 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
     A[:m, m:] = np.eye(m)
     A[m:, :m] = -Mri @ Kr
     A[m:, m:] = -Mri @ Cr
-    lam, V = np.linalg.eig(A) if m else (np.zeros(0, complex), np.zeros((0, 0), complex))
-    V = V.astype(complex)
-    cond = np.linalg.cond(V) if m else 1.0
-    if not cond < _DEFECTIVE_CONDITION:
-        raise ValueError(f"the mode {describe(system, key)} is defective or nearly so (eigenvector condition "
-                         f"{cond:.3g}, e.g. critical damping): the exact backend needs a diagonalisable mode")
+    V, lam, N = _block_eigenbasis(A, system, key)
+    r = lam.shape[0]
     Vi = np.linalg.inv(V) if m else V
     gin = Vi[:, m:] @ Mri @ B.T if m else np.zeros((0, n), complex)
     gv = Vi[:, m:] @ B.T if m else np.zeros((0, n), complex)
@@ -153,11 +155,53 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
     gc = np.array([r[3] for r in rows]).reshape(ng) + gu @ const
     cY = np.hstack([ga @ B, gb @ B])
     wk = cY @ V if m else np.zeros((ng, 0), complex)
+    c = np.ascontiguousarray
     friction_row = {i: sum(resting) + sum(1 for s in motion[:i] if s == 0) for i in range(len(motion))
                     if motion[i] == 0}
-    return Mode(key, B, lam.astype(complex), gin.astype(complex), gv.astype(complex), vq.astype(complex),
-                vv.astype(complex), kmode, const, tuple(guards), wk.astype(complex), ga, gb, gu.astype(float), gc,
+    cx = complex
+    return Mode(key, B, lam.astype(cx), c(gin[:r], cx), c(gv[:r], cx), c(vq[:, :r], cx), c(vv[:, :r], cx),
+                N.astype(cx), c(gin[r:], cx), c(gv[r:], cx), c(vq[:, r:], cx), c(vv[:, r:], cx),
+                kmode, const, tuple(guards), c(wk[:, :r], cx), c(wk[:, r:], cx), ga, gb, gu.astype(float), gc,
                 weights, friction_row)
+
+
+def _block_eigenbasis(A: np.ndarray, system: MechanicalSystem, key: tuple):
+    """``V`` with ``V^-1 A V = diag(lambda) (+) N``: an eigenbasis, plus the zero eigenvalue's block.
+
+    A zero eigenvalue of multiplicity ``k0`` (rigid-body motion: a free mass, a coordinate
+    without stiffness) is often defective; its generalised eigenspace ``ker A^k0`` and the
+    invariant complement ``range A^k0`` split ``A``, and ``N`` (nilpotent) is solved as a
+    polynomial. Any other repeated eigenvalue without a full set of eigenvectors (critical
+    damping) is refused.
+    """
+    m2 = A.shape[0]
+    if m2 == 0:
+        return np.zeros((0, 0), complex), np.zeros(0, complex), np.zeros((0, 0))
+    eig = np.linalg.eigvals(A)
+    scale = max(np.abs(A).max(), 1e-300)
+    k0 = int(np.sum(np.abs(eig) <= 1e-8 * scale))
+    if k0:
+        U, sv, Vt = np.linalg.svd(np.linalg.matrix_power(A, k0))
+        V0, Vr = Vt[m2 - k0:].T, U[:, :m2 - k0]
+        P = np.hstack([Vr, V0])
+        T = np.linalg.solve(P, A @ P)
+        r = m2 - k0
+        if np.abs(T[:r, r:]).max(initial=0.0) > 1e-9 * scale or np.abs(T[r:, :r]).max(initial=0.0) > 1e-9 * scale:
+            raise ValueError(f"the mode {describe(system, key)} has a zero eigenvalue that does not split off")
+        N = T[r:, r:]
+        lam, W = np.linalg.eig(T[:r, :r]) if r else (np.zeros(0, complex), np.zeros((0, 0)))
+        V = np.hstack([Vr @ W, V0.astype(complex)]) if r else V0.astype(complex)
+        Wc = W
+    else:
+        lam, Wc = np.linalg.eig(A)
+        V = Wc.astype(complex)
+        N = np.zeros((0, 0))
+    cond = np.linalg.cond(Wc) if Wc.size else 1.0
+    if not cond < _DEFECTIVE_CONDITION:
+        raise ValueError(f"the mode {describe(system, key)} is defective or nearly so (eigenvector condition "
+                         f"{cond:.3g}, e.g. critical damping): the exact backend needs its nonzero eigenvalues "
+                         "to have a full set of eigenvectors")
+    return V, lam.astype(complex), N
 
 
 def describe(system: MechanicalSystem, key: tuple) -> str:

@@ -49,23 +49,24 @@ class _Runner:
         return mode
 
     def setup(self, mode: Mode, t0: float, q0: np.ndarray, v0: np.ndarray):
-        return _closed.setup_piece(mode.lam, mode.gin, mode.gv, mode.wk, mode.ga, mode.gu, mode.gc, mode.kmode,
-                                   mode.const, self.om, self.fh, t0, q0, v0)
+        return _closed.setup_piece(mode.lam, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0,
+                                   mode.ga, mode.gu, mode.gc, mode.kmode, mode.const, self.om, self.fh, t0, q0, v0)
 
     def evaluate(self, mode: Mode, piece, q0: np.ndarray, taus: np.ndarray):
-        a, P, beta, res, _, _, _, _, _, _, omt, _ = piece
+        a, P, beta, res, _, _, _, _, _, _, omt, _, _, Xi, X = piece
         qs = np.empty((taus.size, self.system.n))
         vs = np.empty_like(qs)
         for i, tau in enumerate(taus):
-            qs[i], vs[i] = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, q0, float(tau))
+            qs[i], vs[i] = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0,
+                                            Xi, X, q0, float(tau))
         return qs, vs
 
     # --- forces needed by the transition rule -------------------------------------------------
     def residual_force(self, key: tuple, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``r = f(t) + const_mode - K_mode q - C v``: every force but the constraint forces of ``key``."""
         mode = self.mode(key)
-        f = self.system.forcing(t)
-        return f + mode.const - self.system.K @ q - (mode.kmode - self.system.K) @ q - self.system.C @ v
+        f = (self.fh * np.exp(1j * self.om * t)[:, None]).real.sum(axis=0)  # const holds the omega = 0 terms
+        return f + mode.const - mode.kmode @ q - self.system.C @ v
 
 
 def _initial_key(runner: _Runner, q: np.ndarray, v: np.ndarray, t: float) -> tuple:
@@ -139,9 +140,9 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
         piece = runner.setup(mode, t, q, v)
-        a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale = piece
+        a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X = piece
         armed = np.ones(len(mode.guards), dtype=np.bool_)
-        tau, g, st = _closed.search(mode.lam, W, omt, D, rk, rj, RG, c0, cscale, armed, t, t_end - t)
+        tau, g, st = _closed.search(mode.lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t, t_end - t)
         starts.append(t)
         records.append((key, q.copy(), v.copy()))
         if st != 0:
@@ -150,10 +151,11 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
             break
         t1 = t + tau if g >= 0 else t_end
         tau = t1 - t
-        q1, v1 = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, q, tau)
+        q1, v1 = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0, Xi, X, q,
+                                  tau)
         if energy:
-            work, diss = _closed.integrals(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, q, tau, runner.csym,
-                                           runner.om, runner.fh, t)
+            work, diss = _closed.integrals(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0, Xi,
+                                           X, tau, runner.csym, runner.om, runner.fh, t)
             terms["work"] += work
             terms["damping"] += diss
             for i, fr in enumerate(system.friction):
