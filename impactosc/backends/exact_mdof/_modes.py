@@ -155,13 +155,15 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
     gc = np.array([r[3] for r in rows]).reshape(ng) + gu @ const
     cY = np.hstack([ga @ B, gb @ B])
     wk = cY @ V if m else np.zeros((ng, 0), complex)
-    c = np.ascontiguousarray
     friction_row = {i: sum(resting) + sum(1 for s in motion[:i] if s == 0) for i in range(len(motion))
                     if motion[i] == 0}
-    cx = complex
-    return Mode(key, B, lam.astype(cx), c(gin[:r], cx), c(gv[:r], cx), c(vq[:, :r], cx), c(vv[:, :r], cx),
-                N.astype(cx), c(gin[r:], cx), c(gv[r:], cx), c(vq[:, r:], cx), c(vv[:, r:], cx),
-                kmode, const, tuple(guards), c(wk[:, :r], cx), c(wk[:, r:], cx), ga, gb, gu.astype(float), gc,
+
+    def cx(a: np.ndarray) -> np.ndarray:  # contiguous complex arrays for the compiled code
+        return np.ascontiguousarray(a, dtype=complex)
+
+    return Mode(key, B, cx(lam), cx(gin[:r]), cx(gv[:r]), cx(vq[:, :r]), cx(vv[:, :r]),
+                cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
+                kmode, const, tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), ga, gb, gu.astype(float), gc,
                 weights, friction_row)
 
 
