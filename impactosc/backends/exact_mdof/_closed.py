@@ -430,3 +430,26 @@ def integrals(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om,
             work += wgt * f
             diss += wgt * (v @ (csym @ v))
     return work, diss
+
+
+@njit
+def advance(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
+            t0, q0, v0, t_end, energy):
+    """One piece from ``(t0, q0, v0)`` to its first guard or ``t_end``, in one compiled call.
+
+    Returns ``(tau, guard, status, q1, v1, work, dissipation)`` (:func:`setup_piece`,
+    :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`).
+    """
+    a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X = setup_piece(
+        lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0)
+    armed = np.ones(W.shape[0], dtype=np.bool_)
+    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, t_end - t0)
+    if status != 0:
+        return tau, g, status, q0, v0, 0.0, 0.0
+    if g < 0:
+        tau = t_end - t0
+    q1, v1 = state_at(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau)
+    work = diss = 0.0
+    if energy:
+        work, diss = integrals(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)
+    return tau, g, status, q1, v1, work, diss

@@ -158,12 +158,15 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
     friction_row = {i: sum(resting) + sum(1 for s in motion[:i] if s == 0) for i in range(len(motion))
                     if motion[i] == 0}
 
-    def cx(a: np.ndarray) -> np.ndarray:  # contiguous complex arrays for the compiled code
+    def cx(a: np.ndarray) -> np.ndarray:  # contiguous arrays: one compiled specialisation for every mode
         return np.ascontiguousarray(a, dtype=complex)
+
+    def re(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(a, dtype=float)
 
     return Mode(key, B, cx(lam), cx(gin[:r]), cx(gv[:r]), cx(vq[:, :r]), cx(vv[:, :r]),
                 cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
-                kmode, const, tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), ga, gb, gu.astype(float), gc,
+                re(kmode), re(const), tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), re(ga), re(gb), re(gu), re(gc),
                 weights, friction_row)
 
 

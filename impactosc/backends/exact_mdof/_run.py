@@ -40,7 +40,9 @@ class _Runner:
         self.fh = np.array([f * np.exp(1j * ph) for f, _, ph in harm], dtype=complex).reshape(len(harm), n)
         self.csym = 0.5 * (system.C + system.C.T)
         self.minv = system._minv
-        self.normals = [c.normal for c in system.contacts]
+        # per contact: M^-1 n and n . M^-1 n, the direction and the inverse effective mass of an impulse
+        self.mn = [self.minv @ c.normal for c in system.contacts]
+        self.nmn = [float(c.normal @ mn) for c, mn in zip(system.contacts, self.mn, strict=True)]
 
     def mode(self, key: tuple) -> Mode:
         mode = self.modes.get(key)
@@ -139,23 +141,18 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         except ValueError as err:
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
-        piece = runner.setup(mode, t, q, v)
-        a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X = piece
-        armed = np.ones(len(mode.guards), dtype=np.bool_)
-        tau, g, st = _closed.search(mode.lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t, t_end - t)
+        tau, g, st, q1, v1, work, diss = _closed.advance(
+            mode.lam, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu, mode.gc,
+            mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym, t, q, v,
+            t_end, energy)
         starts.append(t)
-        records.append((key, q.copy(), v.copy()))
+        records.append((key, q, v))
         if st != 0:
             status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
                                    f"(guard {mode.guards[g]}): non-finite values or no certified bracket")
             break
         t1 = t + tau if g >= 0 else t_end
-        tau = t1 - t
-        q1, v1 = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0, Xi, X, q,
-                                  tau)
         if energy:
-            work, diss = _closed.integrals(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0, Xi,
-                                           X, tau, runner.csym, runner.om, runner.fh, t)
             terms["work"] += work
             terms["damping"] += diss
             for i, fr in enumerate(system.friction):
@@ -239,7 +236,7 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
     impacts). A stuck coordinate it sets moving slips that way (friction has no impulse).
     """
     system = runner.system
-    ke = 0.5 * float(v @ system.M @ v)
+    v_before = v
     pending = [c]
     resting = list(key[1])
     for _ in range(4 * len(system.contacts) + 4):
@@ -248,8 +245,7 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
         c = pending.pop(0)
         contact = system.contacts[c]
         nrm = contact.normal
-        mn = runner.minv @ nrm
-        nmn = float(nrm @ mn)
+        mn, nmn = runner.mn[c], runner.nmn[c]
         u = float(nrm @ v)
         if u > 0.0:
             v = v - (1.0 + contact.restitution) * u / nmn * mn
@@ -263,6 +259,8 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
                     events.append((t, "lift", b, q, v))
                 elif ub > 0.0:
                     pending.append(b)
+        if contact.restitution == 1.0:
+            continue  # nothing is lost: the rebounds do not accumulate
         # Chatter: the push into the stop and the height of the next flight decide rest.
         rest_key = (key[0], tuple(resting[:c]) + (True,) + tuple(resting[c + 1:]), key[2])
         try:
@@ -272,11 +270,12 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
         lam = float(rest_mode.weights[sum(resting[:c])] @ runner.residual_force(rest_key, t, q, v))
         push = lam * nmn  # the acceleration into the stop in free flight
         w = max(-float(nrm @ v), 0.0)
-        if contact.restitution < 1.0 and push > 0.0 and w * w / (2.0 * push) <= _CHATTER_HEIGHT * max(1.0, contact.gap):
+        if push > 0.0 and w * w / (2.0 * push) <= _CHATTER_HEIGHT * max(1.0, contact.gap):
             v = v - float(nrm @ v) / nmn * mn
             resting[c] = True
             events.append((t, "rest", c, q, v))
-    terms["impacts"] += ke - 0.5 * float(v @ system.M @ v)
+    if runner.energy:
+        terms["impacts"] += 0.5 * float((v_before - v) @ system.M @ (v_before + v))
     # Friction coordinates that the impulse set moving (or reversed) slip the new way.
     motion = list(key[2])
     key = (key[0], tuple(resting), key[2])
