@@ -283,11 +283,11 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
 
     ``guard`` is -1 when none does before ``T``. A guard that starts on its zero (within
     rounding) and falls is not reported at ``tau = 0``; one that starts on or beyond its
-    zero and rises is (``tau = 0``). A guard that starts on its zero with a zero slope (a
-    lift-off, where the contact force and so the acceleration vanish; a release at the
-    kinetic level) stays within rounding of zero for a while: its search starts where it
-    has left the rounding band (a sign change inside the band is rounding, not a crossing),
-    or it is reported where it rises out of the band.
+    zero and rises is (``tau = 0``). A guard that starts within rounding of its zero and
+    not clearly rising (it just fired; a lift-off or a release at the kinetic level, where it
+    starts flat) is followed out of the rounding band: its search starts where it has left
+    the band downwards (a sign change inside the band is rounding, not a crossing), or it is
+    reported where it rises out of the band.
     """
     ng = W.shape[0]
     nu = 0.0
@@ -309,16 +309,18 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
         dtol = _START_ULPS * _EPS * dsize
         if h0 >= -tol and (d0 > dtol or h0 > tol):
             return 0.0, g, 0
-        if h0 >= -tol and d0 >= -dtol:
-            # Flat start: step out geometrically until the guard leaves the rounding band.
+        if h0 >= -tol:
+            # Inside the rounding band of its zero and not clearly rising (it just fired, was
+            # just armed, or starts flat): step out geometrically until it leaves the band. A
+            # sign change inside the band is rounding, not a crossing; leaving it upwards is
+            # the crossing (e.g. a stop hit again at once), downwards starts the search there.
             tau = _MIN_WIDTH_ULPS * _EPS * max(abs(t0), 1.0)
             prev = 0.0
             while tau < T:
                 h, d = _h(st, tau)
                 if h > tol:
-                    lo = prev
-                    hl, _ = _h(st, lo)
-                    return refine(_h, st, lo, tau, min(hl, -1e-300), h, t0), g, 0
+                    hl, _ = _h(st, prev)
+                    return refine(_h, st, prev, tau, min(hl, -1e-300), h, t0), g, 0
                 if h < -tol:
                     break
                 prev = tau
@@ -328,8 +330,6 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
                 continue
             start[g], ha[g], da[g] = tau, h, d
             continue
-        if h0 >= -tol:
-            h0 = -1e-300  # on the zero and leaving it: the guard just fired or was just armed
         ha[g], da[g] = h0, d0
     a = 0.0
     while a < T:

@@ -231,56 +231,63 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
             terms: dict):
     """An impact on the rigid stop ``c``, then rest if the rebounds accumulate.
 
-    The impulse acts along ``M^-1 n_c``. A resting stop that it sets moving away lifts off;
-    one it drives into its stop takes an impact of its own at the same instant (sequential
-    impacts). A stuck coordinate it sets moving slips that way (friction has no impulse).
+    Alone, the impulse acts along ``M^-1 n_c`` (module docstring of the model). While other
+    stops hold the system at rest, the impulses of all of them are solved together
+    (``n_c . v+ = -e n_c . v-``, ``n_b . v+ = 0``); a resting stop whose impulse would have to
+    pull lifts off and the rest are solved again (the impact's small complementarity
+    problem). A stuck coordinate the impulse sets moving slips that way (friction takes no
+    impulse).
     """
     system = runner.system
+    minv = runner.minv
+    contact = system.contacts[c]
+    nrm = contact.normal
     v_before = v
-    pending = [c]
     resting = list(key[1])
-    for _ in range(4 * len(system.contacts) + 4):
-        if not pending:
-            break
-        c = pending.pop(0)
-        contact = system.contacts[c]
-        nrm = contact.normal
-        mn, nmn = runner.mn[c], runner.nmn[c]
-        u = float(nrm @ v)
-        if u > 0.0:
-            v = v - (1.0 + contact.restitution) * u / nmn * mn
-        resting[c] = False
-        events.append((t, "impact", c, q, v))
-        for b, other in enumerate(system.contacts):
-            if b != c and resting[b]:
-                ub = float(other.normal @ v)
-                if ub < 0.0:
-                    resting[b] = False
-                    events.append((t, "lift", b, q, v))
-                elif ub > 0.0:
-                    pending.append(b)
-        if contact.restitution == 1.0:
-            continue  # nothing is lost: the rebounds do not accumulate
+    held = [b for b, on in enumerate(resting) if on]
+    u = float(nrm @ v)
+    if u > 0.0:
+        while True:
+            G = np.array([system.contacts[k].normal for k in [c, *held]])
+            change = np.concatenate([[-(1.0 + contact.restitution) * u], -(G[1:] @ v)])
+            S = G @ minv @ G.T
+            if np.linalg.cond(S) > 1e12:  # dependent with a resting stop: that one lets go
+                held = []
+                continue
+            impulse = np.linalg.solve(S, change)  # v+ = v + M^-1 G^T impulse; a stop pushes with impulse <= 0
+            pulling = [b for b, p in zip(held, impulse[1:], strict=True) if p > 0.0]
+            if not pulling:
+                break
+            held = [b for b in held if b not in pulling]
+        v = v + minv @ (G.T @ impulse)
+    events.append((t, "impact", c, q, v))
+    for b, on in enumerate(resting):
+        if on and b not in held:
+            resting[b] = False
+            events.append((t, "lift", b, q, v))
+    if contact.restitution < 1.0:  # with e = 1 nothing is lost: the rebounds do not accumulate
         # Chatter: the push into the stop and the height of the next flight decide rest.
         rest_key = (key[0], tuple(resting[:c]) + (True,) + tuple(resting[c + 1:]), key[2])
         try:
             rest_mode = runner.mode(rest_key)
         except ValueError:
-            continue  # no consistent rest on this stop (dependent constraints): it keeps bouncing
-        lam = float(rest_mode.weights[sum(resting[:c])] @ runner.residual_force(rest_key, t, q, v))
-        push = lam * nmn  # the acceleration into the stop in free flight
-        w = max(-float(nrm @ v), 0.0)
-        if push > 0.0 and w * w / (2.0 * push) <= _CHATTER_HEIGHT * max(1.0, contact.gap):
-            v = v - float(nrm @ v) / nmn * mn
-            resting[c] = True
-            events.append((t, "rest", c, q, v))
+            rest_mode = None  # no consistent rest on this stop (dependent constraints): it keeps bouncing
+        if rest_mode is not None:
+            lam = float(rest_mode.weights[sum(resting[:c])] @ runner.residual_force(rest_key, t, q, v))
+            push = lam * runner.nmn[c]  # the acceleration into the stop in free flight
+            w = max(-float(nrm @ v), 0.0)
+            if push > 0.0 and w * w / (2.0 * push) <= _CHATTER_HEIGHT * max(1.0, contact.gap):
+                # zero the normal velocity, keeping the other resting stops' at zero too
+                G = np.array([system.contacts[k].normal for k, on in enumerate(rest_key[1]) if on])
+                v = v - minv @ (G.T @ np.linalg.solve(G @ minv @ G.T, G @ v))
+                resting[c] = True
+                events.append((t, "rest", c, q, v))
     if runner.energy:
         terms["impacts"] += 0.5 * float((v_before - v) @ system.M @ (v_before + v))
     # Friction coordinates that the impulse set moving (or reversed) slip the new way.
     motion = list(key[2])
-    key = (key[0], tuple(resting), key[2])
     for i, fr in enumerate(system.friction):
         s = int(np.sign(v[fr.coordinate]))
         if s != motion[i] and s != 0:
             motion[i] = s
-    return (key[0], key[1], tuple(motion)), v
+    return (key[0], tuple(resting), tuple(motion)), v
