@@ -154,3 +154,30 @@ def test_a_run_that_stops_at_max_events_keeps_what_it_computed():
     assert len(sol.events) == 3
     q, _ = sol.sample([sol.t])
     np.testing.assert_allclose(q[0], sol.q)
+
+
+def test_two_coupled_stops_touched_at_once_come_to_rest_together():
+    """A corner: two rigid stops whose normals couple through M^-1, pushed into both, with friction.
+
+    Before the joint rest the masses knocked each other off the two stops at the rounding
+    level until the run gave up (status -1); the run now reaches its end, rests on both stops
+    at the same instant, never penetrates a stop and keeps the energy identity.
+    """
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(3, 3))
+    M = A @ A.T / 3 + np.eye(3)
+    system = MechanicalSystem(
+        M=M, C=0.05 * np.eye(3), K=np.diag([1.0, 0.5, 2.0]),
+        harmonics=[(np.array([1.5, 0.0, 1.0]), 0.0, 0.0), (np.array([1.0, 0.5, 0.8]), 0.7, 0.3)],
+        contacts=[Contact([1.0, 0.3, 0.0], 0.5, law="rigid", restitution=0.3),
+                  Contact([0.0, 0.2, 1.0], 0.4, law="rigid", restitution=0.4)],
+        friction=[Friction(1, 0.1, 0.15)])
+    sol = simulate_mechanical(system, 30.0, np.zeros(3), np.zeros(3))
+    assert sol.status == 0, sol.message
+    ev = sol.events
+    rests = ev[ev.kind == "rest"]
+    together = [t for t in np.unique(rests.t) if set(rests.index[rests.t == t]) == {0, 1}]
+    assert together
+    q, _ = sol.sample(np.linspace(0.0, 30.0, 3001))
+    assert system.gaps(q).max() <= 1e-12
+    assert sol.energy_balance()["relative"] < 1e-9

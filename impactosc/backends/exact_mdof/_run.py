@@ -223,7 +223,7 @@ def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np
         key = _with(key, 2, index, sign)
         events.append((t, "release", index, q, v))
     elif kind == IMPACT:
-        key, v = _impact(runner, key, index, t, q, v, events, terms)
+        key, q, v = _impact(runner, key, index, t, q, v, events, terms)
     return key, q, v
 
 
@@ -266,22 +266,7 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
             resting[b] = False
             events.append((t, "lift", b, q, v))
     if contact.restitution < 1.0:  # with e = 1 nothing is lost: the rebounds do not accumulate
-        # Chatter: the push into the stop and the height of the next flight decide rest.
-        rest_key = (key[0], tuple(resting[:c]) + (True,) + tuple(resting[c + 1:]), key[2])
-        try:
-            rest_mode = runner.mode(rest_key)
-        except ValueError:
-            rest_mode = None  # no consistent rest on this stop (dependent constraints): it keeps bouncing
-        if rest_mode is not None:
-            lam = float(rest_mode.weights[sum(resting[:c])] @ runner.residual_force(rest_key, t, q, v))
-            push = lam * runner.nmn[c]  # the acceleration into the stop in free flight
-            w = max(-float(nrm @ v), 0.0)
-            if push > 0.0 and w * w / (2.0 * push) <= _CHATTER_HEIGHT * max(1.0, contact.gap):
-                # zero the normal velocity, keeping the other resting stops' at zero too
-                G = np.array([system.contacts[k].normal for k, on in enumerate(rest_key[1]) if on])
-                v = v - minv @ (G.T @ np.linalg.solve(G @ minv @ G.T, G @ v))
-                resting[c] = True
-                events.append((t, "rest", c, q, v))
+        resting, q, v = _chatter_rest(runner, key, c, t, q, v, resting, events)
     if runner.energy:
         terms["impacts"] += 0.5 * float((v_before - v) @ system.M @ (v_before + v))
     # Friction coordinates that the impulse set moving (or reversed) slip the new way.
@@ -290,4 +275,61 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
         s = int(np.sign(v[fr.coordinate]))
         if s != motion[i] and s != 0:
             motion[i] = s
-    return (key[0], tuple(resting), tuple(motion)), v
+    return (key[0], tuple(resting), tuple(motion)), q, v
+
+
+def _settles(runner: _Runner, b: int, q: np.ndarray, v: np.ndarray, push: float) -> bool:
+    """True when stop ``b`` is touched and its next flight, pushed by ``push``, is below the rounding."""
+    contact = runner.system.contacts[b]
+    scale = max(1.0, contact.gap)
+    g = float(contact.normal @ q) - contact.gap
+    w = max(-float(contact.normal @ v), 0.0)
+    return abs(g) <= 1e-12 * scale and push > 0.0 and w * w / (2.0 * push) <= _CHATTER_HEIGHT * scale
+
+
+def _chatter_rest(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, resting: list,
+                  events: list):
+    """Rest on stop ``c`` (and on any other stop touched with it) once the rebounds are below the rounding.
+
+    The push into each candidate stop is its force in the rest mode of all of them (solved
+    together); a candidate that would pull is dropped and the rest solved again. Stops touched
+    at once (a corner: two guides) thus come to rest together instead of knocking each other off.
+    """
+    system = runner.system
+    minv = runner.minv
+    others = [b for b, contact in enumerate(system.contacts)
+              if b != c and contact.rigid and contact.restitution < 1.0 and not resting[b]
+              and abs(float(contact.normal @ q) - contact.gap) <= 1e-12 * max(1.0, contact.gap)]
+    candidates = [c, *others]
+    while candidates:
+        flags = list(resting)
+        for b in candidates:
+            flags[b] = True
+        rest_key = (key[0], tuple(flags), key[2])
+        try:
+            mode = runner.mode(rest_key)
+        except ValueError:
+            return resting, q, v  # dependent constraints: no consistent rest, it keeps bouncing
+        lam = mode.weights[:sum(flags)] @ runner.residual_force(rest_key, t, q, v)
+        row = {b: i for i, b in enumerate(k for k, on in enumerate(flags) if on)}
+        pulling = [b for b in candidates if lam[row[b]] <= 0.0]
+        if pulling:
+            if c in pulling:
+                return resting, q, v
+            candidates = [b for b in candidates if b not in pulling]
+            continue
+        if not all(_settles(runner, b, q, v, lam[row[b]] * runner.nmn[b]) for b in candidates):
+            return resting, q, v
+        # zero the normal velocities of the resting stops, and put the coordinates on them
+        # exactly (rest after rest would otherwise let the rounding of the gaps drift)
+        on = [k for k, r in enumerate(flags) if r]
+        G = np.array([system.contacts[k].normal for k in on])
+        gaps = np.array([system.contacts[k].gap for k in on])
+        S = G @ minv @ G.T
+        v = v - minv @ (G.T @ np.linalg.solve(S, G @ v))
+        q = q - minv @ (G.T @ np.linalg.solve(S, G @ q - gaps))
+        for b in candidates:
+            resting[b] = True
+            events.append((t, "rest", b, q, v))
+        return resting, q, v
+    return resting, q, v
