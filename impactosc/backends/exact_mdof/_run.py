@@ -22,6 +22,8 @@ __all__ = ["run"]
 #: (relative to the stop's scale ``max(1, gap)``): the next impacts are below the rounding of
 #: the gap, where no integrator can measure them (the engine's chatter rule on one coordinate).
 _CHATTER_HEIGHT = 1e-13
+#: Margin of the cheap bound of a push that decides whether the rest test is needed at all.
+_PUSH_MARGIN = 1e6
 
 
 #: Transitions without time passing, per contact and friction entry, before a run gives up:
@@ -43,6 +45,17 @@ class _Runner:
         # per contact: M^-1 n and n . M^-1 n, the direction and the inverse effective mass of an impulse
         self.mn = [self.minv @ c.normal for c in system.contacts]
         self.nmn = [float(c.normal @ mn) for c, mn in zip(system.contacts, self.mn, strict=True)]
+        # norms for the cheap bound of a push (max-row-sum norms: |A x| <= |A|_inf |x|_1 entrywise bounds)
+        self.mn_norm = [float(np.abs(mn).sum()) for mn in self.mn]
+        self.f_norm = float(np.abs(self.fh).sum())
+        self.c_norm = float(np.abs(system.C).max(initial=0.0))
+        self._k_norms: dict[tuple, float] = {}
+
+    def k_norm(self, mode: Mode) -> float:
+        norm = self._k_norms.get(mode.key)
+        if norm is None:
+            norm = self._k_norms[mode.key] = float(np.abs(mode.kmode).max(initial=0.0))
+        return norm
 
     def mode(self, key: tuple) -> Mode:
         mode = self.modes.get(key)
@@ -246,7 +259,9 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
     resting = list(key[1])
     held = [b for b, on in enumerate(resting) if on]
     u = float(nrm @ v)
-    if u > 0.0:
+    if u > 0.0 and not held:
+        v = v - (1.0 + contact.restitution) * u / runner.nmn[c] * runner.mn[c]
+    elif u > 0.0:
         while True:
             G = np.array([system.contacts[k].normal for k in [c, *held]])
             change = np.concatenate([[-(1.0 + contact.restitution) * u], -(G[1:] @ v)])
@@ -278,6 +293,24 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
     return (key[0], tuple(resting), tuple(motion)), q, v
 
 
+def _may_settle(runner: _Runner, key: tuple, c: int, q: np.ndarray, v: np.ndarray) -> bool:
+    """False when the rebound from stop ``c`` is too fast for rest under any push the forces can give.
+
+    A cheap bound of the push, ``|M^-1 n|_1 (sum |f_h| + |const|_1 + max|K_mode| |q|_1 + max|C| |v|_1)``
+    (times a margin), spares the rest test (a mode and its constraint forces) after most impacts.
+    """
+    mode = runner.mode(key)
+    contact = runner.system.contacts[c]
+    w = -float(contact.normal @ v)
+    if w <= 0.0:
+        return True
+    forces = (runner.f_norm + float(np.abs(mode.const).sum()) + runner.k_norm(mode) * float(np.abs(q).sum())
+              + runner.c_norm * float(np.abs(v).sum()))
+    # The bound holds for the push of stop c alone; the margin covers a joint rest with other stops.
+    bound = _PUSH_MARGIN * runner.mn_norm[c] * forces
+    return w * w <= 2.0 * bound * _CHATTER_HEIGHT * max(1.0, contact.gap)
+
+
 def _settles(runner: _Runner, b: int, q: np.ndarray, v: np.ndarray, push: float) -> bool:
     """True when stop ``b`` is touched and its next flight, pushed by ``push``, is below the rounding."""
     contact = runner.system.contacts[b]
@@ -297,6 +330,8 @@ def _chatter_rest(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, 
     """
     system = runner.system
     minv = runner.minv
+    if not _may_settle(runner, key, c, q, v):
+        return resting, q, v
     others = [b for b, contact in enumerate(system.contacts)
               if b != c and contact.rigid and contact.restitution < 1.0 and not resting[b]
               and abs(float(contact.normal @ q) - contact.gap) <= 1e-12 * max(1.0, contact.gap)]
