@@ -24,7 +24,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from . import dynamics as dynamics
     from . import signal as signal
     from .backends import simulate
-    from .backends.exact_mdof import simulate_mechanical
+    from .backends._exact_mdof import simulate_mechanical
     from .engine import EVENT_KINDS, Mode
     from .model import MechanicalSystem, Oscillator, TapeDrive
     from .results import Solution
@@ -45,7 +45,7 @@ _LAZY = {
     "Mode": "engine",
     "EVENT_KINDS": "engine",
     "MechanicalSystem": "model",
-    "simulate_mechanical": "backends.exact_mdof",
+    "simulate_mechanical": "backends._exact_mdof",
     "MechanicalSolution": "results._mechanical",
 }
 _SUBPACKAGES = ("dynamics", "signal")
