@@ -57,6 +57,8 @@ class Mode:
     gc: np.ndarray
     weights: np.ndarray  # Wc: the constraint forces are Wc r (rows: resting stops, then stuck coordinates)
     friction_row: dict  # friction entry -> its row of weights
+    guard_kind: np.ndarray  # the guards' kinds and indices as arrays, for the compiled loop
+    guard_index: np.ndarray
 
 
 def _force_weights(system: MechanicalSystem, G: np.ndarray) -> np.ndarray:
@@ -167,7 +169,8 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
     return Mode(key, B, cx(lam), cx(gin[:r]), cx(gv[:r]), cx(vq[:, :r]), cx(vv[:, :r]),
                 cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
                 re(kmode), re(const), tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), re(ga), re(gb), re(gu), re(gc),
-                weights, friction_row)
+                weights, friction_row, np.array([k for k, _, _ in guards], dtype=np.int64),
+                np.array([i for _, i, _ in guards], dtype=np.int64))
 
 
 def _block_eigenbasis(A: np.ndarray, system: MechanicalSystem, key: tuple):

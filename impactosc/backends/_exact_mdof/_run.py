@@ -24,6 +24,8 @@ __all__ = ["run"]
 _CHATTER_HEIGHT = 1e-13
 #: Margin of the cheap bound of a push that decides whether the rest test is needed at all.
 _PUSH_MARGIN = 1e6
+#: Events and pieces the compiled loop of one mode records before it hands back.
+_BUFFER = 4096
 
 
 #: Transitions without time passing, per contact and friction entry, before a run gives up:
@@ -50,6 +52,32 @@ class _Runner:
         self.f_norm = float(np.abs(self.fh).sum())
         self.c_norm = float(np.abs(system.C).max(initial=0.0))
         self._k_norms: dict[tuple, float] = {}
+        # the same, as arrays for the compiled loop of a mode
+        nc = len(system.contacts)
+        self.normals = np.array([c.normal for c in system.contacts], dtype=float).reshape(nc, n)
+        self.mn_array = np.array(self.mn, dtype=float).reshape(nc, n)
+        self.nmn_array = np.array(self.nmn, dtype=float)
+        self.mn_norm_array = np.array(self.mn_norm, dtype=float)
+        self.restitution = np.array([c.restitution if c.rigid else 1.0 for c in system.contacts], dtype=float)
+        self.gaps = np.array([c.gap for c in system.contacts], dtype=float)
+        self.fr_coord = np.array([f.coordinate for f in system.friction], dtype=np.int64)
+        self.fr_kinetic = np.array([f.kinetic for f in system.friction], dtype=float)
+        self.f0 = np.zeros(n)
+        for f, om, ph in system.harmonics:
+            if om == 0.0:
+                self.f0 += f * math.cos(ph)
+        self._buffers: tuple = ()
+
+    def buffers(self, cap: int) -> tuple:
+        """Event and piece buffers of the compiled loop (reused while large enough)."""
+        if not self._buffers or self._buffers[0].shape[0] < cap:
+            n = self.system.n
+            self._buffers = (np.empty(cap), np.empty(cap, dtype=np.int64), np.empty((cap, n)), np.empty((cap, n)),
+                             np.empty(cap + 1), np.empty((cap + 1, n)), np.empty((cap + 1, n)))
+        if self._buffers[0].shape[0] == cap:
+            return self._buffers
+        b = self._buffers
+        return (b[0][:cap], b[1][:cap], b[2][:cap], b[3][:cap], b[4][:cap + 1], b[5][:cap + 1], b[6][:cap + 1])
 
     def k_norm(self, mode: Mode) -> float:
         norm = self._k_norms.get(mode.key)
@@ -154,30 +182,35 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         except ValueError as err:
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
-        tau, g, st, q1, v1, work, diss = _closed.advance(
+        cap = max(1, min(_BUFFER, max_events - len(events)))
+        buffers = runner.buffers(cap)
+        (n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale) = _closed.run_mode(
             mode.lam, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu, mode.gc,
-            mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym, t, q, v,
-            t_end, energy)
-        starts.append(t)
-        records.append((key, q, v))
+            mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
+            mode.guard_kind, mode.guard_index, IMPACT, runner.normals, runner.mn_array, runner.nmn_array,
+            runner.restitution, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
+            np.array(key[2], dtype=np.int64), runner.fr_kinetic, runner.f0, system.M,
+            runner.f_norm + float(np.abs(mode.const).sum()), runner.k_norm(mode), runner.c_norm, _CHATTER_HEIGHT,
+            _PUSH_MARGIN, t, q, v, t_end, energy, *buffers)
+        ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v = buffers
+        for k in range(n_pc):
+            starts.append(float(pc_t[k]))
+            records.append((key, pc_q[k].copy(), pc_v[k].copy()))
+        for k in range(n_ev):
+            events.append((float(ev_t[k]), "impact", int(ev_index[k]), ev_q[k].copy(), ev_v[k].copy()))
+        if energy:
+            terms["work"] += work
+            terms["damping"] += diss
+            terms["friction"] += fric
+            terms["impacts"] += loss
+            terms["energy_max"] = max(terms["energy_max"], escale)
         if st != 0:
             status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
                                    f"(guard {mode.guards[g]}): non-finite values or no certified bracket")
             break
-        t1 = t + tau if g >= 0 else t_end
-        if energy:
-            terms["work"] += work
-            terms["damping"] += diss
-            for i, fr in enumerate(system.friction):
-                if key[2][i] != 0:
-                    terms["friction"] += fr.kinetic * key[2][i] * (q1[fr.coordinate] - q[fr.coordinate])
-            # The work of the constant harmonics (omega = 0) is f . Delta q.
-            for f, om, ph in system.harmonics:
-                if om == 0.0:
-                    terms["work"] += float(f @ (q1 - q)) * math.cos(ph)
-        t, q, v = t1, q1, v1
-        if energy:
-            terms["energy_max"] = max(terms["energy_max"], abs(float(system.energy(q, v))))
+        if len(events) >= max_events:
+            status, message = 1, f"stopped after max_events = {max_events} events at t = {t!r}"
+            break
         if g < 0:
             break
         zero_time = zero_time + 1 if tau == 0.0 else 0
