@@ -79,7 +79,9 @@ class MechanicalSolution:
     @property
     def events(self) -> np.recarray:
         """One row per event: ``t``, ``kind`` (:data:`MECHANICAL_EVENT_KINDS`), ``index`` (the
-        contact, or the friction entry), and the state ``q``, ``v`` just after it."""
+        contact, or the friction entry), and the state ``q``, ``v`` just after it (after the
+        impulse of an impact). Events of one instant (an impact and the rest it ends in, a
+        stick test that releases another coordinate) follow one another in the order taken."""
         return self._events
 
     def __repr__(self) -> str:

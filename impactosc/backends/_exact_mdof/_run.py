@@ -1,8 +1,12 @@
 """The event loop of the exact n-DOF backend: closed-form pieces, the transition rule, the records.
 
-Each piece is set up, searched and evaluated by the compiled code of :mod:`._closed`; the
-transitions between modes are decided here (module docstring of
-:mod:`impactosc.model._mechanical` for the physics).
+The pieces of one mode run in one compiled call (:func:`._closed.run_mode`), which also
+applies the impacts that keep the mode (no stop resting, no friction coordinate reversed,
+a rebound too fast for rest); every other event returns here, to the transition rule of the
+model (module docstring of :mod:`impactosc.model._mechanical`): springs engage and release,
+stops rest (chatter summed once the rebounds are below the rounding of the gap, stops
+touched together resting together) and lift off, friction coordinates stick, reverse and
+release, with the constraint forces of all active constraints solved together.
 """
 
 from __future__ import annotations
