@@ -75,7 +75,7 @@ def _E(lam, mu, tau):
 
 
 @njit
-def setup_piece(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
+def setup_piece(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
     """The coefficients of the piece that starts at ``(t0, q0, v0)`` in a mode.
 
     Returns ``(a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X)``: the modal
@@ -128,6 +128,12 @@ def setup_piece(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, o
     for g in range(ng):
         for k in range(m2):
             W[g, k] = wk[g, k] * a[k]
+        # A conjugate pair in one term: Re(W1 e^{l t} + W2 e^{conj(l) t}) = Re((W1 + conj(W2)) e^{l t}),
+        # half the exponentials in the guard search (whose loops skip the zero partner).
+        for k in range(m2):
+            if pair[k] > k:
+                W[g, k] += np.conj(W[g, pair[k]])
+                W[g, pair[k]] = 0j
         for j in range(jt):
             s = 0j
             for k in range(m2):
@@ -200,6 +206,8 @@ def _h(st, tau):
     h += ph
     dh += pd
     for k in range(lam.shape[0]):
+        if W[g, k] == 0j:
+            continue
         e = W[g, k] * cmath.exp(lam[k] * tau)
         h += e
         dh += lam[k] * e
@@ -433,7 +441,7 @@ def integrals(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om,
 
 
 @njit
-def advance(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
+def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
             t0, q0, v0, t_end, energy):
     """One piece from ``(t0, q0, v0)`` to its first guard or ``t_end``, in one compiled call.
 
@@ -441,7 +449,7 @@ def advance(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, f
     :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`).
     """
     a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X = setup_piece(
-        lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0)
+        lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0)
     armed = np.ones(W.shape[0], dtype=np.bool_)
     tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, t_end - t0)
     if status != 0:
@@ -456,7 +464,7 @@ def advance(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, f
 
 
 @njit
-def run_mode(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
+def run_mode(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
              guard_kind, guard_index, impact_kind, normals, mn, nmn, restitution, gaps, mn_norm, any_resting,
              fr_coord, fr_motion, fr_kinetic, f0, M, bound_forces, k_norm, c_norm, chatter_height, push_margin,
              t, q, v, t_end, energy, ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v):
@@ -477,8 +485,8 @@ def run_mode(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, 
     escale = 0.0
     cap = ev_t.shape[0]
     while True:
-        tau, g, st, q1, v1, w, d = advance(lam, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq,
-                                           vv, vq0, vv0, csym, t, q, v, t_end, energy)
+        tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om,
+                                           fh, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy)
         pc_t[n_pc] = t
         pc_q[n_pc] = q
         pc_v[n_pc] = v

@@ -59,6 +59,7 @@ class Mode:
     friction_row: dict  # friction entry -> its row of weights
     guard_kind: np.ndarray  # the guards' kinds and indices as arrays, for the compiled loop
     guard_index: np.ndarray
+    pair: np.ndarray  # the index of each eigenvalue's complex conjugate (-1: real or unpaired)
 
 
 def _force_weights(system: MechanicalSystem, G: np.ndarray) -> np.ndarray:
@@ -170,7 +171,21 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
                 cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
                 re(kmode), re(const), tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), re(ga), re(gb), re(gu), re(gc),
                 weights, friction_row, np.array([k for k, _, _ in guards], dtype=np.int64),
-                np.array([i for _, i, _ in guards], dtype=np.int64))
+                np.array([i for _, i, _ in guards], dtype=np.int64), _conjugate_pairs(lam))
+
+
+def _conjugate_pairs(lam: np.ndarray) -> np.ndarray:
+    """``pair[k]``: the index of the eigenvalue that is exactly ``conj(lam[k])`` (LAPACK returns
+    the pairs of a real matrix exactly conjugate), -1 for a real or unpaired one."""
+    pair = np.full(lam.shape[0], -1, dtype=np.int64)
+    for k in range(lam.shape[0]):
+        if pair[k] >= 0 or lam[k].imag == 0.0:
+            continue
+        for p in range(k + 1, lam.shape[0]):
+            if pair[p] < 0 and lam[p] == np.conj(lam[k]):
+                pair[k], pair[p] = p, k
+                break
+    return pair
 
 
 def _block_eigenbasis(A: np.ndarray, system: MechanicalSystem, key: tuple):

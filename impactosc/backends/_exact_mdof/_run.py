@@ -96,8 +96,9 @@ class _Runner:
         return mode
 
     def setup(self, mode: Mode, t0: float, q0: np.ndarray, v0: np.ndarray):
-        return _closed.setup_piece(mode.lam, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0,
-                                   mode.ga, mode.gu, mode.gc, mode.kmode, mode.const, self.om, self.fh, t0, q0, v0)
+        return _closed.setup_piece(mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0,
+                                   mode.wk0, mode.ga, mode.gu, mode.gc, mode.kmode, mode.const, self.om, self.fh, t0,
+                                   q0, v0)
 
     def evaluate(self, mode: Mode, piece, q0: np.ndarray, taus: np.ndarray):
         a, P, beta, res, _, _, _, _, _, _, omt, _, _, Xi, X = piece
@@ -189,8 +190,8 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         cap = max(1, min(_BUFFER, max_events - len(events)))
         buffers = runner.buffers(cap)
         (n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale) = _closed.run_mode(
-            mode.lam, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu, mode.gc,
-            mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
+            mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu,
+            mode.gc, mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
             mode.guard_kind, mode.guard_index, IMPACT, runner.normals, runner.mn_array, runner.nmn_array,
             runner.restitution, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
             np.array(key[2], dtype=np.int64), runner.fr_kinetic, runner.f0, system.M,
