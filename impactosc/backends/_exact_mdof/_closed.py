@@ -307,6 +307,8 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
     ha = np.zeros(ng)
     da = np.zeros(ng)
     start = np.zeros(ng)
+    cand_tau = math.inf  # the first guard that rises out of its rounding band at the start
+    cand_g = -1
     for g in range(ng):
         if not armed[g]:
             continue
@@ -328,20 +330,24 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
                 h, d = _h(st, tau)
                 if h > tol:
                     hl, _ = _h(st, prev)
-                    return refine(_h, st, prev, tau, min(hl, -1e-300), h, t0), g, 0
+                    root = refine(_h, st, prev, tau, min(hl, -1e-300), h, t0)
+                    if root < cand_tau:
+                        cand_tau, cand_g = root, g
+                    break
                 if h < -tol:
                     break
                 prev = tau
                 tau *= 2.0
-            if tau >= T:
-                start[g] = T
+            if tau >= T or h > tol:
+                start[g] = T  # no crossing to search for (beyond T, or the candidate above)
                 continue
             start[g], ha[g], da[g] = tau, h, d
             continue
         ha[g], da[g] = h0, d0
+    T_search = min(T, cand_tau)
     a = 0.0
-    while a < T:
-        b = min(T, a + window)
+    while a < T_search:
+        b = min(T_search, a + window)
         best = math.inf
         best_g = -1
         hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
@@ -362,6 +368,8 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
         if best_g >= 0:
             return best, best_g, 0
         a = b
+    if cand_g >= 0:
+        return cand_tau, cand_g, 0
     return T, -1, 0
 
 
