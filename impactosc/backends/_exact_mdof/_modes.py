@@ -119,6 +119,34 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
     gin = Vi[:, m:] @ Mri @ B.T if m else np.zeros((0, n), complex)
     gv = Vi[:, m:] @ B.T if m else np.zeros((0, n), complex)
     vq, vv = B @ V[:m], B @ V[m:]
+    guards, rows = _guard_rows(system, key, kmode, weights)
+    ng = len(rows)
+    ga = np.array([r[0] for r in rows]).reshape(ng, n)
+    gb = np.array([r[1] for r in rows]).reshape(ng, n)
+    gu = np.array([r[2] for r in rows]).reshape(ng, n)
+    gc = np.array([r[3] for r in rows]).reshape(ng) + gu @ const
+    cY = np.hstack([ga @ B, gb @ B])
+    wk = cY @ V if m else np.zeros((ng, 0), complex)
+    friction_row = {i: sum(resting) + sum(1 for s in motion[:i] if s == 0) for i in range(len(motion))
+                    if motion[i] == 0}
+
+    def cx(a: np.ndarray) -> np.ndarray:  # contiguous arrays: one compiled specialisation for every mode
+        return np.ascontiguousarray(a, dtype=complex)
+
+    def re(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(a, dtype=float)
+
+    return Mode(key, B, cx(lam), cx(gin[:r]), cx(gv[:r]), cx(vq[:, :r]), cx(vv[:, :r]),
+                cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
+                re(kmode), re(const), tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), re(ga), re(gb), re(gu), re(gc),
+                weights, friction_row, np.array([k for k, _, _ in guards], dtype=np.int64),
+                np.array([i for _, i, _ in guards], dtype=np.int64), _conjugate_pairs(lam))
+
+
+def _guard_rows(system: MechanicalSystem, key: tuple, kmode: np.ndarray, weights: np.ndarray):
+    """The guards of the mode ``key`` as ``(kind, index, sign)`` and rows ``(a, b, u, h_c)`` (module docstring)."""
+    engaged, resting, motion = key
+    n = system.n
     guards, rows = [], []
     C = system.C
     row = 0
@@ -151,27 +179,7 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
             for sign in (1, -1):  # h = +-(w . r) - mu_s: slips towards sign
                 guards.append((RELEASE, i, sign))
                 rows.append((-sign * kmode.T @ w, -sign * C.T @ w, sign * w, -fr.static))
-    ng = len(rows)
-    ga = np.array([r[0] for r in rows]).reshape(ng, n)
-    gb = np.array([r[1] for r in rows]).reshape(ng, n)
-    gu = np.array([r[2] for r in rows]).reshape(ng, n)
-    gc = np.array([r[3] for r in rows]).reshape(ng) + gu @ const
-    cY = np.hstack([ga @ B, gb @ B])
-    wk = cY @ V if m else np.zeros((ng, 0), complex)
-    friction_row = {i: sum(resting) + sum(1 for s in motion[:i] if s == 0) for i in range(len(motion))
-                    if motion[i] == 0}
-
-    def cx(a: np.ndarray) -> np.ndarray:  # contiguous arrays: one compiled specialisation for every mode
-        return np.ascontiguousarray(a, dtype=complex)
-
-    def re(a: np.ndarray) -> np.ndarray:
-        return np.ascontiguousarray(a, dtype=float)
-
-    return Mode(key, B, cx(lam), cx(gin[:r]), cx(gv[:r]), cx(vq[:, :r]), cx(vv[:, :r]),
-                cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
-                re(kmode), re(const), tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), re(ga), re(gb), re(gu), re(gc),
-                weights, friction_row, np.array([k for k, _, _ in guards], dtype=np.int64),
-                np.array([i for _, i, _ in guards], dtype=np.int64), _conjugate_pairs(lam))
+    return guards, rows
 
 
 def _conjugate_pairs(lam: np.ndarray) -> np.ndarray:

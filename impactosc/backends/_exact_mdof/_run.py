@@ -17,7 +17,7 @@ import numpy as np
 
 from ...model._mechanical import MechanicalSystem
 from ...results._mechanical import MechanicalSolution
-from . import _closed
+from . import _closed, _forms
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, Mode, build_mode, describe
 
 __all__ = ["run"]
@@ -96,7 +96,7 @@ class _Runner:
         return mode
 
     def setup(self, mode: Mode, t0: float, q0: np.ndarray, v0: np.ndarray):
-        return _closed.setup_piece(mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0,
+        return _forms.setup_piece(mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0,
                                    mode.wk0, mode.ga, mode.gu, mode.gc, mode.kmode, mode.const, self.om, self.fh, t0,
                                    q0, v0)
 
@@ -105,7 +105,7 @@ class _Runner:
         qs = np.empty((taus.size, self.system.n))
         vs = np.empty_like(qs)
         for i, tau in enumerate(taus):
-            qs[i], vs[i] = _closed.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0,
+            qs[i], vs[i] = _forms.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0,
                                             Xi, X, q0, float(tau))
         return qs, vs
 
