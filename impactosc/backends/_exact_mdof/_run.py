@@ -187,28 +187,8 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         except ValueError as err:
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
-        cap = max(1, min(_BUFFER, max_events - len(events)))
-        buffers = runner.buffers(cap)
-        (n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale) = _closed.run_mode(
-            mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu,
-            mode.gc, mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
-            mode.guard_kind, mode.guard_index, IMPACT, runner.normals, runner.mn_array, runner.nmn_array,
-            runner.restitution, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
-            np.array(key[2], dtype=np.int64), runner.fr_kinetic, runner.f0, system.M,
-            runner.f_norm + float(np.abs(mode.const).sum()), runner.k_norm(mode), runner.c_norm, _CHATTER_HEIGHT,
-            _PUSH_MARGIN, t, q, v, t_end, energy, *buffers)
-        ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v = buffers
-        for k in range(n_pc):
-            starts.append(float(pc_t[k]))
-            records.append((key, pc_q[k].copy(), pc_v[k].copy()))
-        for k in range(n_ev):
-            events.append((float(ev_t[k]), "impact", int(ev_index[k]), ev_q[k].copy(), ev_v[k].copy()))
-        if energy:
-            terms["work"] += work
-            terms["damping"] += diss
-            terms["friction"] += fric
-            terms["impacts"] += loss
-            terms["energy_max"] = max(terms["energy_max"], escale)
+        tau, g, st, t, q, v = _compiled_pieces(runner, mode, key, t, q, v, t_end, energy, max_events, events,
+                                               starts, records, terms)
         if st != 0:
             status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
                                    f"(guard {mode.guards[g]}): non-finite values or no certified bracket")
@@ -239,6 +219,36 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
 
     return MechanicalSolution(n=n, t_end=t_end, events=events, pieces=pieces, evaluator=evaluator, t=t, q=q, v=v,
                               status=status, message=message, energy=terms if energy else {})
+
+
+def _compiled_pieces(runner: _Runner, mode: Mode, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
+                     energy: bool, max_events: int, events: list, starts: list, records: list, terms: dict):
+    """The pieces of ``mode`` from ``(t, q, v)`` in one compiled call, recorded; ``(tau, guard, status, t, q, v)``
+    of the last piece, whose event (if any) is left to the transition rule."""
+    system = runner.system
+    cap = max(1, min(_BUFFER, max_events - len(events)))
+    buffers = runner.buffers(cap)
+    (n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale) = _closed.run_mode(
+        mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu,
+        mode.gc, mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
+        mode.guard_kind, mode.guard_index, IMPACT, runner.normals, runner.mn_array, runner.nmn_array,
+        runner.restitution, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
+        np.array(key[2], dtype=np.int64), runner.fr_kinetic, runner.f0, system.M,
+        runner.f_norm + float(np.abs(mode.const).sum()), runner.k_norm(mode), runner.c_norm, _CHATTER_HEIGHT,
+        _PUSH_MARGIN, t, q, v, t_end, energy, *buffers)
+    ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v = buffers
+    for k in range(n_pc):
+        starts.append(float(pc_t[k]))
+        records.append((key, pc_q[k].copy(), pc_v[k].copy()))
+    for k in range(n_ev):
+        events.append((float(ev_t[k]), "impact", int(ev_index[k]), ev_q[k].copy(), ev_v[k].copy()))
+    if energy:
+        terms["work"] += work
+        terms["damping"] += diss
+        terms["friction"] += fric
+        terms["impacts"] += loss
+        terms["energy_max"] = max(terms["energy_max"], escale)
+    return tau, g, st, t, q, v
 
 
 def _with(key: tuple, part: int, index: int, value) -> tuple:
