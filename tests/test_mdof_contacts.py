@@ -181,3 +181,18 @@ def test_two_coupled_stops_touched_at_once_come_to_rest_together():
     q, _ = sol.sample(np.linspace(0.0, 30.0, 3001))
     assert system.gaps(q).max() <= 1e-12
     assert sol.energy_balance()["relative"] < 1e-9
+
+
+def test_max_events_inside_the_compiled_loop_of_a_mode():
+    """Impacts with e = 1 never change the mode: the compiled loop records them; it stops at max_events too."""
+    K = np.array([[2.0, -1.0], [-1.0, 1.0]])
+    system = MechanicalSystem(M=np.eye(2), C=0.01 * K, K=K, harmonics=[([1.0, 0.0], 0.8, 0.0)],
+                              contacts=[Contact([0.0, 1.0], 0.5, law="rigid"), Contact([0.0, -1.0], 0.5, law="rigid")])
+    full = simulate_mechanical(system, 200.0, [0.0, 0.0], [0.0, 0.0])
+    assert full.status == 0 and len(full.events) > 20
+    part = simulate_mechanical(system, 200.0, [0.0, 0.0], [0.0, 0.0], max_events=10)
+    assert part.status == 1 and len(part.events) == 10
+    np.testing.assert_array_equal(part.events.t, full.events.t[:10])
+    q, _ = part.sample([part.t])
+    np.testing.assert_allclose(q[0], part.q, rtol=0, atol=1e-14)
+    assert part.energy_balance()["relative"] < 1e-9
