@@ -1,0 +1,235 @@
+"""Certified root isolation of the guards of a closed-form piece (compiled).
+
+A guard, any linear functional of the state and the forcing, is on a piece (:mod:`._forms`)
+
+    h(tau) = c0 + poly(tau) + Re[ sum_k W_k e^{lambda_k tau} + sum_j D_j e^{i omega_j tau}
+                                  + sum_r R_r E(lambda_{k_r}, i omega_{j_r}, tau) ]
+
+(``poly``: the zero-eigenvalue block, rigid-body motion).
+
+Certified root isolation
+------------------------
+On ``[a, b]`` each term's derivatives are bounded in closed form:
+``|d^p/dtau^p W e^{lambda tau}| <= |W| |lambda|^p max(e^{Re lambda a}, e^{Re lambda b})``,
+``|D (i omega)^p|`` and, for a resonant term (``E^(p)`` is a divided difference of
+``z^p e^{z tau}`` over the segment ``[lambda, mu]``, so the mean-value theorem bounds it by the
+derivative in ``z``), ``|R| (p rho^{p-1} + b rho^p) e^{max(Re lambda, 0) b}`` with
+``rho = max(|lambda|, |mu|)``. With ``M2 >= |h''|`` and ``M3 >= |h'''|`` the bracketing of
+:func:`impactosc._util.roots.first_rising` proves that an interval holds no root, or exactly
+one simple crossing (``h'`` of one sign), and bisects otherwise; a tangency (a grazing) is
+bisected until its extremum is separated from zero or the interval is a few ulps wide. So
+no crossing is missed and none is reported twice.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+import numpy as np
+
+from ..._util.jit import njit
+from ..._util.roots import SEARCH_FAILED
+from ..._util.roots import first_rising_jit as first_rising
+from ..._util.roots import refine_jit as refine
+from ._forms import E
+
+__all__ = ["search", "guard_values"]
+
+_EPS = 2.0**-52
+# Bisection stops at this many ulps of t when neither sign nor monotonicity can be proven.
+_MIN_WIDTH_ULPS = 4.0
+# A guard within this many ulps of its terms' size at a piece start counts as on its zero.
+_START_ULPS = 64.0
+
+
+@njit
+def _h(st, tau):
+    """``(h, h')`` of guard ``st[0]`` at ``tau``."""
+    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
+    h = 0j
+    dh = 0j
+    ph = 0.0
+    pd = 0.0
+    for p in range(poly.shape[1] - 1, -1, -1):  # Horner: the polynomial and its derivative
+        pd = pd * tau + ph
+        ph = ph * tau + poly[g, p]
+    h += ph
+    dh += pd
+    for k in range(lam.shape[0]):
+        if W[g, k] == 0j:
+            continue
+        e = W[g, k] * cmath.exp(lam[k] * tau)
+        h += e
+        dh += lam[k] * e
+    for j in range(omt.shape[0]):
+        mu = 1j * omt[j]
+        e = D[g, j] * cmath.exp(mu * tau)
+        h += e
+        dh += mu * e
+    for r in range(rk.shape[0]):
+        lk = lam[rk[r]]
+        mu = 1j * omt[rj[r]]
+        e = E(lk, mu, tau)
+        h += RG[g, r] * e
+        dh += RG[g, r] * (lk * e + cmath.exp(mu * tau))
+    return c0[g] + h.real, dh.real
+
+
+@njit
+def _bounds(st, a, b):
+    """``M2 >= |h''|`` and ``M3 >= |h'''|`` of guard ``st[0]`` on ``[a, b]`` (module docstring)."""
+    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
+    m2 = 0.0
+    m3 = 0.0
+    x = max(abs(a), abs(b))
+    for p in range(2, poly.shape[1]):
+        m2 += abs(poly[g, p]) * p * (p - 1) * x ** (p - 2)
+        if p >= 3:
+            m3 += abs(poly[g, p]) * p * (p - 1) * (p - 2) * x ** (p - 3)
+    for k in range(lam.shape[0]):
+        r = abs(lam[k])
+        grow = math.exp(max(lam[k].real * a, lam[k].real * b))
+        w = abs(W[g, k]) * grow * r * r
+        m2 += w
+        m3 += w * r
+    for j in range(omt.shape[0]):
+        w = abs(D[g, j]) * omt[j] * omt[j]
+        m2 += w
+        m3 += w * omt[j]
+    for r in range(rk.shape[0]):
+        lk = lam[rk[r]]
+        rho = max(abs(lk), omt[rj[r]])
+        grow = math.exp(max(lk.real, 0.0) * b)
+        w = abs(RG[g, r]) * grow
+        m2 += w * (2.0 * rho + b * rho * rho)
+        m3 += w * (3.0 * rho * rho + b * rho * rho * rho)
+    # the rounding of the sums: a relative margin
+    return m2 * (1.0 + 1e-12), m3 * (1.0 + 1e-12)
+
+
+@njit
+def _size(st):
+    """The sizes of guard ``st[0]``'s terms and of its derivative's at ``tau = 0`` (their rounding scales)."""
+    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
+    s = abs(c0[g]) + abs(poly[g, 0])
+    d = abs(poly[g, 1]) if poly.shape[1] > 1 else 0.0
+    for k in range(lam.shape[0]):
+        s += abs(W[g, k])
+        d += abs(W[g, k] * lam[k])
+    for j in range(omt.shape[0]):
+        s += abs(D[g, j])
+        d += abs(D[g, j]) * omt[j]
+    for r in range(rk.shape[0]):
+        d += abs(RG[g, r])
+    return s, d
+
+
+@njit
+def guard_values(lam, W, omt, D, rk, rj, RG, c0, poly, tau):
+    """``(h, h')`` of every guard at ``tau`` (for the transition rule and the tests)."""
+    ng = W.shape[0]
+    hs = np.empty(ng)
+    ds = np.empty(ng)
+    for g in range(ng):
+        hs[g], ds[g] = _h((g, lam, W, omt, D, rk, rj, RG, c0, poly), tau)
+    return hs, ds
+
+
+#: How a guard that starts inside its rounding band leaves it (:func:`_leave_band`).
+_BELOW, _ROOT, _NEVER = 0, 1, 2
+
+
+@njit
+def _leave_band(st, tol, t0, T):
+    """Follow a guard that starts within ``tol`` of its zero out of that band: ``(outcome, tau, h, h')``.
+
+    It just fired, was just armed, or starts flat (a lift-off, a release at the kinetic
+    level, where the contact force and the acceleration vanish). Steps of doubling length
+    from a few ulps: leaving the band downwards (``_BELOW``) starts the certified search at
+    ``tau``; leaving it upwards is a crossing (``_ROOT``, located in the last step; e.g. a stop
+    hit again at once); a sign change inside the band is rounding, not a crossing.
+    """
+    tau = _MIN_WIDTH_ULPS * _EPS * max(abs(t0), 1.0)
+    prev = 0.0
+    while tau < T:
+        h, d = _h(st, tau)
+        if h > tol:
+            hl, _ = _h(st, prev)
+            return _ROOT, refine(_h, st, prev, tau, min(hl, -1e-300), h, t0), h, d
+        if h < -tol:
+            return _BELOW, tau, h, d
+        prev = tau
+        tau *= 2.0
+    return _NEVER, T, 0.0, 0.0
+
+
+@njit
+def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
+    """The first armed guard that rises through zero in ``(0, T]``: ``(tau, guard, status)``.
+
+    ``guard`` is -1 when none does before ``T``. A guard that starts on its zero (within
+    rounding) and falls is not reported at ``tau = 0``; one that starts on or beyond its
+    zero and rises is (``tau = 0``). A guard that starts within rounding of its zero and
+    not clearly rising (it just fired; a lift-off or a release at the kinetic level, where it
+    starts flat) is followed out of the rounding band: its search starts where it has left
+    the band downwards (a sign change inside the band is rounding, not a crossing), or it is
+    reported where it rises out of the band.
+    """
+    ng = W.shape[0]
+    nu = 0.0
+    for k in range(lam.shape[0]):
+        nu = max(nu, abs(lam[k]))
+    for j in range(omt.shape[0]):
+        nu = max(nu, omt[j])
+    window = math.pi / nu if nu > 0.0 else T
+    ha = np.zeros(ng)
+    da = np.zeros(ng)
+    start = np.zeros(ng)
+    cand_tau = math.inf  # the first guard that rises out of its rounding band at the start
+    cand_g = -1
+    for g in range(ng):
+        if not armed[g]:
+            continue
+        st = (g, lam, W, omt, D, rk, rj, RG, c0, poly)
+        h0, d0 = _h(st, 0.0)
+        size, dsize = _size(st)
+        tol = _START_ULPS * _EPS * (size + cscale[g])
+        dtol = _START_ULPS * _EPS * dsize
+        if h0 >= -tol and (d0 > dtol or h0 > tol):
+            return 0.0, g, 0
+        if h0 >= -tol:
+            outcome, tau, h, d = _leave_band(st, tol, t0, T)
+            if outcome == _ROOT and tau < cand_tau:
+                cand_tau, cand_g = tau, g
+            start[g] = tau if outcome == _BELOW else T
+            ha[g], da[g] = h, d
+            continue
+        ha[g], da[g] = h0, d0
+    T_search = min(T, cand_tau)
+    a = 0.0
+    while a < T_search:
+        b = min(T_search, a + window)
+        best = math.inf
+        best_g = -1
+        hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
+        for g in range(ng):
+            if not armed[g] or start[g] >= b:
+                continue
+            lo_g = max(a, start[g])
+            st = (g, lam, W, omt, D, rk, rj, RG, c0, poly)
+            M2, M3 = _bounds(st, lo_g, b)
+            hit, lo, hi, hlo, hhi, hb, db, status = first_rising(_h, st, lo_g, ha[g], da[g], b, M2, M3, hmin)
+            if status == SEARCH_FAILED:
+                return lo_g, g, status
+            if hit:
+                tau = refine(_h, st, lo, hi, hlo, hhi, t0)
+                if tau < best:
+                    best, best_g = tau, g
+            ha[g], da[g] = hb, db
+        if best_g >= 0:
+            return best, best_g, 0
+        a = b
+    if cand_g >= 0:
+        return cand_tau, cand_g, 0
+    return T, -1, 0
