@@ -32,7 +32,9 @@ except ImportError:  # pragma: no cover - exercised only where numba is absent
 
 #: The modules whose functions numba compiles and caches; they call one another.
 COMPILED_MODULES = ("model/_rule.py", "model/_wall.py", "engine/_stuck.py", "engine/_chatter.py", "_util/roots.py",
-                    "backends/exact/_piece.py", "backends/exact/_family.py", "backends/exact/_loop.py")
+                    "backends/exact/_piece.py", "backends/exact/_family.py", "backends/exact/_loop.py",
+                    "backends/_exact_mdof/_forms.py", "backends/_exact_mdof/_guards.py",
+                    "backends/_exact_mdof/_closed.py")
 
 
 def _drop_stale_caches() -> None:
@@ -41,7 +43,7 @@ def _drop_stale_caches() -> None:
     numba keys a function's cache on its own file only: a compiled caller (the exact
     backend's loop) would keep the old copy of a callee edited in another file, and the
     compiled and Python drivers would quietly disagree. One fingerprint of all the sources,
-    kept beside the caches, catches that (it costs reading eight files at the first compiled import).
+    kept beside the caches, catches that (it costs reading these few files at the first compiled import).
     """
     root = Path(__file__).resolve().parent.parent  # the package
     try:
