@@ -167,6 +167,9 @@ def test_the_cli_places_the_flanges_of_a_tape_drive(capsys):
     (["bifurcation", "--param", "runout_harmonics", "--range", "0", "1"], "set it with --runout-harmonic"),
     (["chart", "--param", "clearance", "--bracket", "1e-4", "2e-4", "--grid", "flange_sides=1,2",
       "--grid", "speed=2,4"], "set it with --flange-sides"),
+    (["onset", *OSC, "--param", "flange", "--bracket", "0", "1"], "set it with --flange"),
+    (["continue", *OSC, "--param", "harmonics", "--limits", "0", "1", "--guess", "0.8", "0"],
+     "set it with --harmonic"),
 ])
 def test_the_cli_refuses_flange_options_it_cannot_use(capsys, monkeypatch, argv, message):
     _no_run(monkeypatch)

@@ -76,6 +76,36 @@ def test_the_default_executor_works_from_every_entry_point(entry_point_runs, kin
     assert "Warning" not in err and "Traceback" not in err, err
 
 
+# A point function that makes a multiprocessing lock in the worker, as tqdm does for its write
+# lock: in a loky worker that is a named semaphore, registered with a resource tracker until
+# the worker's finalizers unregister it. Killing the idle workers at the interpreter's exit
+# skipped them, and the tracker warned of "leaked semaphore objects": the warning that made
+# the entry-point test fail under load.
+HOLDER = textwrap.dedent("""\
+    import multiprocessing
+    from impactosc.runner import run_points
+    _LOCKS = []
+    def hold_a_lock(payload):
+        _LOCKS.append(multiprocessing.RLock())
+        return payload
+    def main():
+        out = []
+        run_points(hold_a_lock, [(str(i), i) for i in range(4)], on_result=lambda k, r: out.append(r),
+                   on_lost=lambda k, m: None, progress=False)
+        print("results", sorted(out), flush=True)
+""")
+
+
+def test_the_workers_clean_up_what_they_made_when_the_program_ends(tmp_path):
+    (tmp_path / "holder.py").write_text(HOLDER)
+    env = {**ENV, "LOKY_MAX_CPU_COUNT": "2"}  # the pool runs the four points
+    proc = subprocess.run([sys.executable, "-c", "import holder; holder.main()"], capture_output=True, text=True,
+                          env=env, cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "results [0, 1, 2, 3]" in proc.stdout
+    assert "leaked" not in proc.stderr and "Warning" not in proc.stderr, proc.stderr
+
+
 # -- interrupting ---------------------------------------------------------------------------
 # Two cheap points first (the out-of-plane reading sticks at once: milliseconds), then two
 # that take about a minute each: an interrupt or a kill lands while the long ones run.

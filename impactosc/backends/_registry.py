@@ -52,9 +52,9 @@ def resolve_backend(name: str, osc, options=()) -> str:
     the paper's drive the same forces as heyoka, several times faster) when every mode is
     linear (``osc.linear``: a rigid or a linear spring flange), numba is installed and
     ``zeta <= MAX_ZETA_OF["exact"]``; else ``"heyoka"``, which runs every member; ``"scipy"``
-    where heyoka's compile time would dominate (more than :data:`MAX_HEYOKA_TERMS` forcing
+    where heyoka's compile time would dominate (more than ``MAX_HEYOKA_TERMS = 40`` forcing
     terms). Given backend ``options`` (their names), ``"auto"`` is the backend they are for
-    (``tol``: heyoka; ``rtol``: scipy, ...; see :data:`OPTIONS`).
+    (``tol``: heyoka; ``rtol``: scipy, ...; the table ``OPTIONS`` of this module).
 
     Raises
     ------

@@ -66,7 +66,7 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
         changes (the baseline). ``"auto"``: the fastest that runs the member
         (:func:`impactosc.backends.resolve_backend`: ``"exact"`` for a linear member with
         numba installed, else ``"heyoka"``; with backend options, the backend they are
-        for); :attr:`Solution.backend` says which one ran.
+        for); ``Solution.backend`` says which one ran.
     record : {"full", "events", "stats"}
         What to keep (see :mod:`impactosc.solution`). Use ``"stats"`` for long runs.
     max_events : int

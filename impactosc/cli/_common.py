@@ -268,8 +268,7 @@ def model_from_args(args, *, free: tuple[tuple[str, float], ...] = ()):
         gaps = {k: getattr(args, k) for k in OSC_GAP_OPTIONS if getattr(args, k) is not None}
         # K is the stiffness of a spring flange: a rigid flange, or none at all, goes without it.
         no_flange = all(math.isinf(gaps.get(k, 1.0)) for k in OSC_GAP_OPTIONS)
-        required = ("F", "Omega", "beta") if family.get("flange") == "rigid" or no_flange else ("F", "Omega",
-                                                                                             "beta", "K")
+        required = ("F", "Omega", "beta") + (() if family.get("flange") == "rigid" or no_flange else ("K",))
         missing = [k for k in required if k not in given]
         if missing:
             raise ValueError(f"oscillator mode needs {' '.join('--' + k for k in required)}"

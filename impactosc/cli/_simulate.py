@@ -15,7 +15,8 @@ def add_parser(sub) -> None:
     sim.add_argument("--duration", type=float, help="simulated time of a tape drive [s] (default 0.01)")
     sim.add_argument("--x0", type=float, default=0.95, help="initial X = x/L (default 0.95, eq. 6)")
     sim.add_argument("--v0", type=float, default=0.0, help="initial velocity dX/dLambda (default 0, eq. 7)")
-    sim.add_argument("--backend", default="heyoka", help="heyoka (default), scipy, exact or rk4")
+    sim.add_argument("--backend", default="heyoka", help="heyoka (default), scipy, exact, rk4 or auto (exact for a "
+                                                        "linear flange law with numba, else heyoka)")
     sim.add_argument("--record", default="events", help="full, events (default) or stats")
     sim.add_argument("--tol", type=float, help="heyoka tolerance")
     sim.add_argument("--dt", type=float, help="rk4 step")

@@ -357,9 +357,9 @@ FLANGE_STYLE = {"color": "tab:red", "lw": 0.8, "ls": "--"}
 def draw_flanges(ax, osc, *, axis: str = "y", scale: float = 1.0, along=None, label: bool = True) -> None:
     """Draw the flanges of ``osc`` where they are: at ``X = -gap_lower`` and ``X = +gap_upper``.
 
-    One helper for every figure that shows the flanges (:func:`plot_run`,
+    One helper for every figure that shows the flanges (``Solution.plot``,
     :func:`~impactosc.results.plot_solution`, :func:`~impactosc.dynamics.plot_bifurcation`,
-    :meth:`~impactosc.dynamics.Section.plot`): the positions come from
+    ``Section.plot``): the positions come from
     :attr:`Oscillator.flanges <impactosc.Oscillator.flanges>`, and an absent flange
     (``gap = None``/``inf``, a one-sided stop) is not drawn.
 

@@ -77,7 +77,7 @@ class Runner:
         if executor is None:
             self.kind = "pool"
             self._executor = _pool.default_pool()
-            self.n_workers = self._executor._max_workers
+            self.n_workers = _pool.pool_workers()
         elif isinstance(executor, str) and executor == "serial":
             self.kind, self.n_workers = "serial", 1
         elif isinstance(executor, str) and executor == "dask":
@@ -99,10 +99,7 @@ class Runner:
         with interrupt_deferred():  # not inside the executor's locks
             if self.kind == "dask":
                 return self._executor.submit(run_batch, fn, task, *args, pure=False)
-            fut = self._executor.submit(run_batch, fn, task, *args)
-            if self.kind == "pool":
-                _pool.register_exit_hook()
-            return fut
+            return self._executor.submit(run_batch, fn, task, *args)
 
     def wait_first(self, futures) -> set:
         """The futures that are done, waiting until at least one is."""
@@ -112,11 +109,10 @@ class Runner:
             return set(distributed.wait(list(futures), return_when="FIRST_COMPLETED").done)
         return cf.wait(futures, return_when=cf.FIRST_COMPLETED).done
 
-    def recover(self) -> None:
-        """After a lost task: replace the default pool if it broke (a user's executor is theirs)."""
-        if self.kind == "pool" and (self._executor._flags.broken is not None or self._executor._flags.shutdown):
-            self._executor.shutdown(wait=False, kill_workers=True)
-            self._executor = _pool.default_pool()
+    def recover(self, exc: BaseException) -> None:
+        """After a task lost to ``exc``: replace the default pool if it broke (a user's executor is theirs)."""
+        if self.kind == "pool":
+            self._executor = _pool.replace_if_broken(self._executor, exc)
 
     def abort(self, futures) -> None:
         """On an interrupt or error: cancel the tasks in flight; kill the workers we own."""
@@ -200,8 +196,8 @@ def execute(runner: Runner, fn, todo: list, args: tuple, on_result, on_lost, bar
     in_flight: dict = {}
     sizer = _BatchSizer(runner.n_workers)
 
-    def lost(task):
-        runner.recover()
+    def lost(task, exc):
+        runner.recover(exc)
         for point in task:
             attempts[point[0]] = attempts.get(point[0], 0) + 1
             (retry if attempts[point[0]] < 2 else suspects).append(point)
@@ -223,16 +219,16 @@ def execute(runner: Runner, fn, todo: list, args: tuple, on_result, on_lost, bar
                     task = [fresh.popleft() for _ in range(n)]
                 try:
                     in_flight[runner.submit(fn, task, args)] = task
-                except Exception:  # noqa: BLE001 - e.g. a broken pool: its points are retried
-                    lost(task)
+                except Exception as exc:  # noqa: BLE001 - e.g. a broken pool: its points are retried
+                    lost(task, exc)
             if not in_flight:
                 continue
             for fut in runner.wait_first(in_flight):
                 task = in_flight.pop(fut)
                 try:
                     results = fut.result()
-                except Exception:  # noqa: BLE001 - the whole task failed: retried
-                    lost(task)
+                except Exception as exc:  # noqa: BLE001 - the whole task failed: retried
+                    lost(task, exc)
                     continue
                 deliver(results)
         # The suspects, each alone: a crash now is that point's own.
@@ -240,7 +236,7 @@ def execute(runner: Runner, fn, todo: list, args: tuple, on_result, on_lost, bar
             try:
                 results = runner.submit(fn, [point], args).result()
             except Exception as exc:  # noqa: BLE001
-                runner.recover()
+                runner.recover(exc)
                 on_lost(point[0], f"task lost ({type(exc).__name__}: {exc})")
                 bar.update(1)
                 continue

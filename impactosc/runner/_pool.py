@@ -6,12 +6,20 @@ guard, from standard input, a REPL or a notebook alike. The pool is kept from ru
 that its workers keep what they compiled (heyoka integrators, numba functions). Idle
 workers exit after :data:`WORKER_IDLE_SECONDS`; every worker exits within
 :data:`PARENT_CHECK_SECONDS` when the process that started it dies, even by SIGKILL.
+
+Only loky's public API is used: the pool is a ``loky.ProcessPoolExecutor``; a pool that
+broke (a worker died) is known by the ``loky.BrokenProcessPool`` its tasks raise
+(:func:`replace_if_broken`), and at the interpreter's exit loky's own exit handler shuts it
+down (idle workers exit at once; killing them instead left their semaphores to loky's
+resource tracker, which warned of leaks under load).
 """
 
 from __future__ import annotations
 
+import atexit
 import os
 import signal
+import sys
 import threading
 import time
 
@@ -21,8 +29,8 @@ WORKER_IDLE_SECONDS = 300
 PARENT_CHECK_SECONDS = 0.5
 
 _POOL = None  # the default loky pool, started on first use
+_WORKERS: int | None = None  # its number of workers
 _POOL_LOCK = threading.Lock()
-_EXIT_HOOK_REGISTERED = False
 
 
 def _worker_init(parent_pid: int) -> None:
@@ -34,6 +42,11 @@ def _worker_init(parent_pid: int) -> None:
     (POSIX). Without it a worker outlives a killed parent, holding its memory for good.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # A worker told to stop has run multiprocessing's finalizers (its locks unregistered) by
+    # the time the interpreter's exit handlers run; this one, registered first, runs last and
+    # skips the teardown of heyoka's and numba's compiled code, seconds under load that the
+    # parent's exit would wait for.
+    atexit.register(_exit_now)
 
     def watch():
         while os.getppid() == parent_pid:
@@ -43,55 +56,73 @@ def _worker_init(parent_pid: int) -> None:
     threading.Thread(target=watch, name="impactosc-parent-watch", daemon=True).start()
 
 
-def default_pool():
-    """The module's loky pool, started (or replaced, if broken or shut down) on demand."""
-    global _POOL
+def _exit_now() -> None:
+    """End the worker at once, its output flushed: the last exit handler of a worker."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (AttributeError, OSError, ValueError):
+            pass
+    os._exit(0)
+
+
+def _loky():
     try:
         import loky
     except ImportError:  # a dependency of impactosc; only a broken install gets here
         raise ImportError("the default executor needs loky: pip install loky") from None
+    return loky
+
+
+def default_pool():
+    """The module's loky pool, started on demand (again after :func:`kill_default_pool`)."""
+    global _POOL, _WORKERS
+    loky = _loky()
     with _POOL_LOCK:
-        if not pool_alive():
-            _POOL = loky.ProcessPoolExecutor(max_workers=loky.cpu_count(), timeout=WORKER_IDLE_SECONDS,
+        if _POOL is None:
+            _WORKERS = loky.cpu_count()
+            _POOL = loky.ProcessPoolExecutor(max_workers=_WORKERS, timeout=WORKER_IDLE_SECONDS,
                                              initializer=_worker_init, initargs=(os.getpid(),))
         return _POOL
 
 
 def pool_alive() -> bool:
-    """Whether the default pool exists and can take work (then starting it costs nothing)."""
-    return _POOL is not None and _POOL._flags.broken is None and not _POOL._flags.shutdown
+    """Whether the default pool has been started and not killed (then using it costs no start)."""
+    return _POOL is not None
 
 
 def pool_workers() -> int:
     """How many workers the default pool has (or would have)."""
-    if _POOL is not None:
-        return _POOL._max_workers
+    if _WORKERS is not None:
+        return _WORKERS
     try:
-        import loky
+        return _loky().cpu_count()
     except ImportError:
         return os.cpu_count() or 1
-    return loky.cpu_count()
 
 
-def register_exit_hook() -> None:
-    """Kill the default pool's workers when the interpreter exits, instead of shutting them down.
+def is_broken(exc: BaseException) -> bool:
+    """Whether ``exc`` (raised by a task or a submit) says that the default pool broke."""
+    try:
+        return isinstance(exc, _loky().BrokenProcessPool)
+    except ImportError:
+        return False
 
-    loky's own exit hook shuts its pools down politely, which takes seconds when workers are
-    still starting (``python script.py`` would linger after its last line); idle workers have
-    nothing to lose. Registered after loky's hook (which loky registers at the first submit),
-    so it runs first: both run in reverse order of registration, before non-daemon threads
-    are joined.
-    """
-    global _EXIT_HOOK_REGISTERED
-    if not _EXIT_HOOK_REGISTERED:
-        register = getattr(threading, "_register_atexit", None)
-        if register is not None:
-            register(kill_default_pool)
-        _EXIT_HOOK_REGISTERED = True
+
+def replace_if_broken(pool, exc: BaseException):
+    """The pool to use after ``exc``: a new default pool if ``exc`` says ``pool`` broke, else ``pool``."""
+    if not is_broken(exc):
+        return pool
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is pool:
+            _POOL = None
+    pool.shutdown(wait=False, kill_workers=True)  # what is left of it: its dead or stuck workers
+    return default_pool()
 
 
 def kill_default_pool() -> None:
-    """Kill the default pool's workers at once (the running tasks die with them)."""
+    """Kill the default pool's workers at once (the running tasks die with them): on an interrupt."""
     global _POOL
     with _POOL_LOCK:
         pool, _POOL = _POOL, None
