@@ -212,3 +212,19 @@ def test_all_three_on_the_pool_and_dask_from_a_guardless_script_on_stdin(guardle
         assert f"identical {name}" in proc.stdout, proc.stdout + proc.stderr
     assert "Traceback" not in proc.stderr, proc.stderr
     print(proc.stdout)
+
+
+def test_no_progress_bar_imports_no_tqdm():
+    # progress=False must not import tqdm at all: importing tqdm.auto in a kernel without ipywidgets
+    # prints a TqdmWarning (seen in the rendered notebooks)
+    code = textwrap.dedent("""
+        import sys
+        from concurrent.futures import ThreadPoolExecutor
+        from impactosc.runner import run_points
+        out = {}
+        run_points(lambda p: p * 2, [(i, i) for i in range(3)], executor=ThreadPoolExecutor(1),
+                   on_result=out.__setitem__, on_lost=lambda k, m: None, progress=False)
+        assert out == {0: 0, 1: 2, 2: 4}, out
+        assert not any(m == "tqdm" or m.startswith("tqdm.") for m in sys.modules), "tqdm imported"
+    """)
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

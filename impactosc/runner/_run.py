@@ -66,8 +66,6 @@ def run_points(fn, todo: list, args: tuple = (), *, executor=None, on_result, on
         At once on Ctrl-C: the tasks in flight are cancelled, the default pool's workers
         killed; every result handed back before stays with the caller.
     """
-    from tqdm.auto import tqdm
-
     check_executor(executor)
     lost: list[str] = []
 
@@ -75,7 +73,7 @@ def run_points(fn, todo: list, args: tuple = (), *, executor=None, on_result, on
         lost.append(message)
         on_lost(key, message)
 
-    with tqdm(total=initial + len(todo), initial=initial, disable=not progress, desc=desc, unit=unit) as bar:
+    with _progress_bar(progress, total=initial + len(todo), initial=initial, desc=desc, unit=unit) as bar:
         rest = list(todo)
         if try_here_first and executor is None:
             rest = _run_here_while_small(fn, rest, args, on_result, bar)
@@ -85,6 +83,29 @@ def run_points(fn, todo: list, args: tuple = (), *, executor=None, on_result, on
         raise RuntimeError(f"{what}: all {len(todo)} points run were lost: their tasks failed as a whole (the "
                            f"worker processes crashed, were killed or could not start; or the executor is "
                            f"broken). First: {lost[0]}")
+
+
+class _NoBar:
+    """The progress bar when none is shown: tqdm is not even imported (in a notebook kernel without
+    ipywidgets, importing ``tqdm.auto`` alone prints a ``TqdmWarning``)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def update(self, n: int = 1) -> None:
+        return None
+
+
+def _progress_bar(progress: bool, **settings):
+    """A tqdm bar with ``settings`` when ``progress``, else a bar that draws nothing."""
+    if not progress:
+        return _NoBar()
+    from tqdm.auto import tqdm
+
+    return tqdm(**settings)
 
 
 def _run_here_while_small(fn, todo: list, args: tuple, on_result, bar) -> list:
