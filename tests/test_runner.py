@@ -163,14 +163,13 @@ SCRIPT = textwrap.dedent("""\
     print("top level ran", flush=True)
     osc = io.Oscillator(0.3, 0.8, 0.05, 1e4)
     bif = dict(transient_periods=5, record_periods=3, backend="exact", progress=False)
-    chart = dict(progress=False, method="transient", backend="exact", tol=1e-3, transient_periods=5,
-                 record_periods=2, stop_at_contact=True)
+    chart = dict(progress=False, backend="exact")  # the continuation method: status 0 only at a genuine grazing
     drive = io.TapeDrive(clearance=50e-6)
 
     def run_all(executor):
         return (dy.bifurcation_diagram(osc, "F", [0.2, 0.3, 0.4, 0.5], executor=executor, **bif),
                 dy.bifurcation_diagram(osc, "F", [0.3, 0.35, 0.4], continuation="both", executor=executor, **bif),
-                dy.onset_chart(osc, "F", (0.2, 0.5), {"beta": [0.04, 0.05], "Omega": [0.8, 0.9]},
+                dy.onset_chart(osc, "F", (0.2, 0.6), {"beta": [0.04, 0.05], "Omega": [0.7, 0.8]},
                                executor=executor, **chart),
                 io.sweep(drive, {"speed": [4.0, 8.0, 12.0]}, duration=1e-4, backend="exact",
                          executor=executor, progress=False))
