@@ -246,7 +246,23 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
                  "and end together (a nonsmooth fold, the discontinuous grazing case)")
     message = (f"the orbit grazes the {flange} flange ({law}): located as a regular point of the contact-free "
                f"orbits (gap - max X = 0); the branch crosses {into} the flange, and {what}")
+    if _grazes_other(virtual, ev_g, side):
+        message += ("; the orbit touches the other flange at the same point (a symmetric orbit grazing both at once, "
+                    "where the families that contact either flange or both meet): the branch follows one of them")
     return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
+
+
+#: The other flange's margin below which a grazing orbit touches both flanges at once.
+BOTH = 1e-8
+
+
+def _grazes_other(virtual: MapProblem, ev, side: int) -> bool:
+    """The grazing orbit also touches the flange opposite ``side`` (within :data:`BOTH`)."""
+    gap = virtual.flange_gaps[(1 - side) // 2]
+    if not math.isfinite(gap):
+        return False
+    x = ev.recorder.bottom[0] if side > 0 else ev.recorder.top[0]
+    return abs(gap + side * x) < BOTH * max(1.0, gap)
 
 
 def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
