@@ -14,7 +14,7 @@ import numpy as np
 
 from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, unscaled
-from ._grazing import Crossing, contacts_on, cross, locate
+from ._grazing import Crossing, contacts_on, cross, locate, stripped_sides
 from ._nodes import Found, Node, make_node
 from ._points import point_info
 
@@ -107,14 +107,14 @@ def regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, in
     if contacts_on(contact.info, side) != 1:
         return None
     free = b if contact is a else a
-    found = locate(problem.virtual(side), side, free.u, settings.tol)
+    virtual = problem.virtual(stripped_sides(free.info, side))
+    found = locate(virtual, side, free.u, settings.tol)
     if isinstance(found, str):
         return None
     u_g, ev_g, error = found
     lo, hi = sorted((a.u[2], b.u[2]))
     if not lo - 1e-12 <= u_g[2] <= hi + 1e-12:
         return None
-    virtual = problem.virtual(side)
     info = point_info(virtual, ev_g)
     if problem.rigid:
         info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
