@@ -5,8 +5,15 @@ pseudo-arclength hyperplane, adapt the step (grow after a fast corrector, shrink
 slow or failed one or a sharp turn), stop at a parameter limit (the last point solved
 *on* the limit), at ``max_points`` or below ``min_step``, keeping every point computed.
 Between two accepted points, a change of sign of a test function or a change of the
-event signature is located by :func:`locate`: Illinois (regula falsi) on the arclength
-for a test function, bisection for the signature, each evaluation a corrected point.
+event signature is located by :func:`locate_between`: Illinois (regula falsi) on the
+arclength for a test function, bisection for the signature, each evaluation a corrected
+point; a flange's grazing as a regular point of the contact-free orbits
+(:func:`._nonsmooth.regular_grazing`).
+
+Where the map is not smooth the plain predictor-corrector cannot go on, and the loop hands
+over (:mod:`._nonsmooth`): a branch about to reach a grazing crosses it into the family on
+the other side (:mod:`._grazing`), and an impact that crosses the section is stepped over
+by mapping the section state across the impact's reset.
 """
 
 from __future__ import annotations
