@@ -284,3 +284,15 @@ def test_a_grazing_stepped_over_is_located_as_a_regular_point():
     found = [f for f in locate_between(problem, a, b, t, settings, 0) if f.kind == "grazing"]
     assert len(found) == 1 and "regular point" in found[0].message
     assert abs(found[0].node.u[2] * problem.scales[0] - F_gr) < 1e-10
+
+
+def test_a_grazing_that_cannot_be_crossed_says_why():
+    # Den Hartog's undamped orbit below resonance turns at its maximum exactly on the section at phase 0 (the
+    # response is in phase with the forcing): the contact-free orbits' grazing is degenerate there and the crossing
+    # fails. The branch ends at the grazing (status 2) and its message says why the crossing failed.
+    W, beta = 0.5, 0.1
+    Fc = dy.den_hartog_onset(W, beta)
+    orb = dy.periodic_orbit(io.Oscillator(0.9 * Fc, W, beta, 24.0), backend="exact", transient_periods=300)
+    br = dy.continuation(orb, "F", (0.5 * Fc, 1.05 * Fc), direction="forward")
+    assert br.status == 2
+    assert "crossing the upper flange's grazing failed" in br.message and "discontinuous grazing" in br.message

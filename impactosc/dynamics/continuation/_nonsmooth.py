@@ -21,10 +21,19 @@ from ._points import point_info
 __all__ = ["across_section", "crossed", "regular_grazing", "try_crossing"]
 
 
-def try_crossing(problem, node: Node, side: int, h: float, settings: Settings, bounds, direction: int, index: int):
-    """``(first point beyond, grazing)`` of a crossing of the grazing of ``side`` from ``node``, or None."""
+def try_crossing(problem, node: Node, side: int, h: float, settings: Settings, bounds, direction: int, index: int,
+                 why: dict | None = None):
+    """``(first point beyond, grazing)`` of a crossing of the grazing of ``side`` from ``node``, or None.
+
+    ``why["crossing_failure"]`` keeps why the last crossing failed (the branch's end says it).
+    """
     result = cross(problem, node, side, h, settings, bounds)
-    return crossed(problem, node, result, direction, index) if isinstance(result, Crossing) else None
+    if isinstance(result, Crossing):
+        return crossed(problem, node, result, direction, index)
+    if why is not None:
+        flange = "upper" if side > 0 else "lower"
+        why["crossing_failure"] = f"crossing the {flange} flange's grazing failed: {result}"
+    return None
 
 
 #: A section state this close (relative) to a rigid wall, moving at a speed, is an impact on the section.
