@@ -150,6 +150,8 @@ def test_a_stiff_spring_flange_branch_crosses_its_grazing(beta):
     assert br.status in (0, 1), br.message
     beyond = [p for p in br.points if p.parameter > graze[0].parameter and p.upper_margin < 0]
     assert beyond
+    # the symmetric guide's contact-free orbit touches both flanges at once: said, not hidden
+    assert "both at once" in graze[0].message
     if beta == 0.0:  # the contact-free orbit is the linear one: it grazes at |1 - W^2 + 2 i zeta W|
         assert abs(graze[0].parameter - cf.grazing_amplitude(W, 0.05)) < 1e-10
 
@@ -163,7 +165,33 @@ def test_a_power_law_flange_branch_crosses_its_grazing():
     graze = br.find("grazing")
     assert graze and br.status in (0, 1), br.summary()
     assert abs(graze[0].parameter - cf.grazing_amplitude(W, 0.05)) < 1e-9
-    assert any(p.upper_margin < 0 for p in br.points)
+    contacting = [p for p in br.points if p.upper_margin < 0]
+    assert contacting
+    # a scipy oracle at tight tolerance: the crossed points are fixed points of its map too
+    problem = graze[0].context[0]
+    oracle = MapProblem(problem.base, ("F",), 1, problem.section_phase, "scipy", {"rtol": 1e-12, "atol": 1e-14})
+    for p in contacting[:: max(1, len(contacting) // 4)]:
+        ev = oracle.evaluate(np.array([p.x, p.v]), (p.parameter,))
+        assert ev.ok and np.linalg.norm(ev.residual) < 1e-8
+
+
+@pytest.mark.slow
+def test_a_stiff_spring_flange_branch_crosses_back_off_the_flange():
+    # from the contacting family at K = 1e4 down through the grazing to the contact-free orbits (a one-sided stop:
+    # with both flanges the symmetric contact-free orbit grazes both at once, where several families meet)
+    W = 0.8
+    spring = dict(zeta=0.05, gap_lower=None)
+    orb = dy.periodic_orbit(io.Oscillator(0.32, W, 0.0, 1e4, **spring), backend="exact", transient_periods=300)
+    up = dy.continuation(orb, "F", (0.32, 0.42), direction="forward", max_points=200)
+    top = up.points[-1]
+    assert top.upper_margin < 0 and top.parameter == pytest.approx(0.42)
+    br = dy.continuation((top.x, top.v), "F", (0.3, 0.42), base=io.Oscillator(0.42, W, 0.0, 1e4, **spring),
+                         direction="backward", max_points=200)
+    assert br.status == 0, br.message
+    graze = br.find("grazing")
+    assert graze and abs(graze[0].parameter - cf.grazing_amplitude(W, 0.05)) < 1e-10
+    below = [p for p in br.points if p.parameter < graze[0].parameter]
+    assert below and all(not p.signature for p in below)
 
 
 def test_continuation_in_exponent_stops_where_the_exact_backend_cannot_run_the_member():
@@ -256,3 +284,15 @@ def test_a_grazing_stepped_over_is_located_as_a_regular_point():
     found = [f for f in locate_between(problem, a, b, t, settings, 0) if f.kind == "grazing"]
     assert len(found) == 1 and "regular point" in found[0].message
     assert abs(found[0].node.u[2] * problem.scales[0] - F_gr) < 1e-10
+
+
+def test_a_grazing_that_cannot_be_crossed_says_why():
+    # Den Hartog's undamped orbit below resonance turns at its maximum exactly on the section at phase 0 (the
+    # response is in phase with the forcing): the contact-free orbits' grazing is degenerate there and the crossing
+    # fails. The branch ends at the grazing (status 2) and its message says why the crossing failed.
+    W, beta = 0.5, 0.1
+    Fc = dy.den_hartog_onset(W, beta)
+    orb = dy.periodic_orbit(io.Oscillator(0.9 * Fc, W, beta, 24.0), backend="exact", transient_periods=300)
+    br = dy.continuation(orb, "F", (0.5 * Fc, 1.05 * Fc), direction="forward")
+    assert br.status == 2
+    assert "crossing the upper flange's grazing failed" in br.message and "discontinuous grazing" in br.message

@@ -33,7 +33,7 @@ then says so instead of dividing by zero.
 
 "Tangential" is a relative test, not ``== 0``. Near a tangency the guard ``h(t)`` has a
 double root, so a crossing located to within the rounding ``eps_h`` of ``h`` has a crossing
-rate ``h'`` known only to about ``sqrt(2 eps_h |h''|)`` (issue 20: a grazing impact on a
+rate ``h'`` known only to about ``sqrt(2 eps_h |h''|)`` (a grazing impact on a
 rigid flange was located at ``V = 1.2e-16`` by one backend, ``1.6e-8`` by another and as a
 touch ``V = 0`` by a third; the first reported a multiplier of -6e15 with status 0). A
 crossing whose rate lies within ``GRAZING`` times that bound is a tangency:

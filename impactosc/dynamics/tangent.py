@@ -173,7 +173,7 @@ def held_by_static_friction(osc: Oscillator, t: float, x: float) -> Saltation | 
 
     A mass at rest with ``beta < |f_net| <= beta_static`` is held by static friction alone:
     with ``V0 = 0`` exactly it stays, but any velocity along ``f_net``, however small, makes
-    it slide against the kinetic level ``beta < |f_net|`` and accelerate away (issue 20: a
+    it slide against the kinetic level ``beta < |f_net|`` and accelerate away (a
     velocity of 1e-12 moved the mass by 0.255 in one period). The map is discontinuous in
     ``V0`` there. Against a rigid wall only the pull away from it counts (a push into the
     wall brings the mass back). A *stick* event in that band is different: every

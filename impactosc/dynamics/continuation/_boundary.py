@@ -22,7 +22,7 @@ import numpy as np
 from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
-from ._grazing import grazing_test
+from ._grazing import grazing_test, stripped_sides
 from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
 from ._problem import MapProblem
@@ -58,7 +58,9 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     if test in ("upper_margin", "lower_margin"):
         # the grazing is where the contact-free orbit touches the flange: a regular zero of gap - max X on
         # the orbits with that flange taken away, whichever side the point was located from
-        curve = curve.virtual(1 if test == "upper_margin" else -1)
+        side = 1 if test == "upper_margin" else -1
+        real = curve.evaluate(np.array([point.x, point.v]), curve.values())
+        curve = curve.virtual(stripped_sides(point_info(curve, real), side) if real.ok else side)
     z0 = np.array([point.x, point.v])
     if point.kind in ("fold", "period_doubling") and curve.rigid:
         # a fold or a period doubling of single-impact orbits: followed in the impact's phase and speed, through

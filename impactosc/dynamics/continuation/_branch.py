@@ -16,7 +16,8 @@ import numpy as np
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 
 #: The kinds of special point a branch labels (AUTO's abbreviations LP, BP, PD, NS; GR grazing, ST stick onset, SC
-#: another change of the event signature).
+#: another change of the event signature; RG resonant grazing, where a fold or period-doubling curve of impacting
+#: orbits meets the grazing and ends).
 SPECIAL_KINDS = ("fold", "branch_point", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border",
                  "resonant_grazing")
 LABELS = {"fold": "LP", "branch_point": "BP", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "GR",

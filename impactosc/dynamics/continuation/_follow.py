@@ -5,8 +5,15 @@ pseudo-arclength hyperplane, adapt the step (grow after a fast corrector, shrink
 slow or failed one or a sharp turn), stop at a parameter limit (the last point solved
 *on* the limit), at ``max_points`` or below ``min_step``, keeping every point computed.
 Between two accepted points, a change of sign of a test function or a change of the
-event signature is located by :func:`locate`: Illinois (regula falsi) on the arclength
-for a test function, bisection for the signature, each evaluation a corrected point.
+event signature is located by :func:`locate_between`: Illinois (regula falsi) on the
+arclength for a test function, bisection for the signature, each evaluation a corrected
+point; a flange's grazing as a regular point of the contact-free orbits
+(:func:`._nonsmooth.regular_grazing`).
+
+Where the map is not smooth the plain predictor-corrector cannot go on, and the loop hands
+over (:mod:`._nonsmooth`): a branch about to reach a grazing crosses it into the family on
+the other side (:mod:`._grazing`), and an impact that crosses the section is stepped over
+by mapping the section state across the impact's reset.
 """
 
 from __future__ import annotations
@@ -56,12 +63,13 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
     jumped_last = False
     h_good = h  # the last step that succeeded: the scale of a jump across a grazing
     previous = None  # the point before ``node`` (where the branch came from)
-    tried = {"crossing": -1, "section": -1, "failed": -1}  # the point count when each was last tried
+    tried: dict = {"crossing": -1, "section": -1, "failed": -1}  # the point count when each was last tried
     while True:
         if len(nodes) >= max_points:
             return nodes, found, 1, f"stopped after max_points = {max_points} points"
         side = 0 if extra is not None or tried["crossing"] == len(nodes) else approaching(problem, previous, node, h)
-        moved = try_crossing(problem, node, side, h, settings, bounds[0], direction, len(nodes) - 1) if side else None
+        moved = try_crossing(problem, node, side, h, settings, bounds[0], direction, len(nodes) - 1,
+                             tried) if side else None
         tried["crossing"] = len(nodes) if side else tried["crossing"]
         if moved is None:
             u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
@@ -95,7 +103,7 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
                 if node.info.nearest_grazing() < GRAZING_NEAR and not jumped_last:
                     jumped, at_limit, h = _jump(problem, node, t, h_good, bounds, settings, extra)
                 if jumped is None:
-                    status, message = _failed_end(node, why, settings)
+                    status, message = _failed_end(node, why, settings, tried.get("crossing_failure", ""))
                     if status == 2:
                         found.append(_grazing_end(problem, nodes, start, node))
                     return nodes, found, status, message
@@ -137,7 +145,7 @@ def _rescue(problem, previous, node: Node, t, h: float, h_good: float, settings:
         side = approaching(problem, previous, node, h, failed=True)
         if side:
             tried["failed"] = count
-            return try_crossing(problem, node, side, h_good, settings, bounds, direction, count - 1)
+            return try_crossing(problem, node, side, h_good, settings, bounds, direction, count - 1, tried)
     return None
 
 
@@ -161,12 +169,14 @@ def _predict(problem: MapProblem, u, t, h: float, bounds):
     return u_pred, t, None
 
 
-def _failed_end(node: Node, why: str, settings: Settings):
+def _failed_end(node: Node, why: str, settings: Settings, crossing: str = ""):
     near = node.info.nearest_grazing()
     if near < GRAZING_NEAR:
+        tried = (f"; {crossing} (a discontinuous grazing with no family on the other side, or one this crossing "
+                 "cannot reach)") if crossing else ""
         return 2, (f"the branch ends at a grazing (its last point is {near:.3g} from touching a flange, in distance "
                    f"or entry speed): no periodic orbit of this family lies beyond it within the minimum step "
-                   f"{settings.min_step:g}, nor past it ({why})")
+                   f"{settings.min_step:g}, nor past it ({why}){tried}")
     return -1, f"the step fell below min_step = {settings.min_step:g}: {why}"
 
 

@@ -36,9 +36,9 @@ from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
 from ._points import PointInfo, point_info
-from ._problem import MapEvaluation, MapProblem
+from ._problem import BOTH, MapEvaluation, MapProblem
 
-__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate"]
+__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate", "stripped_sides"]
 
 #: A flange margin (distance, penetration or impact speed) below which a branch moving towards the
 #: grazing hands over to :func:`cross` once its next step would reach it.
@@ -91,6 +91,17 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
         if failed or abs(m1) <= 1.5 * h * rate:
             return side
     return 0
+
+
+def stripped_sides(info: PointInfo, side: int) -> int:
+    """The flanges to take away for the grazing of ``side``: that one, or both where the orbit does not touch the other.
+
+    A flange the orbit stays clear of (or only touches, to :data:`TOUCHES_BOTH`) does not change
+    it; taken away too, it cannot spoil the virtual map where the orbit grazes both at once
+    (the symmetric guide's contact-free orbit).
+    """
+    other = margin(info, -side)
+    return BOTH if math.isfinite(other) and other >= -TOUCHES_BOTH else side
 
 
 def contacts_on(info: PointInfo, side: int) -> int:
@@ -192,7 +203,7 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     """
     if len(problem.names) != 1:
         return "crossing a grazing is done on branches in one parameter"
-    virtual = problem.virtual(side)
+    virtual = problem.virtual(stripped_sides(node.info, side))
     from_contact = margin(node.info, side) < 0.0
     found = locate(virtual, side, node.u, settings.tol)
     if isinstance(found, str):
@@ -218,13 +229,13 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
         far = _beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
         went = np.sign(t_free[2])
     elif rigid:
-        far = _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings)
+        far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
         went = np.sign(far[1]) if not isinstance(far, str) else 0.0
         far = far[0] if not isinstance(far, str) else far
     else:
         # a stiff spring flange: near its grazing the contacting orbits are close to those of an elastic
         # impact (e = 1), whose family is regular in the impact formulation; smaller stiffness, the tangent
-        far = _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings)
+        far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
         if isinstance(far, str):
             far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
             went = -np.sign(t_free[2])
@@ -246,7 +257,23 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
                  "and end together (a nonsmooth fold, the discontinuous grazing case)")
     message = (f"the orbit grazes the {flange} flange ({law}): located as a regular point of the contact-free "
                f"orbits (gap - max X = 0); the branch crosses {into} the flange, and {what}")
+    if _grazes_other(virtual, ev_g, side):
+        message += ("; the orbit touches the other flange at the same point (a symmetric orbit grazing both at once, "
+                    "where the families that contact either flange or both meet): the branch follows one of them")
     return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
+
+
+#: The other flange's margin below which a grazing orbit touches both flanges at once.
+TOUCHES_BOTH = 1e-8
+
+
+def _grazes_other(virtual: MapProblem, ev, side: int) -> bool:
+    """The grazing orbit also touches the flange opposite ``side`` (within :data:`TOUCHES_BOTH`)."""
+    gap = virtual.flange_gaps[(1 - side) // 2]
+    if not math.isfinite(gap):
+        return False
+    x = ev.recorder.bottom[0] if side > 0 else ev.recorder.top[0]
+    return abs(gap + side * x) < TOUCHES_BOTH * max(1.0, gap)
 
 
 def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):

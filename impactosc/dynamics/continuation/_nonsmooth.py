@@ -14,17 +14,26 @@ import numpy as np
 
 from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, unscaled
-from ._grazing import Crossing, contacts_on, cross, locate
+from ._grazing import Crossing, contacts_on, cross, locate, stripped_sides
 from ._nodes import Found, Node, make_node
 from ._points import point_info
 
 __all__ = ["across_section", "crossed", "regular_grazing", "try_crossing"]
 
 
-def try_crossing(problem, node: Node, side: int, h: float, settings: Settings, bounds, direction: int, index: int):
-    """``(first point beyond, grazing)`` of a crossing of the grazing of ``side`` from ``node``, or None."""
+def try_crossing(problem, node: Node, side: int, h: float, settings: Settings, bounds, direction: int, index: int,
+                 why: dict | None = None):
+    """``(first point beyond, grazing)`` of a crossing of the grazing of ``side`` from ``node``, or None.
+
+    ``why["crossing_failure"]`` keeps why the last crossing failed (the branch's end says it).
+    """
     result = cross(problem, node, side, h, settings, bounds)
-    return crossed(problem, node, result, direction, index) if isinstance(result, Crossing) else None
+    if isinstance(result, Crossing):
+        return crossed(problem, node, result, direction, index)
+    if why is not None:
+        flange = "upper" if side > 0 else "lower"
+        why["crossing_failure"] = f"crossing the {flange} flange's grazing failed: {result}"
+    return None
 
 
 #: A section state this close (relative) to a rigid wall, moving at a speed, is an impact on the section.
@@ -107,14 +116,14 @@ def regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, in
     if contacts_on(contact.info, side) != 1:
         return None
     free = b if contact is a else a
-    found = locate(problem.virtual(side), side, free.u, settings.tol)
+    virtual = problem.virtual(stripped_sides(free.info, side))
+    found = locate(virtual, side, free.u, settings.tol)
     if isinstance(found, str):
         return None
     u_g, ev_g, error = found
     lo, hi = sorted((a.u[2], b.u[2]))
     if not lo - 1e-12 <= u_g[2] <= hi + 1e-12:
         return None
-    virtual = problem.virtual(side)
     info = point_info(virtual, ev_g)
     if problem.rigid:
         info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",

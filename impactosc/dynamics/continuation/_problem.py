@@ -25,8 +25,10 @@ from ..saltation import vector_field
 from ..tangent import check_backend, piece_stepper
 from ._sensitivity import SensitivityRecorder, Stencil, flange_gap
 
-__all__ = ["MapProblem", "MapEvaluation", "without_flange", "UNSUPPORTED"]
+__all__ = ["MapProblem", "MapEvaluation", "without_flange", "UNSUPPORTED", "BOTH"]
 
+#: ``MapProblem.virtual(BOTH)``: both flanges taken away.
+BOTH = 2
 #: The start of a failure message of a member the problem's backend does not run (the branch stops there).
 UNSUPPORTED = "a member the backend does not run"
 
@@ -100,7 +102,7 @@ class MapProblem:
         #: Distances of the lower and the upper flange from X = 0 (inf: absent).
         self.flange_gaps = (flange_gap(base_osc, -1), flange_gap(base_osc, 1))
         #: The walls the corrector keeps its iterates within (a stripped flange is no wall).
-        self.walls = tuple(math.inf if side == self.stripped else gap
+        self.walls = tuple(math.inf if self.stripped in (side, BOTH) else gap
                            for side, gap in zip((-1, 1), self.flange_gaps, strict=True))
         # The section time of the base, kept when the parameter is the phase itself.
         self._t_section = self._section_time(base_osc)
@@ -244,11 +246,12 @@ class MapProblem:
     def virtual(self, side: int) -> MapProblem:
         """The same problem with the flange on ``side`` taken away (contact-free orbits past its grazing).
 
-        ``side = 0`` gives the problem with every flange back (the real model).
+        ``side = 0`` gives the problem with every flange back (the real model), ``side = BOTH``
+        the one without flanges (an orbit that grazes both at once, the symmetric guide's).
         """
         out = copy.copy(self)
         out.stripped = int(side)
-        out.walls = tuple(math.inf if s == side else w for s, w in zip((-1, 1), self.flange_gaps, strict=True))
+        out.walls = tuple(math.inf if side in (s, BOTH) else w for s, w in zip((-1, 1), self.flange_gaps, strict=True))
         return out
 
     def at_phase(self, section_phase: float) -> MapProblem:
@@ -266,6 +269,9 @@ def without_flange(osc: Oscillator, side: int) -> Oscillator:
 
 def stripped_fields(osc: Oscillator, side: int) -> dict[str, Any]:
     """The fields that take the flange on ``side`` away from ``osc`` (:func:`without_flange`)."""
+    if side == BOTH:
+        return {"gap_upper": math.inf, "gap_lower": math.inf, "flange": "spring", "restitution": 1.0, "exponent": 1.0,
+                "K": None}
     fields: dict[str, Any] = {"gap_upper" if side > 0 else "gap_lower": math.inf}
     if math.isinf(osc.gap(-side)):  # no flange left: the flange law's fields go back to their defaults
         fields.update(flange="spring", restitution=1.0, exponent=1.0, K=None)
