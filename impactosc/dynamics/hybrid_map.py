@@ -199,7 +199,7 @@ class HybridMap:
         return tuple(current[name] for name in self.names)
 
     def evaluate(self, z, params=None) -> HybridMapValue:
-        """``P(z; params)`` and its Jacobians (``params``: values of :attr:`names`, default the system's)."""
+        """``P(z; params)`` and its Jacobians (``params``: values of the map's ``names``, default the system's)."""
         system = self.system
         n = system.dimension
         z = np.asarray(z, dtype=float).ravel()
