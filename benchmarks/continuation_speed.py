@@ -1,16 +1,16 @@
-"""Speed of continuation (issue 19): a branch of the contact case and a two-parameter grazing curve.
+"""Speed of continuation: a branch of the contact case and a two-parameter grazing curve.
 
 Run: ``.venv/bin/python benchmarks/continuation_speed.py [--quick] [--repeats N] [--out DIR]``.
 Prints a markdown table and writes it to ``DIR/continuation_speed.md`` (default
 ``benchmarks/results``; ``--quick`` writes ``benchmarks/results/quick``).
 
-Targets (issue 19), on the exact backend, one core, after compile:
+Targets of the continuation, on the exact backend, one core, after compile:
 
 * a 200-point branch of the contact case with stability and special points located in
   under 1 s;
 * a 100-point two-parameter grazing curve in under 5 s.
 
-Targets (issue 26):
+Targets of the grazing location:
 
 * the whole grazing curve of the rigid one-sided stop (COCO's impact demo) over Omega in
   0.5-1.5 in under 2 s;
@@ -38,7 +38,7 @@ from impactosc import dynamics as dy  # noqa: E402
 #: The contact case of the speed benchmarks (Omega = 1.1, beta = 0.01, K = 1e4) at F = 0.2, where its
 #: period-1 orbit touches both flanges every period (at F = 0.5 the motion is not period-1).
 CONTACT = io.Oscillator(F=0.2, Omega=1.1, beta=0.01, K=1e4)
-#: The Den Hartog case of issue 19: the contact-free orbit at 0.8 Fc, from the issue's guess.
+#: The Den Hartog case: the contact-free orbit at 0.8 Fc, from a guess near it.
 OMEGA, BETA = 1.5, 0.1
 DH_GUESS = (-0.7891869048001374, 0.16283153617831878)
 
@@ -134,7 +134,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rows = [branch_row(args.repeats, args.quick), curve_row(args.repeats, args.quick),
             rigid_curve_row(args.repeats, args.quick), crossing_row(args.repeats, args.quick)]
-    lines = ["# Continuation speed (issues 19, 26)", "",
+    lines = ["# Continuation speed", "",
              f"Load average at the start: {load_average()}; medians of {args.repeats} runs after a warm-up run.", "",
              "| case | points | seconds | measure | unit | target | met |",
              "| --- | --- | --- | --- | --- | --- | --- |"]

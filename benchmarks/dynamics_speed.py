@@ -1,10 +1,10 @@
-"""Speed of the dynamics toolkit (issues 11, 19): bifurcation diagram, periodic orbit, Lyapunov, contact onset.
+"""Speed of the dynamics toolkit: bifurcation diagram, periodic orbit, Lyapunov, contact onset.
 
 Run: ``.venv/bin/python benchmarks/dynamics_speed.py [--quick] [--workers N] [--out DIR]``.
 Prints a markdown table and writes it to ``DIR/dynamics_speed.md`` (default
 ``benchmarks/results``; ``--quick`` writes ``benchmarks/results/quick``).
 
-Targets (issue 11):
+Targets:
 
 * a bifurcation diagram of 400 parameter values x (200 transient + 50 recorded forcing
   periods) of the contact case in under 60 s on 2 cores (wall time, process pool start-up
@@ -96,7 +96,7 @@ def other_rows(quick: bool):
                         1 if quick else 3, 120.0, 120.0)
     rows.append(("contact onset, Den Hartog grazing boundary to 1e-10 (transient search, shooting)", f"{med:.2f} s",
                  f"error {abs(res.value - Fc):.1e}, {res.evaluations} orbits"))
-    # issue 19: the same boundary by continuation of a given orbit (Omega 1.5, beta 0.1, K 24)
+    # the same boundary by continuation of a given orbit (Omega 1.5, beta 0.1, K 24)
     Fc2 = dy.den_hartog_onset(1.5, 0.1)
     med, n, res = timed(lambda: dy.contact_onset(io.Oscillator(Fc2, 1.5, 0.1, 24.0), "F", (0.8 * Fc2, 1.1 * Fc2),
                                                  guess=(-0.7891869048001374, 0.16283153617831878)),
@@ -136,7 +136,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     load0 = load_average()
     rows = orbit_rows(args.quick) + bifurcation_rows(args.quick, args.workers) + other_rows(args.quick)
-    lines = [f"# Dynamics toolkit speed (issue 11){' (quick)' if args.quick else ''}", "",
+    lines = [f"# Dynamics toolkit speed{' (quick)' if args.quick else ''}", "",
              f"Machine: {os.cpu_count()} cores; load average at start {load0}, at end {load_average()}.", "",
              "| case | wall time | notes |", "| --- | ---: | --- |"]
     lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]

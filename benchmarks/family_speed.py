@@ -1,4 +1,4 @@
-"""Speed on every kind of family member (issue 10): heyoka beside scipy and exact, one run.
+"""Speed on every kind of family member : heyoka beside scipy and exact, one run.
 
 Run: ``.venv/bin/python benchmarks/family_speed.py [--quick] [--baseline OLD_HEYOKA_PY]``.
 Prints markdown tables: per member the events, the wall time (median of repeats after a

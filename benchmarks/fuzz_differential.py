@@ -1,7 +1,7 @@
 """Differential fuzzing of the reference backends: heyoka against exact (and scipy on a subsample).
 
 Run: ``PYTHONPATH=$PWD .venv/bin/python benchmarks/fuzz_differential.py --regime touch --n 300``.
-A bounded, seeded random scan (issue 14): every case is run by ``heyoka`` and ``exact``,
+A bounded, seeded random scan: every case is run by ``heyoka`` and ``exact``,
 and classified as
 
 ``ok``            both reached ``t_end`` and agree;
@@ -19,10 +19,10 @@ Omega = 0, integer-ish K, dyadic states), ``fbeta`` (``F == beta`` exactly, long
 ``hugebeta`` (beta up to 1e9), ``hugek`` (K up to 1e12), ``random`` (everything moderate),
 ``long`` (random parameters to t = 1e3..1e4, statistics and status only past the horizon),
 ``powerfast`` (power-law flanges ``K d^p``, ``p`` from ``1 + 1e-9`` to 2, entered at speeds up
-to 50, issue 20 item 3: the exact backend has no closed form for them, so scipy is the
+to 50: the exact backend has no closed form for them, so scipy is the
 reference and heyoka is compared with it), ``resonant`` (lightly damped members forced within
-1e-9..1e-2 of the free or the contact resonance, some with a second harmonic, issue 20
-item 4: exact against heyoka), or ``all``. Prints one table row per regime and
+1e-9..1e-2 of the free or the contact resonance, some with a second harmonic:
+exact against heyoka), or ``all``. Prints one table row per regime and
 a reproducer line per failing case.
 
 Chaotic cases separate legitimately (rounding grows like exp(lambda t)), so trajectories and
@@ -117,7 +117,7 @@ def gen_touch(rng) -> Case:
 def gen_fbeta(rng) -> Case:
     """F == beta exactly: the stick test sits on its threshold at every forcing extremum."""
     # Round values hit the threshold exactly far more often (a stick at X = 0 sits on it):
-    # F = beta = 1, Omega = 2 failed in 49 of 60 runs before issue 14, random floats in none.
+    # F = beta = 1, Omega = 2 failed in 49 of 60 runs before the stick test's tie tolerance, random floats in none.
     F = _dyadic(rng, 0.125, 2.0, 3) if rng.random() < 0.5 else float(rng.uniform(0.05, 2.0))
     Omega = _dyadic(rng, 0.25, 3.0, 2) if rng.random() < 0.5 else float(rng.uniform(0.1, 3.0))
     osc = io.Oscillator(F, Omega, F, float(10.0 ** rng.integers(0, 7)),

@@ -1,4 +1,4 @@
-"""Differential fuzzing of the model family (issue #10): scipy against exact, and scipy alone.
+"""Differential fuzzing of the model family: scipy against exact, and scipy alone.
 
 A seeded, bounded random scan. Two groups of cases:
 

@@ -1,7 +1,7 @@
 """Speed of the heyoka backend: compile time, the contact case, a long creep run.
 
 Run: ``.venv/bin/python benchmarks/heyoka_speed.py [--quick]``. Prints a markdown table.
-Targets (issue 2): contact case < 5 ms after the first compile; a run over t_end = 5.7e5
+Targets: contact case < 5 ms after the first compile; a run over t_end = 5.7e5
 with ~1e4 friction events well under a second.
 """
 

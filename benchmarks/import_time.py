@@ -1,4 +1,4 @@
-"""What ``import impactosc`` costs, and the first run after it (issue 21, item 5).
+"""What ``import impactosc`` costs, and the first run after it.
 
 Each measurement is a fresh interpreter (the import is cached after the first time in a
 process, so only a new process measures it). Three timings per tree, medians over

@@ -1,4 +1,4 @@
-"""How fast a sweep stops: Ctrl-C (SIGINT) and SIGKILL of the parent (issue #14 item 7).
+"""How fast a sweep stops: Ctrl-C (SIGINT) and SIGKILL of the parent.
 
 Runs a stored sweep on the default process pool in a subprocess and
 

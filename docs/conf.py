@@ -102,7 +102,9 @@ numpydoc_xref_aliases.update({name: f"impactosc.{name}" for name in impactosc.__
 # and "Fig. 7", which must not end the summary at "eq.".
 autosummary.WELL_KNOWN_ABBREVIATIONS = (*autosummary.WELL_KNOWN_ABBREVIATIONS,
                                          "eq.", "Eq.", "eqs.", "Eqs.", "Fig.", "Figs.", "fig.", "sec.", "ch.")
-numpydoc_xref_ignore = {"optional", "default", "of", "or", "and", "the", "a", "an", "shape", "with", "each", "per"}
+numpydoc_xref_ignore = {"optional", "default", "of", "or", "and", "the", "a", "an", "shape", "with", "each", "per",
+                        # plain words of a user system's types ("mapping", "heyoka expression or number")
+                        "mapping", "expression", "expressions", "variable", "number"}
 
 # -- notebooks (myst-nb) -------------------------------------------------------------------
 # Executed at build time, in quick mode (the notebooks read IMPACTOSC_QUICK; quick is also
@@ -180,6 +182,15 @@ known_warnings = [
     (r"docstring of impactosc\.signal\._solution\.from_solution:",
      r"target not found: impactosc\.(frames\.resample|tape\.TapeDrive)$"),
     (r"docstring of impactosc\.paper:", r"target not found: impactosc\.tape\.TapeDrive$"),
+    # Names of private modules that no public module exports, so they have no page: the
+    # registry's run_auto, MAX_HEYOKA_TERMS and OPTIONS, the frames module's plot_run, and
+    # HybridSolution (the result of a user system's run) named by simulate's docstring.
+    (r"docstring of impactosc\.backends\._registry\.(get_backend|resolve_backend):",
+     r"target not found: (run_auto|MAX_HEYOKA_TERMS|OPTIONS)$"),
+    (r"docs/api/(index|modules/impactosc\.backends)\.rst:", r"target not found: run_auto$"),
+    (r"docstring of impactosc\.results\._frames\.draw_flanges:", r"target not found: plot_run$"),
+    (r"docstring of impactosc\.backends\._simulate\.simulate:",
+     r"target not found: impactosc\.results\._hybrid\.HybridSolution$"),
     # The generated report jumps from "#" to "###" (benchmarks/work_precision.py writes it).
     (r"benchmarks/results/work_precision\.md:", r"Non-consecutive header level increase"),
 ]

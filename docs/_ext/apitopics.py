@@ -15,7 +15,9 @@ TOPICS = [
     {"title": "Simulation",
      "blurb": "A member of the model family (:class:`~impactosc.Oscillator`, or :class:`~impactosc.TapeDrive` "
               "in SI units), one run of it (:func:`~impactosc.simulate`) and what the run found "
-              "(:class:`~impactosc.Solution`: events, impacts, averages, dense output).",
+              "(:class:`~impactosc.Solution`: events, impacts, averages, dense output); your own piecewise-smooth "
+              "system of any dimension (:class:`~impactosc.HybridSystem`: modes, guards, resets, "
+              ":func:`~impactosc.stick_slip`), run by the same :func:`~impactosc.simulate`.",
      "modules": ["impactosc", "impactosc.model", "impactosc.results"]},
     {"title": "Backends",
      "blurb": "How a run is integrated: ``backend=`` of :func:`~impactosc.simulate`. heyoka (the default), scipy (the "
@@ -30,7 +32,8 @@ TOPICS = [
     {"title": "Dynamics toolkit",
      "blurb": "Poincare sections, periodic orbits by shooting with their Floquet multipliers, saltation "
               "matrices, Lyapunov exponents, the contact-onset boundary and design charts, and the closed "
-              "forms they are checked against.",
+              "forms they are checked against; the map of your own system and its periodic orbits "
+              "(:class:`~impactosc.dynamics.HybridMap`, :func:`~impactosc.dynamics.periodic_orbit_of`).",
      "modules": ["impactosc.dynamics", "impactosc.dynamics.poincare", "impactosc.dynamics.shooting",
                  "impactosc.dynamics.saltation", "impactosc.dynamics.flow", "impactosc.dynamics.lyapunov",
                  "impactosc.dynamics.onset", "impactosc.dynamics.chart", "impactosc.dynamics.closed_form"]},

@@ -19,11 +19,17 @@ drive in SI units (:class:`~impactosc.TapeDrive`):
 :func:`continuation`               follow a family of periodic orbits in one parameter (a
                                    :class:`Branch`) with its folds, period doublings, grazings
                                    and stick onsets located; a located point in two parameters
+:class:`HybridMap`                 the stroboscopic (or section) map of a user system
+                                   (:class:`~impactosc.HybridSystem`) and its Jacobians by saltation
+:func:`periodic_orbit_of`          a periodic orbit of a user system by Newton's method on its
+                                   map, with its Floquet multipliers
 =================================  ====================================================
 
 The Jacobians come from the smooth pieces' state-transition matrices (:mod:`.flow`) and a
 saltation matrix at every event (:mod:`.saltation`), derived from the model's own vector
 fields and guards (:mod:`impactosc.engine`), so new members of the family need no new code.
+For a user's own piecewise-smooth system the same rule is built from the symbolic derivatives
+of its definition (:mod:`.hybrid_map`).
 """
 
 from ._common import OSCILLATOR_PARAMETERS, TAPE_PARAMETERS, forcing_period, parameter_names
@@ -36,6 +42,7 @@ from .closed_form import (
     quasi_static_critical_clearance,
 )
 from .continuation import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint, continuation
+from .hybrid_map import HybridMap, HybridMapValue, HybridOrbit, periodic_orbit_of
 from .lyapunov import LyapunovResult, lyapunov_exponent
 from .onset import ContactOnset, contact_margin, contact_onset
 from .poincare import Section, detect_period, event_section, stroboscopic_section
@@ -69,6 +76,10 @@ __all__ = [
     "BranchPoint",
     "SpecialPoint",
     "SPECIAL_KINDS",
+    "HybridMap",
+    "HybridMapValue",
+    "HybridOrbit",
+    "periodic_orbit_of",
     "den_hartog_amplitude",
     "den_hartog_onset",
     "den_hartog_multipliers",

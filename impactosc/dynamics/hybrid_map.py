@@ -149,7 +149,7 @@ class HybridMap:
     --------
     >>> import numpy as np
     >>> import impactosc
-    >>> from impactosc.dynamics.hybrid_map import HybridMap
+    >>> from impactosc.dynamics import HybridMap
     >>> from impactosc.model.hybrid import oscillator_system
     >>> system = oscillator_system(impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4))
     >>> value = HybridMap(system, names=["F"]).evaluate([0.95, 0.0])
@@ -199,7 +199,7 @@ class HybridMap:
         return tuple(current[name] for name in self.names)
 
     def evaluate(self, z, params=None) -> HybridMapValue:
-        """``P(z; params)`` and its Jacobians (``params``: values of :attr:`names`, default the system's)."""
+        """``P(z; params)`` and its Jacobians (``params``: values of the map's ``names``, default the system's)."""
         system = self.system
         n = system.dimension
         z = np.asarray(z, dtype=float).ravel()
@@ -338,6 +338,45 @@ def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: i
     Newton's step solves ``(M - I) dz = -(P(z) - z)`` (least squares when ``M - I`` is
     singular), halving while the residual grows; convergence when
     ``|P(z) - z| <= tol max(1, |z|)``.
+
+    Parameters
+    ----------
+    hmap : HybridMap
+        The map whose fixed point is sought (its ``iterates`` give the orbit's period).
+    guess : sequence of float
+        The starting state on the section, one value per state of the system.
+    tol : float
+        Relative tolerance on the residual ``|P(z) - z|``.
+    max_iter : int
+        Newton steps before giving up (status 1).
+
+    Returns
+    -------
+    HybridOrbit
+        The fixed point ``z``, the monodromy matrix, the Floquet multipliers (largest
+        modulus first), the event signature of one period and a status: 0 converged,
+        1 not converged, 2 not differentiable (a grazing, see ``message``), -1 a run failed.
+
+    Examples
+    --------
+    A damped oscillator against a one-sided stop, ``x'' + 2 zeta x' + x = A cos(w t)`` with
+    ``v -> -e v`` at ``x = d``: a stable period-1 orbit with two impacts.
+
+    >>> import math
+    >>> import heyoka as hy
+    >>> import numpy as np
+    >>> from impactosc import Guard, HybridMode, HybridSystem, symbols
+    >>> from impactosc.dynamics import HybridMap, periodic_orbit_of
+    >>> x, v, zeta, A, w, d, e = symbols("x v zeta A w d e")
+    >>> stop = HybridSystem("x v", {"zeta": 0.05, "A": 1.2, "w": 0.8, "d": 0.6, "e": 0.7},
+    ...                     [HybridMode("free", {x: v, v: A * hy.cos(w * hy.time) - x - 2 * zeta * v})],
+    ...                     [Guard("impact", x - d, 1, armed="free", to="free", reset={v: -e * v})],
+    ...                     period=2 * math.pi / w)
+    >>> orbit = periodic_orbit_of(HybridMap(stop), [0.0, 0.0])
+    >>> orbit.status, len(orbit.signature), np.round(orbit.z, 4)
+    (0, 2, array([-0.4161, -0.5049]))
+    >>> bool(np.all(np.abs(orbit.multipliers) < 1))
+    True
     """
     z = np.asarray(guess, dtype=float).ravel()
     n = z.size

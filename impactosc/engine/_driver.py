@@ -40,10 +40,10 @@ roots on either side of a located turning point instead of one double root. For 
 reason only the flange ahead of the motion is armed: the one behind cannot be reached in the
 piece, and when the piece starts on it from rest (a release from a wall or a flange surface)
 its guard has a multiple root at the start, on which heyoka's root finder gave up with a
-warning on stderr (issue 20, item 9).
+warning on stderr.
 
-The model family (issue #10)
-----------------------------
+The model family
+----------------
 Damping, the power-law spring and harmonic sums change only the vector field of a mode
 (:meth:`Oscillator.acceleration`); the backends integrate it, the rule here is the same.
 Static friction ``beta_s >= beta`` sets the stick test and the release guards; a release
@@ -174,7 +174,7 @@ def motion_at_rest(osc: Oscillator, t: float, x: float) -> tuple[int, bool]:
 
 
 def initial_mode(osc: Oscillator, t: float, x: float, v: float) -> Mode:
-    """Mode at the initial time. The initial state is not an event (issue 20, item 10).
+    """Mode at the initial time. The initial state is not an event (no backend records one there).
 
     One rule for every backend: the mode the run starts in is decided here and recorded by
     no event, whether the mass starts stuck (no ``stick``), inside or on a spring flange
@@ -288,7 +288,7 @@ def pending_guard(osc: Oscillator, mode: Mode, fired: int, t: float, x: float, v
     points against the motion (``motion * V < 0``) means the slip ended at this instant: a
     flange crossing located at a turning point on ``|X| = 1`` lands a rounding error past
     it, and the new piece, whose ``SLIP_END`` guard starts past zero, would never see it
-    cross (issue 14: a whole period ran with the wrong vector field). The same holds for a
+    cross (a whole period would run with the wrong vector field). The same holds for a
     flange crossing that lands exactly on the turning point (``V == 0``) when the stick test
     there disagrees with the motion. The ``SLIP_END`` transition then applies the stick test.
     After a turning point, stick or release exactly on a flange boundary (``|X| = 1`` with

@@ -1,4 +1,4 @@
-"""The transition rule, written once in compilable Python (issue #12).
+"""The transition rule, written once in compilable Python (the one copy every backend, compiled or not, calls).
 
 :mod:`impactosc.engine` documents the modes, guards and events; this module holds their
 numbers: the model's scalar forces, the Filippov stick test, the gates, the transition
@@ -148,7 +148,7 @@ def tie_tolerance(p, t, x, f):
     """Rounding level of ``f_net`` at ``(t, x)``: a few ulps of every term that forms it.
 
     Each forcing term is rounded like ``F_i`` times the error of its phase, an ulp of
-    ``|Omega_i t| + |phase_i|`` (issue 14); the spring terms and ``f_net`` to an ulp. The
+    ``|Omega_i t| + |phase_i|``; the spring terms and ``f_net`` to an ulp. The
     floor keeps a force guard from being the zero polynomial when ``f_net`` vanishes
     identically (that guard "crossed" everywhere).
     """
@@ -197,7 +197,7 @@ def gate(rigid, region, motion, armed, guard):
     # A slipping piece is monotonic in X (every turning point ends it): only the flange ahead
     # can be reached. The one behind is not armed: leaving a wall or a flange surface from
     # rest, its guard has a multiple root at the start (V = V' = 0 at a release), on which an
-    # event finder's root search fails (heyoka's "too many iterations", issue 20 item 9).
+    # event finder's root search fails (heyoka warned "too many iterations" on stderr).
     if guard == ENTER_UPPER:
         return motion > 0 and region == 0
     if guard == ENTER_LOWER:

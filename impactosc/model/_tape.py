@@ -137,7 +137,7 @@ class TapeDrive:
         "almost 180 um at the outer diameter").
     damping_ratio : float
         Viscous damping ratio ``zeta`` of the lateral tape motion (dimensionless, >= 0).
-        Default 0 (the paper's model). Issue #10's family, like every field below.
+        Default 0 (the paper's model). A member of the model family, like every field below.
     static_friction : float or None
         Static (breakaway) friction coefficient ``mu_s >= friction``; ``None`` (default)
         means equal to ``friction``. It sets ``beta_static = mu_s N / (k L)``.
@@ -258,7 +258,7 @@ class TapeDrive:
         self._check_representable()
 
     def _check_family(self, put) -> None:
-        """Validate the model-family fields (issue #10), naming this class's field names."""
+        """Validate the model-family fields (damping, static friction, flange, run-out harmonics) by their names."""
         put("damping_ratio", _v.nonnegative("damping_ratio", self.damping_ratio))
         if self.static_friction is not None:
             mu_s = _v.real("static_friction", self.static_friction)
@@ -300,7 +300,7 @@ class TapeDrive:
         self._check_guide(put)
 
     def _check_guide(self, put) -> None:
-        """Validate ``guide_offset`` and ``flange_sides`` (the flanges' positions, issue 19 item 6)."""
+        """Validate ``guide_offset`` and ``flange_sides`` (the flanges' positions about the tape path)."""
         if not isinstance(self.flange_sides, str):
             raise TypeError(f"flange_sides must be a string, 'both', 'upper' or 'lower'; got {self.flange_sides!r}")
         _v.choice("flange_sides", self.flange_sides, FLANGE_SIDES)

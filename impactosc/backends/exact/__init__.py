@@ -31,9 +31,10 @@ cancellation near resonance and the exact resonance ``w == Omega`` (``Omega = 1`
 ``Omega = sqrt(1 + K)`` in contact) is the same formula. The homogeneous part uses ``tau``,
 never the absolute time, so nothing degrades at large ``t``.
 
-Damping and harmonic sums (the linear family of issue #10) use the closed-form pieces of
-``impactosc.backends._exact_family`` (under-, critically and over-damped, the steady
-response of each harmonic); a stuck piece with a harmonic sum uses ``impactosc._stuck``.
+Damping and harmonic sums (the linear members of the model family) use the closed-form
+pieces of ``impactosc.backends.exact._family`` (under-, critically and over-damped, the
+steady response of each harmonic); a stuck piece with a harmonic sum uses
+``impactosc.engine._stuck``.
 A power-law flange, or a harmonic within ``1e-6`` of an (almost) undamped resonance, is
 refused with a ``ValueError``.
 

@@ -29,7 +29,7 @@ Near a resonance
 ----------------
 Where ``|D_i| = |w^2 - Omega_i^2 + 2 i zeta Omega_i|`` is small the steady response ``Q_i``
 is huge and cancels against its share of ``A, B``: ``Y`` loses ``log10(w^2 / |D_i|)``
-digits (1.4e-6 in the event times of a ``zeta = 2e-6`` resonance over t = 200, issue 20).
+digits (1.4e-6 in the event times of a ``zeta = 2e-6`` resonance over t = 200).
 A harmonic with ``|D_i| < NEAR_RESONANCE w^2`` (so underdamped, ``wd`` close to ``w``)
 is therefore kept out of ``Q``, ``A`` and ``B`` and enters as its response from rest,
 ``Re(P_i g_i(tau))`` with ``P_i = F_i e^{i theta0_i}`` and ``g`` the convolution of

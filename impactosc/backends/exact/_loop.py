@@ -1,11 +1,11 @@
 """The exact backend's event loop, compiled: :func:`impactosc.engine.drive` without Python per event.
 
-Issue #12 item 2. For every linear member (eq. 3, static friction, damping, harmonic sums,
-rigid flanges with restitution) every piece is a closed form (:mod:`._exact_piece`,
-:mod:`._exact_family`), every release a closed form or a bracketed root
-(:mod:`impactosc._stuck`), and a chatter a closed-form jump (:mod:`impactosc._chatter`), so
-the whole loop runs in numba: the pieces, the guard search, the transition rule
-(:mod:`impactosc._rule`, the copy every backend calls), the chatter tracker and the
+For every linear member (eq. 3, static friction, damping, harmonic sums, rigid flanges
+with restitution) every piece is a closed form (:mod:`._piece`, :mod:`._family`), every
+release a closed form or a bracketed root (:mod:`impactosc.engine._stuck`), and a chatter a
+closed-form jump (:mod:`impactosc.engine._chatter`), so the whole loop runs in numba: the
+pieces, the guard search, the transition rule (:mod:`impactosc.model._rule`, the copy every
+backend calls), the chatter tracker and the
 recording of statistics, events, contacts, segments and samples.
 
 The loop is :func:`impactosc.engine.drive` step for step (same order of rule calls, same

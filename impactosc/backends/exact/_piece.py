@@ -100,7 +100,7 @@ def piece_state(mc, t0, x0, v0):
     Bh = v0 / w
     ps[H_T0], ps[H_X0], ps[H_V0], ps[H_Y0], ps[S_AH], ps[S_BH] = t0, x0, v0, y0, Ah, Bh
     # Where the particular solution Yp ~ -beta s / w^2 dwarfs y0, Y is evaluated about the
-    # start point (no cancellation of Yp against Ah, issue 14), else about its centre.
+    # start point (no cancellation of Yp against Ah, which would lose the digits of y0), else about its centre.
     ps[S_ABOUT] = 1.0 if abs(mc[M_YP]) > abs(y0) else 0.0
     ps[S_C0], ps[S_S0] = c0, s0
     # Amplitudes for the derivative bounds: homogeneous part, and off resonance the

@@ -82,7 +82,7 @@ layer in ``T ~ delta / v`` (``delta = 5.0e-14`` for ``K = 1e4``, ``p = 1.5``). M
 closed forms (tests/test_family_heyoka.py): Hertz contact durations agree to 1e-16 and
 impulses to 2e-14 relative.
 
-A fast crossing needs a thicker layer (issue 20, item 3). Near ``d = delta`` the ``n``-th
+A fast crossing needs a thicker layer. Near ``d = delta`` the ``n``-th
 Taylor coefficient of ``d^p`` is about ``d^p (v / d)^n``; at heyoka's order ~20 (``tol = eps``)
 it overflows once ``v / delta`` exceeds ~1e14 (a contact entered at ``v = 30`` with
 ``delta = 4 eps``: ``err_nf_state``). What the omission costs while the mass crosses the
@@ -491,7 +491,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         (default: machine epsilon).
     max_wall_time : float or None, optional
         Stop after this many seconds of wall time (checked between pieces and between
-        chunks of ~``_CHUNK_STEPS`` integrator steps), with ``status = 1``, a message and
+        chunks of 10,000 integrator steps), with ``status = 1``, a message and
         the results up to ``t_final`` kept. ``None`` (default): no limit.
 
     Returns

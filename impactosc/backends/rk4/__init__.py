@@ -17,7 +17,7 @@ Eq. (3)"), errors included:
 * the flange springs are switched by ``|X| > 1`` inside the right-hand side, with **no
   event location**: a step that crosses a flange integrates across the kink of the force.
 
-The model family (issue #10): the scheme integrates every member that its smooth
+The model family: the scheme integrates every member that its smooth
 right-hand side can express, viscous damping ``2 zeta X'``, any sum of forcing harmonics
 and the power-law flange ``K d^p`` (``d = |X| - 1``), with the same fixed step and the same
 naive ``sign(V)``. It refuses, with a ``ValueError``, what needs the event location it does
@@ -31,7 +31,7 @@ integrates eq. 2/3 as printed, ``-K H(X^2 - 1)(X - 1)`` at both flanges (a linea
 only: the misprint has no power-law form). At the upper flange the two agree. At the lower
 flange the printed term is ``-K (X - 1) = K (1 + |X|) >= 2K`` for ``X < -1``: the force
 jumps from 0 to ``2K`` at ``X = -1`` and points up, out of the lower flange. The lower
-flange becomes a discontinuous wall ~``2K`` strong that stops the mass within a fraction
+flange becomes a discontinuous wall of strength about ``2K`` that stops the mass within a fraction
 of one step, so the fixed-step scheme gives the mass a spurious kick each time it
 reaches ``X = -1`` (see the tests for what that does to the contact statistics).
 

@@ -137,7 +137,7 @@ class HybridMode:
         the first mode whose conditions hold. They may use ``heyoka.select`` and the
         comparisons ``heyoka.gt``/``heyoka.lt`` (they are evaluated, never integrated).
     integrands : mapping, optional
-        The rate of each of the system's :attr:`HybridSystem.integrals` in this mode
+        The rate of each of the system's ``integrals`` (:class:`HybridSystem`) in this mode
         (default 0), integrated with the flow as an extra state.
 
     Examples
@@ -189,7 +189,7 @@ class Guard:
     armed : str or sequence of str
         The modes in which the guard is armed.
     to : str or sequence of str, optional
-        The next mode, or candidates in order (the first whose :attr:`HybridMode.entry` holds
+        The next mode, or candidates in order (the first whose entry conditions, ``HybridMode.entry``, hold
         after the reset). ``None`` (default): the mode does not change.
     reset : mapping, optional
         The reset map: the new value of each state it changes, an expression in the states
@@ -249,7 +249,7 @@ class HybridSystem:
     integrals : str or sequence of str, optional
         Names of integrals (a contact force's impulse, a dissipated energy), each integrated
         exactly with the flow as an extra state, with the rate each mode gives in
-        :attr:`HybridMode.integrands`.
+        its ``integrands`` (:class:`HybridMode`).
     period : float or expression, optional
         The forcing period (for stroboscopic maps), a number or an expression in the
         parameters such as ``2 * pi / Omega``.

@@ -1,5 +1,5 @@
 # %% [markdown]
-# # 09 · Your own system: piecewise-smooth ODEs of any dimension
+# # 10 · Your own system: piecewise-smooth ODEs of any dimension
 #
 # `impactosc` simulates the paper's oscillator, but its engine is a solver for any
 # piecewise-smooth system: *modes*, each a smooth vector field, and *guards*, each a
@@ -37,7 +37,7 @@ import numpy as np
 
 import impactosc as io
 from impactosc import Guard, HybridMode, HybridSystem, stick_slip, symbols
-from impactosc.dynamics.hybrid_map import HybridMap, periodic_orbit_of
+from impactosc.dynamics import HybridMap, periodic_orbit_of
 from impactosc.model.hybrid import oscillator_system
 
 print("impactosc", io.__version__, "| quick mode" if QUICK else "| full mode")
