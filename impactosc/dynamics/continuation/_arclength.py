@@ -85,7 +85,8 @@ def _walls(problem: MapProblem, u) -> tuple[float, float]:
     try:
         osc = problem.section(params)
     except ValueError:
-        return problem.walls
+        lower, upper = problem.walls
+        return lower, upper
     return flange_gap(osc, -1), flange_gap(osc, 1)
 
 
