@@ -280,7 +280,7 @@ def table(case: Case, rows: list[Row], info: dict) -> str:
     comp = ", ".join(f"tol={'eps' if k == EPS else f'{k:.0e}'}: {v:.2f} s" for k, v in info["compile"].items()
                      if k != "numba")
     l0, l1 = info["load"]
-    lines = [f"### {case.title}", "",
+    lines = [f"## {case.title}", "",
              f"Exact: {info['exact_counts']}, mean flange force {info['exact_mean_force']:.16g}; "
              f"load average {l0[0]:.2f} at the start, {l1[0]:.2f} at the end.",
              f"Compile times (not in the wall times): heyoka {comp}; numba warm-up "

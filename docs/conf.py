@@ -175,23 +175,7 @@ html_css_files = ["gallery.css", "site.css"]
 # (the build says so when an entry no longer matches anything).
 known_warnings = [
     # Docstrings that still name the flat modules of before the move into folders
-    # (impactosc.solution, .tape, .frames, .simulate): fix the docstring, then the entry.
-    (r"docstring of impactosc\.backends\.(exact|scipy)\.run:", r"target not found: impactosc\.solution\.Solution"),
-    (r"docstring of impactosc\.backends\._simulate\.simulate:",
-     r"target not found: impactosc\.(solution|simulate\.check_magnitudes)$"),
-    (r"docstring of impactosc\.signal\._solution\.from_solution:",
-     r"target not found: impactosc\.(frames\.resample|tape\.TapeDrive)$"),
+    # (impactosc.tape): fix the docstring, then the entry.
     (r"docstring of impactosc\.paper:", r"target not found: impactosc\.tape\.TapeDrive$"),
-    # Names of private modules that no public module exports, so they have no page: the
-    # registry's run_auto, MAX_HEYOKA_TERMS and OPTIONS, the frames module's plot_run, and
-    # HybridSolution (the result of a user system's run) named by simulate's docstring.
-    (r"docstring of impactosc\.backends\._registry\.(get_backend|resolve_backend):",
-     r"target not found: (run_auto|MAX_HEYOKA_TERMS|OPTIONS)$"),
-    (r"docs/api/(index|modules/impactosc\.backends)\.rst:", r"target not found: run_auto$"),
-    (r"docstring of impactosc\.results\._frames\.draw_flanges:", r"target not found: plot_run$"),
-    (r"docstring of impactosc\.backends\._simulate\.simulate:",
-     r"target not found: impactosc\.results\._hybrid\.HybridSolution$"),
-    # The generated report jumps from "#" to "###" (benchmarks/work_precision.py writes it).
-    (r"benchmarks/results/work_precision\.md:", r"Non-consecutive header level increase"),
 ]
 

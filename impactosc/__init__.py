@@ -28,8 +28,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from .engine import EVENT_KINDS, Mode
     from .model import MechanicalSystem, Oscillator, TapeDrive
     from .model.hybrid import Guard, HybridMode, HybridSystem, stick_slip, symbols
-    from .results import Solution
-    from .results._mechanical import MechanicalSolution
+    from .results import MechanicalSolution, Solution
     from .sweeps import load_sweep, sweep
 
 __all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
@@ -53,7 +52,7 @@ _LAZY = {
     "stick_slip": "model.hybrid",
     "MechanicalSystem": "model",
     "simulate_mechanical": "backends._exact_mdof",
-    "MechanicalSolution": "results._mechanical",
+    "MechanicalSolution": "results",
 }
 _SUBPACKAGES = ("dynamics", "signal")
 

@@ -32,7 +32,7 @@ MAX_HEYOKA_TERMS = 40
 
 
 def get_backend(name):
-    """Return the ``run`` function of the backend called ``name`` (``"auto"``: :func:`run_auto`)."""
+    """Return the ``run`` function of the backend called ``name`` (``"auto"``: ``run_auto``)."""
     if not isinstance(name, str):
         raise TypeError(f"backend must be a string, got {name!r} of type {type(name).__name__}")
     if name == AUTO:

@@ -16,13 +16,13 @@ __all__ = ["simulate", "check_magnitudes", "check_cost", "check_gaps", "DEFAULT_
 DEFAULT_MAX_EVENTS = 10_000_000
 
 #: Largest value the run's worst-case integral of the squared flange force may reach
-#: (see :func:`impactosc.simulate.check_magnitudes`): double precision overflows at 1.8e308, and the
+#: (see ``check_magnitudes`` of this module): double precision overflows at 1.8e308, and the
 #: backends square and sum these quantities again internally.
 MAX_MAGNITUDE = 1e300
 
 #: Largest damping ratio any backend accepts: beyond it the overdamped rates
 #: ``zeta +- sqrt(zeta^2 - w^2)`` and the powers of them the solvers form overflow double
-#: precision (``zeta = 1e150`` failed with a FloatingPointError, issue 20 item 7), and the
+#: precision (``zeta = 1e150`` failed with a FloatingPointError), and the
 #: mass is locked anyway (its creep speed ``|f| / (2 zeta)`` is below 1e-100).
 MAX_ZETA = 1e100
 #: Largest ``zeta * t_end`` with ``zeta > 1`` for the backends whose work grows with the
@@ -47,7 +47,7 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
 
     ``simulate(system, t_end, state0, backend=..., **options)`` runs a user's
     :class:`~impactosc.HybridSystem` instead (see ``impactosc.backends._hybrid.simulate_system``
-    for its options) and returns a :class:`~impactosc.results._hybrid.HybridSolution`.
+    for its options) and returns a :class:`~impactosc.results.HybridSolution`.
 
     Parameters
     ----------
@@ -68,7 +68,7 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
         numba installed, else ``"heyoka"``; with backend options, the backend they are
         for); ``Solution.backend`` says which one ran.
     record : {"full", "events", "stats"}
-        What to keep (see :mod:`impactosc.solution`). Use ``"stats"`` for long runs.
+        What to keep (see :class:`~impactosc.Solution`). Use ``"stats"`` for long runs.
     max_events : int
         Stop with ``status = 1`` after this many recorded events (results are kept).
     sample_at : sequence of float, optional
@@ -93,7 +93,7 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     TypeError, ValueError
         For a bad argument or option; the message names it. Also when ``x0``, ``v0``,
         ``F * t_end`` or ``K`` are so large that the run's integrals could overflow double
-        precision (see :func:`impactosc.simulate.check_magnitudes`), when a flange is closer
+        precision (``check_magnitudes`` in ``impactosc.backends._simulate``), when a flange is closer
         to the rest position than the backends resolve (``gap_lower`` or ``gap_upper`` below
         ``MIN_GAP = 1e-12``), and when the run would
         cost minutes that another backend or option avoids: a heavily overdamped run on
@@ -166,7 +166,7 @@ def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> Non
     raise ValueError(f"{culprit} is too large for double precision: with "
                      f"x0={x0!r}, v0={v0!r}, F={osc.F!r}, K={osc.K!r} and t_end={t_end!r} the integral of "
                      f"the squared flange force could reach 1e{log_q2:.0f}, beyond {MAX_MAGNITUDE:g} "
-                     "(K R^2 t_end with R = sqrt(2 E0) + F t_end, see impactosc.simulate.check_magnitudes)")
+                     "(K R^2 t_end with R = sqrt(2 E0) + F t_end, see impactosc.backends._simulate.check_magnitudes)")
 
 
 def check_gaps(osc: Oscillator) -> None:

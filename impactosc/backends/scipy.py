@@ -387,7 +387,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     x0, v0 : float
         Initial position and velocity.
     record : {"full", "events", "stats"}
-        What the :class:`~impactosc.solution.Solution` keeps.
+        What the :class:`~impactosc.Solution` keeps.
     max_events : int
         Event limit (see :func:`impactosc.simulate`).
     method : str, optional

@@ -4,8 +4,11 @@ pandas is imported when a frame is first asked for, matplotlib when a figure is.
 """
 
 from ._frames import Units, draw_flanges, events_frame, impacts_frame, units_of
+from ._hybrid import HybridEvent, HybridSolution
+from ._mechanical import MechanicalSolution
 from ._plotting import plot_solution
 from ._solution import EVENT_DTYPE, IMPACT_DTYPE, RECORD_OPTIONS, Solution
 
 __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE", "Units", "units_of", "events_frame",
-           "impacts_frame", "plot_solution", "draw_flanges"]
+           "impacts_frame", "plot_solution", "draw_flanges", "HybridSolution", "HybridEvent",
+           "MechanicalSolution"]

@@ -489,7 +489,7 @@ class SolutionFramesMixin:
         return resample(self, dt, drive, t0=t0, t1=t1, output=output, max_samples=max_samples)
 
     def plot(self, drive: TapeDrive | None = None, *, n_samples: int = 4000, kinds=EVENT_KINDS, path=None):
-        """Time series with events by kind and the phase plane; returns the Figure (:func:`plot_run`)."""
+        """Time series with events by kind and the phase plane; returns the Figure (``plot_run``)."""
         return plot_run(self, drive, n_samples=n_samples, kinds=kinds, path=path)
 
     def to_si(self, drive: TapeDrive) -> SIResults:

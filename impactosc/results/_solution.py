@@ -102,7 +102,7 @@ class _Recorder:
         self.contact_time = {1: 0.0, -1: 0.0}
         self.max_pen = {1: 0.0, -1: 0.0}
         # The peak wall push of a rigid flange (a spring's peak force follows max_pen). Not yet
-        # streamed: the compiled exact loop must stream it too (issue 20 item 2, see the tests).
+        # streamed: the compiled exact loop must stream it too (see the tests).
         self.max_force = {1: 0.0, -1: 0.0}
         self.forcing_work = 0.0
         self.slip_path = 0.0

@@ -16,8 +16,8 @@ def from_solution(sol, drive, dt: float, *, t0: float | None = None, t1: float |
                   max_samples: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """A simulated tape-drive run as an LTM record ``(t [s], x [m])`` sampled every ``dt`` seconds.
 
-    Exact samples of the run (:func:`impactosc.frames.resample`), so a run recorded with
-    ``record="full"`` is needed and ``drive`` must be the run's :class:`~impactosc.tape.TapeDrive`.
+    Exact samples of the run (``resample`` of :mod:`impactosc.results`), so a run recorded with
+    ``record="full"`` is needed and ``drive`` must be the run's :class:`~impactosc.TapeDrive`.
     ``t0``/``t1`` (s) select a window. The samples are points, not averages: content above
     ``1/(2 dt)`` (e.g. the tape's natural frequency) aliases, as in a sensor without an
     anti-aliasing filter; choose ``dt`` below half the period of interest.

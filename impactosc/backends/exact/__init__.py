@@ -96,7 +96,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     x0, v0 : float
         Initial state at ``t = 0``.
     record : {"full", "events", "stats"}
-        What the :class:`~impactosc.solution.Solution` keeps.
+        What the :class:`~impactosc.Solution` keeps.
     max_events : int
         Stop after this many recorded events.
     sample_at : tuple of float
