@@ -50,6 +50,21 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     ("border"). At a nonsmooth point the map is not differentiable; the continuation labels
     it and goes on in the new signature, or ends there and says so (``status`` 2).
 
+    Grazings are crossed, not stepped over. A grazing of a flange is located as a regular
+    point of the map with that flange taken away (``gap - max X = 0`` there, to the Newton
+    tolerance, not extrapolated), labelled ``GR`` with the flange, and its multipliers are
+    NaN (the map has no Jacobian at a grazing: a rigid stop's map has a square-root
+    singularity there, the saltation matrix grows like ``1/V``). The branch then goes on in
+    the family on the other side: a rigid flange's impacting family is entered with the
+    impact's phase and speed as unknowns (smooth through zero impact speed), a stiff spring's
+    from the same predictor with ``e = 1``. ``context[2]["case"]`` says which grazing it
+    was: ``"persistent"`` (the family continues across) or ``"nonsmooth_fold"`` (the
+    contact-free and the contacting family meet at the grazing and turn back together: the
+    discontinuous case). Fold and period-doubling curves of single-impact orbits on a rigid
+    flange end at the resonant grazing (``RG``), where the square-root term vanishes. Every
+    point of a boundary is verified before it is accepted: its defining condition holds to
+    ``10 tol`` and its orbit, rerun with every flange, returns.
+
     Parameters
     ----------
     start : PeriodicOrbit, BranchPoint, SpecialPoint or (float, float)
