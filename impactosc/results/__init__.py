@@ -4,8 +4,10 @@ pandas is imported when a frame is first asked for, matplotlib when a figure is.
 """
 
 from ._frames import Units, events_frame, impacts_frame, units_of
+from ._observables import CONTACT_DTYPE, OBSERVABLES, contact_observables, contact_table, moving_rms_force
 from ._plotting import plot_solution
 from ._solution import EVENT_DTYPE, IMPACT_DTYPE, RECORD_OPTIONS, Solution
 
 __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE", "Units", "units_of", "events_frame",
-           "impacts_frame", "plot_solution"]
+           "impacts_frame", "plot_solution", "contact_table", "contact_observables", "moving_rms_force",
+           "CONTACT_DTYPE", "OBSERVABLES"]
