@@ -134,5 +134,5 @@ def test_bad_input_is_named():
         contact_table(stats)
     damped = impactosc.simulate(impactosc.Oscillator(0.0, 1.0, 0.05, 1e4), 3.0, 0.0, 2.0, backend="exact",
                                 record="events")
-    with pytest.raises(ValueError, match="record='full'"):
-        contact_table(damped)
+    assert np.all(np.isnan(contact_table(damped).dissipated))  # the slip path needs the pieces
+    assert math.isnan(contact_observables(damped)["both"]["dissipation_rate"])
