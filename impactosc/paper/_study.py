@@ -88,6 +88,14 @@ def quasi_static_impact_speed(drive: TapeDrive) -> float:
     friction dead band; it reaches the flange at ``x = c = L + mu N / k`` with speed
     ``|dx/dt| = A omega_r sin(phi_c)``, ``cos(phi_c) = c / A``: ``omega_r sqrt(A^2 - c^2)``
     (eq. 1 for ``omega_r``, Fig. 6 for ``A``). Zero when ``A <= c`` (no contact).
+
+    Examples
+    --------
+    >>> from impactosc import TapeDrive
+    >>> from impactosc.paper import quasi_static_impact_speed
+    >>> drive = TapeDrive(clearance=60e-6, friction=0.0)          # mid pack: A = 120 um
+    >>> round(quasi_static_impact_speed(drive) / (drive.omega_r * (120e-6**2 - 60e-6**2) ** 0.5), 9)
+    1.0
     """
     a, c = drive.runout, drive.clearance + drive.friction_force / drive.stiffness
     return drive.omega_r * math.sqrt(a * a - c * c) if a > c else 0.0
@@ -101,6 +109,14 @@ def lead_ae_proxy(drive: TapeDrive) -> float:
     :func:`impactosc.results.contact_table`; two flanges, ``omega_r / 2 pi`` turns per
     second. With ``omega_r = 2 V / D`` it is ``∝ V^2 sqrt(A^2 - c^2) / D^2``: it grows like
     ``V^2`` and peaks over ``D`` where :func:`lead_peak_runout` says.
+
+    Examples
+    --------
+    >>> from impactosc import TapeDrive
+    >>> from impactosc.paper import lead_ae_proxy
+    >>> drive = TapeDrive(clearance=50e-6, free_length=40e-3)
+    >>> round(lead_ae_proxy(drive.replace(speed=8.0)) / lead_ae_proxy(drive), 9)   # V^2
+    4.0
     """
     k0 = drive.K * drive.stiffness
     return 2.0 * drive.omega_r / (2.0 * math.pi) * math.sqrt(k0 * drive.mass) * quasi_static_impact_speed(drive)
@@ -121,6 +137,14 @@ def lead_peak_runout(clearance: float, runout_at_zero: float = 0.0) -> float:
         ``c = L + mu N / k`` in m (the clearance plus the friction dead band).
     runout_at_zero : float
         ``A0``, the run-out law extrapolated to ``D = 0`` (m).
+
+    Examples
+    --------
+    >>> from impactosc.paper import lead_peak_runout
+    >>> round(lead_peak_runout(50e-6) / 50e-6, 6)                 # A = sqrt(2) c
+    1.414214
+    >>> round(lead_peak_runout(60e-6, runout_at_zero=-39.6e-6) * 1e6, 2)   # Fig. 6's affine law, um
+    106.93
     """
     if runout_at_zero == 0.0:
         return math.sqrt(2.0) * clearance
@@ -135,6 +159,28 @@ def trend_checks(values: np.ndarray, diameters, speeds, t_sin) -> dict[str, bool
     """The four criteria of :data:`CRITERIA` on an observable of shape (diameter, speed, T sin).
 
     A curve that is zero everywhere holds no trend; NaN (a failed point) holds none either.
+
+    Parameters
+    ----------
+    values : array_like
+        The observable, shape ``(len(diameters), len(speeds), len(t_sin))``.
+    diameters, speeds, t_sin : sequence of float
+        The grid (pack diameters in m, speeds in m/s, T sin(theta/2) in N), each increasing.
+
+    Returns
+    -------
+    dict
+        ``{"mid_pack": bool, "speed": bool, "tension": bool, "double": bool}``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from impactosc.paper import trend_checks
+    >>> d = np.linspace(44e-3, 97e-3, 5)
+    >>> curve = np.array([0.3, 0.8, 1.0, 0.8, 0.5])               # peaks mid pack
+    >>> y = np.einsum("i,j,k->ijk", curve, [1.0, 1.5, 2.0], [2.0, 1.0])
+    >>> trend_checks(y, d, [4, 8, 12], [0.1, 0.7])
+    {'mid_pack': True, 'speed': True, 'tension': True, 'double': True}
     """
     y = np.asarray(values, dtype=float)
     d = np.asarray(diameters, dtype=float)

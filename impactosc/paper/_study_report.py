@@ -145,9 +145,10 @@ def _onset_section(s: dict) -> list[str]:
              f"Model `{on['fields']}` at V = 8 m/s: the pack diameter above which the tape touches a flange, found "
              "by `impactosc.dynamics.contact_onset(drive, 'pack_diameter', ..., method='transient', backend='exact')` "
              "(steady states bracketed and refined on the drive's SI parameter), against the quasi-static closed "
-             "form runout(D) = L + mu N/k. (The continuation method follows a periodic orbit through the "
-             "quasi-static creep, thousands of stick/release events per period: one point ran over 5 minutes "
-             "without an answer on this loaded machine, so the transient search is used.)", "",
+             "form runout(D) = L + mu N/k, with 3 transient and 2 recorded reel turns per steady state (a "
+             "quasi-static tape settles in a turn; with the default 200 transient turns of creep one call did not "
+             "finish in 5 minutes on this loaded machine). The continuation method was not used: its periodic "
+             "orbits run through thousands of stick/release events per reel turn.", "",
              "| T sin(theta/2) [N] | c = L + mu N/k [um] | closed form D [mm] | contact_onset D [mm] | status "
              "| wall [s] |",
              "| --- | --- | --- | --- | --- | --- |"]
