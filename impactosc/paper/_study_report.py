@@ -143,22 +143,29 @@ def _onset_section(s: dict) -> list[str]:
     on = s["onset"]
     lines = ["## 6. Contact onset in SI parameters", "",
              f"Model `{on['fields']}` at V = 8 m/s: the pack diameter above which the tape touches a flange, found "
-             "by `impactosc.dynamics.contact_onset(drive, 'pack_diameter', ..., method='transient', backend='exact')` "
-             "(steady states bracketed and refined on the drive's SI parameter), against the quasi-static closed "
-             "form runout(D) = L + mu N/k, with 3 transient and 2 recorded reel turns per steady state (a "
-             "quasi-static tape settles in a turn; with the default 200 transient turns of creep one call did not "
-             "finish in 5 minutes on this loaded machine). The continuation method was not used: its periodic "
-             "orbits run through thousands of stick/release events per reel turn.", "",
-             "| T sin(theta/2) [N] | c = L + mu N/k [um] | closed form D [mm] | contact_onset D [mm] | status "
+             "by `impactosc.dynamics.contact_onset(drive, 'pack_diameter', ..., backend='exact')` on the drive's SI "
+             "parameter -- by continuation (the period-1 orbit followed from the hub to its grazing) and by the "
+             "transient search (steady states bracketed and refined) -- against the quasi-static closed form "
+             "runout(D) = L + mu N/k. Each steady state starts from a transient of 3 reel turns (a quasi-static "
+             "tape settles within one; with the default 200 turns of creep one transient search did not finish "
+             "in 5 minutes on this loaded machine).", "",
+             "| T sin(theta/2) [N] | c = L + mu N/k [um] | closed form D [mm] | continuation D [mm] | transient D [mm] "
              "| wall [s] |",
              "| --- | --- | --- | --- | --- | --- |"]
+
+    def cell(r, method):
+        res = r.get(method)
+        if not res:
+            return "-"
+        v = res["onset_m"]
+        return f"{v * 1e3:.4f}" if v is not None and math.isfinite(v) else f"status {res['status']}"
+
     for r in on["rows"]:
-        val = r["onset_m"]
-        lines.append(f"| {r['t_sin_half_theta']:g} | {r['c_m'] * 1e6:.2f} | {r['closed_form_m'] * 1e3:.3f} | "
-                     f"{'-' if val is None or not math.isfinite(val) else f'{val * 1e3:.3f}'} | {r['status']} | "
-                     f"{r.get('wall_s', 0.0):.1f} |")
-    lines += ["", "The onset moves up the pack with tension (c grows by mu N/k): below it no observable is nonzero, "
-              "which is how tension acts in every in-plane model here.", ""]
+        walls = " / ".join(f"{r[m]['wall_s']:.0f}" for m in ("continuation", "transient") if m in r)
+        lines.append(f"| {r['t_sin_half_theta']:g} | {r['c_m'] * 1e6:.2f} | {r['closed_form_m'] * 1e3:.4f} | "
+                     f"{cell(r, 'continuation')} | {cell(r, 'transient')} | {walls or '-'} |")
+    lines += ["", "The onset moves up the pack with tension (c grows by mu N/k): below it every observable is zero, "
+              "which is how tension acts in the in-plane models here.", ""]
     return lines
 
 

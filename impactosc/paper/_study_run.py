@@ -69,7 +69,7 @@ def _lead_check() -> dict:
 
 
 def _onset(fields: dict, t_sin: tuple, quick: bool) -> list[dict]:
-    """Contact-onset pack diameter: :func:`contact_onset` (transient search) against the quasi-static closed form."""
+    """Contact-onset pack diameter by :func:`contact_onset` (continuation and transient) and in closed form."""
     from ..dynamics.onset import contact_onset
 
     rows = []
@@ -81,18 +81,21 @@ def _onset(fields: dict, t_sin: tuple, quick: bool) -> list[dict]:
         closed = drive.hub_diameter + frac * (drive.full_pack_diameter - drive.hub_diameter)
         row: dict[str, Any] = {"t_sin_half_theta": ts, "closed_form_m": closed, "c_m": c}
         if not drive.hub_diameter < closed < drive.full_pack_diameter:
-            row.update(onset_m=math.nan, status=None, message="closed-form onset outside the pack: not searched")
+            row["message"] = "closed-form onset outside the pack: not searched"
             rows.append(row)
             continue
-        t = time.perf_counter()
-        try:
-            res = contact_onset(drive, "pack_diameter", (drive.hub_diameter + 1e-4, drive.full_pack_diameter - 1e-4),
-                                method="transient", transient_periods=3, record_periods=2, tol=1e-5,
-                                backend="exact")
-            row.update(onset_m=res.value, status=res.status, message=res.message)
-        except Exception as exc:  # noqa: BLE001 - reported, the study goes on
-            row.update(onset_m=math.nan, status=-2, message=f"{type(exc).__name__}: {exc}")
-        row["wall_s"] = time.perf_counter() - t
+        bracket = (drive.hub_diameter + 1e-4, drive.full_pack_diameter - 1e-4)
+        settings: tuple[tuple[str, dict[str, Any]], ...] = (("continuation", {}),
+                                                            ("transient", {"record_periods": 2, "tol": 1e-5}))
+        for method, kw in settings:
+            t = time.perf_counter()
+            try:
+                res = contact_onset(drive, "pack_diameter", bracket, method=method, transient_periods=3,
+                                    backend="exact", **kw)
+                row[method] = {"onset_m": res.value, "status": res.status, "message": res.message}
+            except Exception as exc:  # noqa: BLE001 - reported, the study goes on
+                row[method] = {"onset_m": math.nan, "status": -2, "message": f"{type(exc).__name__}: {exc}"}
+            row[method]["wall_s"] = time.perf_counter() - t
         rows.append(row)
         if quick:
             break
