@@ -183,16 +183,9 @@ def trend_checks(values: np.ndarray, diameters, speeds, t_sin) -> dict[str, bool
     {'mid_pack': True, 'speed': True, 'tension': True, 'double': True}
     """
     y = np.asarray(values, dtype=float)
-    d = np.asarray(diameters, dtype=float)
     if not np.all(np.isfinite(y)) or not np.any(y > 0):
         return dict.fromkeys(CRITERIA, False)
-    lo, hi = d[0] + (d[-1] - d[0]) / 3.0, d[0] + 2.0 * (d[-1] - d[0]) / 3.0
-    mid = True
-    for j in range(y.shape[1]):
-        for k in range(y.shape[2]):
-            c = y[:, j, k]
-            i = int(np.argmax(c))
-            mid &= bool(0 < i < len(c) - 1 and lo <= d[i] <= hi and c[i] >= 1.1 * max(c[0], c[-1]) and c[i] > 0)
+    mid = mid_pack_fraction(y, diameters) == 1.0
     avg = y.mean(axis=0)  # (speed, t_sin)
     speed = bool(np.all(avg[1:, :] >= 1.1 * avg[:-1, :])) if len(speeds) > 1 else False
     ts = np.asarray(t_sin, dtype=float)
@@ -202,6 +195,20 @@ def trend_checks(values: np.ndarray, diameters, speeds, t_sin) -> dict[str, bool
         ratio = avg[:, i01] / avg[:, i07]
     double = bool(np.all((ratio >= 1.5) & (ratio <= 2.5)))
     return {"mid_pack": mid, "speed": speed, "tension": tension, "double": double}
+
+
+def mid_pack_fraction(values: np.ndarray, diameters) -> float:
+    """Fraction of the curves (speed, T sin) that peak mid pack by :data:`CRITERIA` (``trend_checks`` wants 1)."""
+    y = np.asarray(values, dtype=float)
+    d = np.asarray(diameters, dtype=float)
+    lo, hi = d[0] + (d[-1] - d[0]) / 3.0, d[0] + 2.0 * (d[-1] - d[0]) / 3.0
+    hits = 0
+    for j in range(y.shape[1]):
+        for k in range(y.shape[2]):
+            c = y[:, j, k]
+            i = int(np.argmax(c))
+            hits += bool(0 < i < len(c) - 1 and lo <= d[i] <= hi and c[i] >= 1.1 * max(c[0], c[-1]) and c[i] > 0)
+    return hits / (y.shape[1] * y.shape[2])
 
 
 # ---------------------------------------------------------------------------------------

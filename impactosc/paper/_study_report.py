@@ -11,14 +11,16 @@ def _mark(ok: bool) -> str:
     return "yes" if ok else "no"
 
 
-def _trend_row(name: str, obs: str, trends: dict) -> str:
+def _trend_row(name: str, obs: str, res: dict) -> str:
+    trends = res["trends"][obs]
     cells = " | ".join(_mark(trends[k]) for k in CRITERIA)
-    return f"| {name} | {STUDY_OBSERVABLES[obs][0]} | {cells} | {sum(trends.values())} |"
+    return (f"| {name} | {STUDY_OBSERVABLES[obs][0]} | {cells} | {sum(trends.values())} | "
+            f"{res['mid_pack_curves'][obs]:.0%} |")
 
 
 def _header() -> list[str]:
-    return ["| model | observable | " + " | ".join(CRITERIA) + " | held |",
-            "| --- | --- | " + " | ".join("---" for _ in CRITERIA) + " | --- |"]
+    return ["| model | observable | " + " | ".join(CRITERIA) + " | held | curves peaking mid pack |",
+            "| --- | --- | " + " | ".join("---" for _ in CRITERIA) + " | --- | --- |"]
 
 
 def _criteria_section() -> list[str]:
@@ -98,8 +100,9 @@ def _candidates_section(s: dict) -> list[str]:
     lines += _header()
     for name, c in s["candidates"].items():
         for obs in STUDY_OBSERVABLES:
-            lines.append(_trend_row(name, obs, c["trends"][obs]))
-    lines.append("")
+            lines.append(_trend_row(name, obs, c))
+    lines += ["", "'curves peaking mid pack': the share of the (speed, T sin) curves that meet the mid-pack rule "
+              "(the criterion wants all of them).", ""]
     return lines
 
 
@@ -115,34 +118,51 @@ def _search_section(s: dict) -> list[str]:
              f"L = {', '.join(f'{x * 1e6:g}' for x in g['clearance_m'])} um (assumption: tens of um, a guide holds "
              f"the tape to a fraction of a track): {g['cells']} cells, each on the quick grid (5 diameters x 3 "
              f"speeds x T sin = 0.1, 0.7 N), all points by the exact backend through the runner "
-             f"({s['search_wall_s']:.0f} s wall). The closed-form lead (section 3) aims it: its only candidates for "
-             "mid pack with a tension effect lie at l ~ 30-45 mm, L ~ 30-60 um, inside this grid. Map: "
-             "`figures/fig4_study_search.png`.", ""]
+             f"({s['search_wall_s']:.0f} s wall). {_lead_region(s)} Map: `figures/fig4_study_search.png`.", ""]
     lines += _header()
     for name, c in s["search"].items():
         for obs in STUDY_OBSERVABLES:
-            if sum(c["trends"][obs].values()) >= 3:
-                lines.append(_trend_row(name, obs, c["trends"][obs]))
+            if sum(c["trends"][obs].values()) >= 3 or c["mid_pack_curves"][obs] >= 0.5:
+                lines.append(_trend_row(name, obs, c))
     n_all = sum(all(c["trends"][o].values()) for c in s["search"].values() for o in STUDY_OBSERVABLES)
-    lines += ["", f"(rows with three or more trends only). Cells x observables with all four: **{n_all}**.", "",
-              f"**Best** (most trends, ties to the AE proxy): `{best['model']}` with the "
+    most_mid = max(((c["mid_pack_curves"][o], n, o) for n, c in s["search"].items() for o in STUDY_OBSERVABLES))
+    bs = s["best_search"]
+    lines += ["", f"(rows with three or more trends, or with at least half the curves peaking mid pack). Cells x "
+              f"observables with all four: **{n_all}** of {len(s['search']) * len(STUDY_OBSERVABLES)}. Largest share "
+              f"of mid-pack curves in a cell: {most_mid[0]:.0%} (`{most_mid[1]}`, "
+              f"{STUDY_OBSERVABLES[most_mid[2]][0]}).", "",
+              f"**Best search cell**: `{bs['model']}` with the {STUDY_OBSERVABLES[bs['observable']][0]}: "
+              f"{', '.join(k for k, v in bs['trends'].items() if v) or 'none'} hold.", "",
+              f"**Best overall** (most trends, ties to the AE proxy, then to the first listed): `{best['model']}` with "
+              "the "
               f"{STUDY_OBSERVABLES[best['observable']][0]}, fields `{best['fields']}`: "
               f"{', '.join(k for k, v in best['trends'].items() if v) or 'none'} hold.", ""]
     if s["sensitivity_neighbours"]:
-        lines.append("Sensitivity: trends held by the neighbouring search cells with the same observable: " +
+        lines.append("Sensitivity: trends held by the search cells around the best one, same observable: " +
                      ", ".join(f"{k}: {v}" for k, v in s["sensitivity_neighbours"].items()) + ".")
     if s["sensitivity_friction"]:
-        lines.append("Friction (an assumed number): " + ", ".join(
+        lines.append("Friction (an assumed number) halved and doubled, trends held: " + ", ".join(
             f"{k}: {', '.join(kk for kk, vv in v.items() if vv) or 'none'}" for k, v in
             s["sensitivity_friction"].items()) + ".")
     lines.append("")
     return lines
 
 
+def _lead_region(s: dict) -> str:
+    region = s["lead_scan"].get("mid_pack_and_tension_region")
+    if not region:
+        return "The closed-form lead (section 3) has no cell with both a mid-pack maximum and a tension effect."
+    (l0, l1), (c0, c1), (m0, m1) = region["free_length"], region["clearance"], region["friction"]
+    return (f"The closed-form lead (section 3) aims it: its cells with both a mid-pack maximum and a tension effect "
+            f"lie at l = {l0 * 1e3:.3g}-{l1 * 1e3:.3g} mm, L = {c0 * 1e6:.3g}-{c1 * 1e6:.3g} um "
+            f"(mu {m0:g}-{m1:g}).")
+
+
 def _onset_section(s: dict) -> list[str]:
     on = s["onset"]
     lines = ["## 6. Contact onset in SI parameters", "",
-             f"Model `{on['fields']}` at V = 8 m/s: the pack diameter above which the tape touches a flange, found "
+             f"Best search cell `{on['fields']}` at V = 8 m/s: the pack diameter above which the tape touches a "
+             "flange, found "
              "by `impactosc.dynamics.contact_onset(drive, 'pack_diameter', ..., backend='exact')` on the drive's SI "
              "parameter -- by continuation (the period-1 orbit followed from the hub to its grazing) and by the "
              "transient search (steady states bracketed and refined) -- against the quasi-static closed form "

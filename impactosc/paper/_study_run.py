@@ -27,6 +27,7 @@ from ._study import (
     lead_peak_runout,
     lead_ratio_bound,
     lead_scan,
+    mid_pack_fraction,
     quasi_static_impact_speed,
     search_models,
 )
@@ -132,7 +133,8 @@ def _csv(path: Path, results: dict) -> None:
 
 def _jsonable(res: dict) -> dict:
     return {"fields": res["fields"], "trends": res["trends"], "errors": res["errors"][:5],
-            "n_errors": len(res["errors"]),
+            "n_errors": len(res["errors"]), "mid_pack_curves": {
+                obs: mid_pack_fraction(res["values"][obs], res["diameters"]) for obs in STUDY_OBSERVABLES},
             "pack_mean": {obs: np.nanmean(res["values"][obs], axis=0).tolist() for obs in STUDY_OBSERVABLES}}
 
 
@@ -174,7 +176,11 @@ def study(out_dir="reports", quick: bool = False, executor=None, progress: bool 
     n = 5 if quick else 31
     scan = lead_scan(np.linspace(10e-3, 100e-3, n), np.linspace(5e-6, 150e-6, n), frictions=(0.2,) if quick
                      else (0.1, 0.2, 0.3))
+    both = [r for r in scan if r["mid_pack"] and r["tension"]]
     s["lead_scan"] = {"points": len(scan), **{k: sum(r[k] for r in scan) for k in CRITERIA},
+                      "mid_pack_and_tension_region": None if not both else {
+                          key: [min(r[key] for r in both), max(r[key] for r in both)]
+                          for key in ("free_length", "clearance", "friction")},
                       "all_four": sum(all(r[k] for k in CRITERIA) for r in scan),
                       "mid_pack_and_double": sum(r["mid_pack"] and r["double"] for r in scan),
                       "three": sum(sum(r[k] for k in CRITERIA) >= 3 for r in scan)}
@@ -195,16 +201,24 @@ def study(out_dir="reports", quick: bool = False, executor=None, progress: bool 
     best = {**cand, **search}[best_model]
     s["best"] = {"model": best_model, "observable": best_obs, "fields": best["fields"],
                  "trends": best["trends"][best_obs]}
-    # sensitivity of the best model to friction, an assumed number (section 5 takes mu = 0.2 from [19, 20])
-    sens = {} if quick else {f"{best_model}_mu{mu:g}": {**best["fields"], "friction": mu} for mu in (0.1, 0.3)}
+    bs_model, bs_obs = _best(search)
+    bs = search[bs_model]
+    s["best_search"] = {"model": bs_model, "observable": bs_obs, "fields": bs["fields"],
+                        "trends": bs["trends"][bs_obs]}
+    # friction is an assumed number (section 5 takes a 'typical' mu = 0.2 from [19, 20]): halve and double it
+    sens: dict[str, dict] = {}
+    if not quick:
+        for name, res in ((best_model, best), (bs_model, bs)):
+            mu = res["fields"].get("friction", TapeDrive().friction)
+            for factor in (0.5, 2.0):
+                sens[f"{name}_mu{mu * factor:g}"] = {**res["fields"], "friction": mu * factor}
     sres = evaluate_models(sens, quick=True, executor=executor, progress=progress) if sens else {}
-    s["sensitivity_friction"] = {k: v["trends"][best_obs] for k, v in sres.items()}
-    s["sensitivity_neighbours"] = _neighbourhood(search, spans, clearances, best_model, best_obs)
+    s["sensitivity_friction"] = {k: v["trends"][best_obs if k.startswith(best_model + "_mu") else bs_obs]
+                                 for k, v in sres.items()}
+    s["sensitivity_neighbours"] = _neighbourhood(search, spans, clearances, bs_model, bs_obs)
 
     t_sin_onset = (0.1, 0.7) if not quick else (0.4,)
-    onset_fields = best["fields"] if best["fields"].get("bending", "in-plane") == "in-plane" else \
-        search[next(iter(search))]["fields"]
-    s["onset"] = {"fields": onset_fields, "rows": _onset(onset_fields, t_sin_onset, quick)}
+    s["onset"] = {"fields": bs["fields"], "rows": _onset(bs["fields"], t_sin_onset, quick)}
 
     s["candidates"] = {k: _jsonable(v) for k, v in cand.items()}
     s["search"] = {k: _jsonable(v) for k, v in search.items()}
