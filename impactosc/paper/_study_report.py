@@ -138,13 +138,21 @@ def _search_section(s: dict) -> list[str]:
               f"{STUDY_OBSERVABLES[best['observable']][0]}, fields `{best['fields']}`: "
               f"{', '.join(k for k, v in best['trends'].items() if v) or 'none'} hold.", ""]
     if s["sensitivity_neighbours"]:
-        lines.append("Sensitivity: trends held by the search cells around the best one, same observable: " +
+        lines.append(f"Sensitivity: trends held by the search cells around `{bs['model']}`, same observable: " +
                      ", ".join(f"{k}: {v}" for k, v in s["sensitivity_neighbours"].items()) + ".")
     if s["sensitivity_friction"]:
         lines.append("Friction (an assumed number) halved and doubled, trends held: " + ", ".join(
             f"{k}: {', '.join(kk for kk, vv in v.items() if vv) or 'none'}" for k, v in
             s["sensitivity_friction"].items()) + ".")
     lines.append("")
+    if s["refine"]:
+        lines += [f"**Second stage, aimed by the lead**: a 3 x 3 grid over the lead's cells with a mid-pack maximum "
+                  f"and a tension effect ({s['refine_wall_s']:.0f} s wall):", ""]
+        lines += _header()
+        for name, c in s["refine"].items():
+            for obs in ("ae_impact_sum", "impact_energy_rate", "impact_rate"):
+                lines.append(_trend_row(name, obs, c))
+        lines.append("")
     return lines
 
 
@@ -160,8 +168,11 @@ def _lead_region(s: dict) -> str:
 
 def _onset_section(s: dict) -> list[str]:
     on = s["onset"]
+    if on["model"] is None:
+        return ["## 6. Contact onset in SI parameters", "", "No search cell starts contact inside the pack.", ""]
     lines = ["## 6. Contact onset in SI parameters", "",
-             f"Best search cell `{on['fields']}` at V = 8 m/s: the pack diameter above which the tape touches a "
+             f"Search cell `{on['model']}` (the best whose contact starts inside the pack) at V = 8 m/s: the pack "
+             "diameter above which the tape touches a "
              "flange, found "
              "by `impactosc.dynamics.contact_onset(drive, 'pack_diameter', ..., backend='exact')` on the drive's SI "
              "parameter -- by continuation (the period-1 orbit followed from the hub to its grazing) and by the "
@@ -221,9 +232,14 @@ def study_report_text(s: dict) -> str:
     return "\n".join(lines)
 
 
+def _max_mid(s: dict) -> float:
+    return max(c["mid_pack_curves"][o] for part in ("candidates", "search", "refine") for c in s[part].values()
+               for o in STUDY_OBSERVABLES)
+
+
 def _conclusion(s: dict) -> list[str]:
-    n_all = sum(all(c["trends"][o].values()) for part in ("candidates", "search") for c in s[part].values()
-                for o in STUDY_OBSERVABLES)
+    n_all = sum(all(c["trends"][o].values()) for part in ("candidates", "search", "refine")
+                for c in s[part].values() for o in STUDY_OBSERVABLES)
     best = s["best"]
     held = [k for k, v in best["trends"].items() if v]
     lines = ["## 8. Conclusion and its uncertainty", ""]
@@ -245,9 +261,13 @@ def _conclusion(s: dict) -> list[str]:
         "",
         "Uncertainty: the criteria's margins (10 %, [1.5, 2.5]) and the middle-third window are readings of a "
         "figure's words; the assumed hub and full-pack diameters set where 'mid pack' is; the run-out law is a "
-        "straight line through two numbers read from Fig. 6; mu is the paper's 'typical' value (0.1 and 0.3 "
-        "checked above); the grids are coarse (5-7 diameters); impact-based observables of a creeping tape vary "
-        "from turn to turn with the phase of the stick-slip at entry, and are averaged over "
-        f"{MEASURED_TURNS} turns only. The AE proxies are proxies: the sensor's transfer function is unknown.",
+        "straight line through two numbers read from Fig. 6; mu is the paper's 'typical' value (halved and "
+        "doubled above); the grids are coarse (5-7 diameters). Impact-based observables of a creeping tape depend "
+        "on the phase of its stick-slip cycle when it reaches the flange (a creeping tape slips in bursts at its "
+        "natural frequency, at up to twice its drift speed), which the steady state fixes differently at each "
+        f"grid point: their curves over the pack are ragged (at most {_max_mid(s):.0%} of a model's curves peak "
+        "mid pack), and "
+        f"{MEASURED_TURNS} turns of a locked steady state do not average it out; a real drive's noise would. "
+        "The AE proxies are proxies: the sensor's transfer function is unknown.",
         ""]
     return lines
