@@ -13,7 +13,10 @@ What this module computes:
   ``flange="paper"``, eq. 2 as printed);
 * :data:`ALTERNATIVES`: parameter sets in which the tape does touch the flanges, and
   :func:`trends`, which checks the paper's qualitative claims on a Fig. 8 grid;
-* :func:`reproduce`: all of it, written as PNG figures, CSV tables and a markdown report.
+* :func:`reproduce`: all of it, written as PNG figures, CSV tables and a markdown report;
+* :func:`study`: the four trends of the measured Fig. 4 against candidate models and
+  observables of contact as the AE sensor saw them, with a search of the parameter space
+  (``fig4_study.md``); its criteria are :data:`STUDY_CRITERIA`, fixed before the search.
 
 Inside: ``_grids`` (the paper's grids, drives and alternative sets), ``_compute`` (the
 computations of the figures), ``_figures`` (their drawing), ``_reproduce`` (the whole run)
@@ -46,10 +49,21 @@ from ._grids import (
 from ._grids import grid_points as _points  # noqa: F401 - benchmarks/speed.py walks the paper's grids with it
 from ._report import write_report
 from ._reproduce import reproduce
+from ._study import CANDIDATES as STUDY_CANDIDATES
+from ._study import CRITERIA as STUDY_CRITERIA
+from ._study import (
+    lead_ae_proxy,
+    lead_peak_runout,
+    quasi_static_impact_speed,
+    trend_checks,
+)
+from ._study_run import study
 
 __all__ = [
     "PAPER_SPEEDS", "PAPER_TENSIONS", "PAPER_T_SIN_HALF_THETA", "ALTERNATIVES", "FIGURE_STEPS_PER_PERIOD",
     "pack_diameters", "fig6", "fig7_grid", "fig8_grid", "resolve_drive", "figure_dt", "rk4_grid",
     "rk4_default_step_cost", "quasi_static_mean_force", "trends", "reproduce", "write_report",
     "FULL_DURATION", "QUICK_DURATION", "FULL_N_DIAMETERS", "QUICK_N_DIAMETERS", "Alternative",
+    "study", "STUDY_CRITERIA", "STUDY_CANDIDATES", "trend_checks", "quasi_static_impact_speed", "lead_ae_proxy",
+    "lead_peak_runout",
 ]

@@ -6,9 +6,11 @@ pandas is imported when a frame is first asked for, matplotlib when a figure is.
 from ._frames import Units, draw_flanges, events_frame, impacts_frame, units_of
 from ._hybrid import HybridEvent, HybridSolution
 from ._mechanical import MechanicalSolution
+from ._observables import CONTACT_DTYPE, OBSERVABLES, contact_observables, contact_table, moving_rms_force
 from ._plotting import plot_solution
 from ._solution import EVENT_DTYPE, IMPACT_DTYPE, RECORD_OPTIONS, Solution
 
 __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE", "Units", "units_of", "events_frame",
            "impacts_frame", "plot_solution", "draw_flanges", "HybridSolution", "HybridEvent",
-           "MechanicalSolution"]
+           "MechanicalSolution", "contact_table", "contact_observables", "moving_rms_force",
+           "CONTACT_DTYPE", "OBSERVABLES"]

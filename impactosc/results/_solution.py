@@ -552,6 +552,16 @@ class Solution(SolutionFramesMixin):
                 cum += jump.state_at(t)[3]
         return cum
 
+    # -- what a flange sensor sees (results/_observables.py) -----------------------------
+    def contact_observables(self, drive=None) -> dict:
+        """Impact rate, per-impact means, mean and rms force, AE proxies per flange (SI with ``drive``).
+
+        See :func:`impactosc.results.contact_observables` for the definitions.
+        """
+        from ._observables import contact_observables
+
+        return contact_observables(self, drive)
+
     # -- energy ------------------------------------------------------------------------
     def energy_balance(self) -> dict[str, float]:
         """The terms of the energy identity over the run, and its residual.
