@@ -173,9 +173,5 @@ html_css_files = ["gallery.css", "site.css"]
 # Each entry drops exactly one kind of warning at one place (see _ext/knownwarnings.py). They
 # are defects in files other people are editing now; fix the file, then delete the entry
 # (the build says so when an entry no longer matches anything).
-known_warnings = [
-    # Docstrings that still name the flat modules of before the move into folders
-    # (impactosc.tape): fix the docstring, then the entry.
-    (r"docstring of impactosc\.paper:", r"target not found: impactosc\.tape\.TapeDrive$"),
-]
+known_warnings: list[tuple[str, str]] = []
 

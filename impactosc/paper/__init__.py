@@ -6,7 +6,7 @@ Fig. 8 the same for ``T sin(theta/2) = 0.1 ... 0.7`` N at each speed (theta = 60
 
 What this module computes:
 
-* :func:`fig6`: the run-out law of :class:`~impactosc.tape.TapeDrive` as a table and a figure;
+* :func:`fig6`: the run-out law of :class:`~impactosc.TapeDrive` as a table and a figure;
 * :func:`fig7_grid`, :func:`fig8_grid`: the paper's grids, run with the event-driven solver
   through :func:`impactosc.sweep` (heyoka), and with the paper's fixed-step RK4 with a naive
   ``sign()`` through :func:`rk4_grid` (both the consistent two-sided flange and
