@@ -26,14 +26,14 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from .backends import simulate
     from .backends._exact_mdof import simulate_mechanical
     from .engine import EVENT_KINDS, Mode
-    from .model import MechanicalSystem, Oscillator, TapeDrive
+    from .model import Contact, Friction, MechanicalSystem, Oscillator, TapeDrive
     from .model.hybrid import Guard, HybridMode, HybridSystem, stick_slip, symbols
     from .results import MechanicalSolution, Solution
     from .sweeps import load_sweep, sweep
 
 __all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
            "HybridSystem", "HybridMode", "Guard", "symbols", "stick_slip",
-           "MechanicalSystem", "simulate_mechanical", "MechanicalSolution"]
+           "MechanicalSystem", "Contact", "Friction", "simulate_mechanical", "MechanicalSolution"]
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -51,6 +51,8 @@ _LAZY = {
     "symbols": "model.hybrid",
     "stick_slip": "model.hybrid",
     "MechanicalSystem": "model",
+    "Contact": "model",
+    "Friction": "model",
     "simulate_mechanical": "backends._exact_mdof",
     "MechanicalSolution": "results",
 }

@@ -89,7 +89,7 @@ def _matrix(name: str, value, n: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Contact:
-    """A contact whose gap ``normal . q - gap`` is linear in the coordinates.
+    """A contact whose gap ``normal @ q - gap`` is linear in the coordinates.
 
     Parameters
     ----------
@@ -211,8 +211,10 @@ class MechanicalSystem:
         Damping and gyroscopic matrix (any real matrix; default zero).
     K : array_like, (n, n), optional
         Stiffness matrix, symmetric (default zero).
-    harmonics : sequence of (force vector, frequency, phase)
-        The forcing ``sum_h f_h cos(omega_h t + phi_h)``.
+    harmonics : sequence of tuple
+        The forcing ``sum_h f_h cos(omega_h t + phi_h)``, one ``(f_h, omega_h, phi_h)`` per
+        harmonic: a force vector of length ``n``, a frequency ``>= 0`` (0: a constant force)
+        and a phase.
     contacts : sequence of :class:`Contact`
     friction : sequence of :class:`Friction`
         At most one per coordinate.
@@ -382,7 +384,7 @@ class MechanicalSystem:
         return out
 
     def gaps(self, q) -> np.ndarray:
-        """``n_c . q - gap_c`` for every contact (negative: open): shape ``(..., contacts)``."""
+        """``n_c @ q - gap_c`` for every contact (negative: open): shape ``(..., contacts)``."""
         q = np.asarray(q, dtype=float)
         if not self.contacts:
             return np.zeros((*q.shape[:-1], 0))

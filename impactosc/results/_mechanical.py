@@ -78,7 +78,7 @@ class MechanicalSolution:
 
     @property
     def events(self) -> np.recarray:
-        """One row per event: ``t``, ``kind`` (:data:`MECHANICAL_EVENT_KINDS`), ``index`` (the
+        """One row per event: ``t``, ``kind`` (``MECHANICAL_EVENT_KINDS``), ``index`` (the
         contact, or the friction entry), and the state ``q``, ``v`` just after it (after the
         impulse of an impact). Events of one instant (an impact and the rest it ends in, a
         stick test that releases another coordinate) follow one another in the order taken."""
