@@ -26,15 +26,16 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from .backends import simulate
     from .backends._exact_mdof import simulate_mechanical
     from .engine import EVENT_KINDS, Mode
-    from .model import MechanicalSystem, Oscillator, TapeDrive
+    from .model import Guide, MechanicalSystem, Oscillator, TapeDrive, TapePath
     from .model.hybrid import Guard, HybridMode, HybridSystem, stick_slip, symbols
     from .results import Solution
     from .results._mechanical import MechanicalSolution
+    from .results._tape_path import TapePathRun
     from .sweeps import load_sweep, sweep
 
 __all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
            "HybridSystem", "HybridMode", "Guard", "symbols", "stick_slip",
-           "MechanicalSystem", "simulate_mechanical", "MechanicalSolution"]
+           "MechanicalSystem", "simulate_mechanical", "MechanicalSolution", "TapePath", "Guide", "TapePathRun"]
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -54,6 +55,9 @@ _LAZY = {
     "MechanicalSystem": "model",
     "simulate_mechanical": "backends._exact_mdof",
     "MechanicalSolution": "results._mechanical",
+    "TapePath": "model",
+    "Guide": "model",
+    "TapePathRun": "results._tape_path",
 }
 _SUBPACKAGES = ("dynamics", "signal")
 
