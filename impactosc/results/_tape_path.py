@@ -41,6 +41,8 @@ class TapePathRun:
     solution : MechanicalSolution
         The run (``simulate_mechanical(path.mechanical_system(phase), ...)``), in the path's
         nondimensional units.
+    phase : float
+        The reel's phase the system was built with (:meth:`TapePath.mechanical_system`).
 
     Examples
     --------
@@ -56,12 +58,13 @@ class TapePathRun:
     >>> freq, amp = spectrum(t, x_head, resolution=1e3)
     """
 
-    def __init__(self, path: TapePath, solution):
+    def __init__(self, path: TapePath, solution, phase: float = 0.0):
         if not isinstance(path, TapePath):
             raise TypeError(f"path must be a TapePath, got {type(path).__name__}")
         self.path = path
         self.solution = solution
-        system = path.mechanical_system()
+        self.phase = _v.real("phase", phase)
+        system = path.mechanical_system(self.phase)
         if getattr(solution, "n", None) != system.n:
             raise ValueError(f"solution must be a run of path.mechanical_system() ({system.n} coordinates), "
                              f"got {solution!r}")
@@ -216,7 +219,7 @@ class TapePathRun:
             raise ValueError(f"position must lie on the path, in [0, {supports[-1]!r}] m, got {position!r}")
         t = np.atleast_1d(np.asarray(t_s, dtype=float))
         q, _ = self.solution.sample(path.seconds_to_time(t))
-        x = [path.pack_runout(t)]
+        x = [path.pack_runout(t, self.phase)]
         x += list((q * path.length_scale + path.roller_runout(t)).T)
         if path.end_span is not None:
             x.append(np.zeros_like(t))
