@@ -20,14 +20,14 @@ from ..model._tape_path import TapePath
 __all__ = ["TapePathRun"]
 
 
-def _forcing_integral(system, a: float, b: float) -> np.ndarray:
-    """``int_a^b sum_h f_h cos(omega_h t + phi_h) dt`` in closed form."""
-    out = np.zeros(system.n)
+def _forcing_integral(system, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``int_a^b sum_h f_h cos(omega_h t + phi_h) dt`` in closed form, per interval: shape ``(len(a), n)``."""
+    out = np.zeros((a.size, system.n))
     for f, om, ph in system.harmonics:
         if om == 0.0:
-            out += f * np.cos(ph) * (b - a)
+            out += np.outer(np.cos(ph) * (b - a), f)
         else:
-            out += f * (np.sin(om * b + ph) - np.sin(om * a + ph)) / om
+            out += np.outer((np.sin(om * b + ph) - np.sin(om * a + ph)) / om, f)
     return out
 
 
@@ -110,61 +110,81 @@ class TapePathRun:
         if cuts.size < 2:
             return impulse, impacts
         a, b = cuts[:-1], cuts[1:]
-        qa, va = sol.sample(a)
-        qb, vb = sol.sample(np.maximum(np.nextafter(b, -np.inf), a))
-        qm, vm = sol.sample(0.5 * (a + b))
-        M, C, K = system.M, system.C, system.K
-        fric = {f.coordinate: f.kinetic for f in system.friction}
-        for p in range(a.size):
-            dt = b[p] - a[p]
-            gaps = system.gaps(qm[p])
-            engaged = [c for c in range(nc) if not system.contacts[c].rigid and gaps[c] > 0.0]
-            fixed = np.array([va[p, j] == 0.0 and vm[p, j] == 0.0 and vb[p, j] == 0.0 for j in range(system.n)])
-            kmode = K.copy()
-            const = np.zeros(system.n)
-            for c in engaged:
-                k = system.contacts[c].stiffness
-                kmode[coord[c], coord[c]] += k
-                const[coord[c]] += k * system.contacts[c].gap * side[c]
-            for j, mu in fric.items():
-                if not fixed[j]:
-                    const[j] -= mu * np.sign(vm[p, j])
-            f_int = _forcing_integral(system, a[p], b[p])
-            q_int = qm[p] * 0.0
-            q_int[fixed] = qa[p, fixed] * dt
-            free = ~fixed
+        m = a.size
+        # One sample call: the three times of a piece fall on that piece, evaluated once.
+        q3, v3 = sol.sample(np.concatenate([a, 0.5 * (a + b), np.maximum(np.nextafter(b, -np.inf), a)]))
+        qa, qm, qb = q3[:m], q3[m:2 * m], q3[2 * m:]
+        va, vm, vb = v3[:m], v3[m:2 * m], v3[2 * m:]
+        gaps = system.gaps(qm)
+        spring = np.array([not c.rigid for c in system.contacts], dtype=bool)
+        engaged = (gaps > 0.0) & spring[None, :]
+        fixed = (va == 0.0) & (vm == 0.0) & (vb == 0.0)
+        slip = np.zeros((m, system.n))
+        for j in {f.coordinate for f in system.friction}:
+            slip[:, j] = np.where(fixed[:, j], 0.0, np.sign(vm[:, j]))
+        dt = b - a
+        f_int = _forcing_integral(system, a, b)
+        rhs_all = f_int - (vb - va) @ system.M.T - (qb - qa) @ system.C.T
+        q_int = np.zeros((m, system.n))
+        signature = np.concatenate([engaged, fixed, slip], axis=1)
+        _, group = np.unique(signature, axis=0, return_inverse=True)
+        group = group.reshape(-1)
+        fric = np.zeros(system.n)
+        for f in system.friction:
+            fric[f.coordinate] = f.kinetic
+        stiff = np.array([c.stiffness for c in system.contacts])
+        gap0 = np.array([c.gap for c in system.contacts])
+        for g in np.unique(group):
+            sel = np.flatnonzero(group == g)
+            p0 = sel[0]
+            kmode = system.K.copy()
+            const = -fric * slip[p0]
+            for c in np.flatnonzero(engaged[p0]):
+                kmode[coord[c], coord[c]] += stiff[c]
+                const[coord[c]] += stiff[c] * gap0[c] * side[c]
+            fx = fixed[p0]
+            q_int[np.ix_(sel, fx)] = qa[np.ix_(sel, fx)] * dt[sel, None]
+            free = ~fx
             if np.any(free):
-                rhs = (f_int + const * dt - M @ (vb[p] - va[p]) - C @ (qb[p] - qa[p]))[free]
-                rhs -= kmode[np.ix_(free, fixed)] @ q_int[fixed]
-                q_int[free] = np.linalg.solve(kmode[np.ix_(free, free)], rhs)
-            for c in engaged:
-                impulse[c] += system.contacts[c].stiffness * (side[c] * q_int[coord[c]] - system.contacts[c].gap * dt)
-            for c in range(nc):
-                if system.contacts[c].rigid and fixed[coord[c]] and abs(gaps[c]) <= 1e-9 * system.contacts[c].gap:
-                    i = coord[c]  # resting on the stop: its reaction holds row i in balance
-                    impulse[c] += side[c] * (f_int[i] - (C @ (qb[p] - qa[p]))[i] - (K @ q_int)[i])
+                rhs = (rhs_all[sel] + const[None, :] * dt[sel, None])[:, free]
+                rhs -= q_int[np.ix_(sel, fx)] @ kmode[np.ix_(free, fx)].T
+                q_int[np.ix_(sel, free)] = np.linalg.solve(kmode[np.ix_(free, free)], rhs.T).T
+        for c in range(nc):
+            on = engaged[:, c]
+            if np.any(on):
+                impulse[c] += stiff[c] * float(np.sum(side[c] * q_int[on, coord[c]] - gap0[c] * dt[on]))
+            if system.contacts[c].rigid:
+                i = coord[c]  # resting on the stop: its reaction holds row i in balance
+                rest = fixed[:, i] & (np.abs(gaps[:, c]) <= 1e-9 * gap0[c])
+                if np.any(rest):
+                    reaction = f_int[rest, i] - (qb[rest] - qa[rest]) @ system.C[i] - q_int[rest] @ system.K[i]
+                    impulse[c] += side[c] * float(np.sum(reaction))
         self._add_impacts(impulse, impacts, coord, side, vb, cuts)
         return impulse, impacts
 
     def _add_impacts(self, impulse, impacts, coord, side, v_before, cuts) -> None:
-        """The momentum jump of every instant with an impact, on the coordinate of its stop."""
+        """The momentum jump of every instant with an impact, on the coordinate of its stop.
+
+        The velocity after the instant is that of its last event (an impact and the rest it
+        ends in share a time); the one before, that of the piece that ends there.
+        """
         system, ev = self._system, self.solution.events
-        done: set[tuple[float, int]] = set()
-        for row in ev:
-            if row.kind not in ("impact", "rest"):
+        times = np.asarray(ev.t, dtype=float)
+        seen: set[tuple[float, int]] = set()
+        for r in np.flatnonzero(np.isin(ev.kind, ("impact", "rest"))):
+            t, c = float(times[r]), int(ev.index[r])
+            if (t, c) in seen:
                 continue
-            c = int(row.index)
-            if (row.t, c) in done:
+            seen.add((t, c))
+            k = int(np.searchsorted(cuts, t)) - 1  # the piece that ends at this instant
+            if k < 0:
                 continue
-            done.add((row.t, c))
-            k = int(np.searchsorted(cuts, row.t)) - 1  # the piece that ends at this instant
-            after = ev[(ev.t == row.t)]
-            v_after = after.v[-1]
+            last = int(np.searchsorted(times, t, side="right")) - 1
             i = coord[c]
-            jump = -side[c] * system.M[i, i] * (v_after[i] - v_before[k, i]) if k >= 0 else 0.0
+            jump = -side[c] * system.M[i, i] * (ev.v[last][i] - v_before[k, i])
             impulse[c] += jump
-            if row.kind == "impact":
-                impacts[c].append((float(row.t), float(jump)))
+            if ev.kind[r] == "impact":
+                impacts[c].append((t, float(jump)))
 
     # -- SI outputs ----------------------------------------------------------------------
     def flange_impulse(self, guide: int | None = None, side: int | None = None):
