@@ -284,3 +284,18 @@ def test_two_guide_run_with_friction_reaches_its_end():
     path = TapePath(TapeDrive(clearance=30e-6, friction=0.2), [Guide(0.01), Guide(0.03, friction=0.0)])
     sol = simulate_mechanical(path.mechanical_system(), path.seconds_to_time(2e-3), [0.0, 0.0], [0.0, 0.0])
     assert sol.status == 0, sol.message
+
+
+def test_speed_benchmark_runs_quick(capsys):
+    """benchmarks/tape_path_speed.py end to end on 10 ms (no timing asserted: the machine is shared)."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "_bench_tape_path_speed", Path(__file__).resolve().parent.parent / "benchmarks" / "tape_path_speed.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main(["--quick", "--variants", "spring", "rigid"]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| spring") or
+            line.startswith("| rigid")]
+    assert len(rows) == 2 and all(row.split("|")[8].strip() == "0" for row in rows)
