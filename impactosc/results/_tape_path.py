@@ -111,17 +111,7 @@ class TapePathRun:
             return impulse, impacts
         a, b = cuts[:-1], cuts[1:]
         m = a.size
-        # One sample call: the three times of a piece fall on that piece, evaluated once.
-        q3, v3 = sol.sample(np.concatenate([a, 0.5 * (a + b), np.maximum(np.nextafter(b, -np.inf), a)]))
-        qa, qm, qb = q3[:m], q3[m:2 * m], q3[2 * m:]
-        va, vm, vb = v3[:m], v3[m:2 * m], v3[2 * m:]
-        gaps = system.gaps(qm)
-        spring = np.array([not c.rigid for c in system.contacts], dtype=bool)
-        engaged = (gaps > 0.0) & spring[None, :]
-        fixed = (va == 0.0) & (vm == 0.0) & (vb == 0.0)
-        slip = np.zeros((m, system.n))
-        for j in {f.coordinate for f in system.friction}:
-            slip[:, j] = np.where(fixed[:, j], 0.0, np.sign(vm[:, j]))
+        qa, va, qb, vb, engaged, fixed, slip, resting = self._piece_states(cuts, coord)
         dt = b - a
         f_int = _forcing_integral(system, a, b)
         rhs_all = f_int - (vb - va) @ system.M.T - (qb - qa) @ system.C.T
@@ -155,12 +145,100 @@ class TapePathRun:
                 impulse[c] += stiff[c] * float(np.sum(side[c] * q_int[on, coord[c]] - gap0[c] * dt[on]))
             if system.contacts[c].rigid:
                 i = coord[c]  # resting on the stop: its reaction holds row i in balance
-                rest = fixed[:, i] & (np.abs(gaps[:, c]) <= 1e-9 * gap0[c])
+                rest = resting[:, c]
                 if np.any(rest):
                     reaction = f_int[rest, i] - (qb[rest] - qa[rest]) @ system.C[i] - q_int[rest] @ system.K[i]
                     impulse[c] += side[c] * float(np.sum(reaction))
         self._add_impacts(impulse, impacts, coord, side, vb, cuts)
         return impulse, impacts
+
+    def _piece_states(self, cuts: np.ndarray, coord: np.ndarray):
+        """States at both ends of every piece between the cuts, and its mode, from the events table.
+
+        The state after an instant is its last event's; the state before it is its first event's
+        (positions and, but for an impact, velocities are continuous there), an impact's velocity
+        before undone with Newton's law. The mode (engaged spring flanges, stuck coordinates,
+        resting stops) follows the events; where the table cannot tell (the first piece, a
+        plastic impact, a rest reached without an impact row) the closed form is sampled.
+        """
+        system, sol = self._system, self.solution
+        ev = sol.events
+        times = np.asarray(ev.t, dtype=float)
+        kinds = np.asarray(ev.kind)
+        index = np.asarray(ev.index, dtype=int)
+        m, n, nc = cuts.size - 1, system.n, len(system.contacts)
+        first = np.searchsorted(times, cuts, side="left")
+        last = np.searchsorted(times, cuts, side="right") - 1
+        has = last >= first  # an event instant
+        qa, va = np.empty((m, n)), np.empty((m, n))
+        qb, vb = np.empty((m, n)), np.empty((m, n))
+        qa[has[:-1]], va[has[:-1]] = ev.q[last[:-1][has[:-1]]], ev.v[last[:-1][has[:-1]]]
+        qb[has[1:]], vb[has[1:]] = ev.q[first[1:][has[1:]]], ev.v[first[1:][has[1:]]]
+        if not has[-1]:
+            qb[-1], vb[-1] = sol.q, sol.v
+        ask: list[tuple[str, int, float]] = []  # (which, piece, time) to sample
+        if not has[0]:
+            ask.append(("a", 0, 0.0))
+        minv = system.minv
+        for k in np.flatnonzero(has[1:]):
+            r = first[k + 1]
+            if kinds[r] == "impact":
+                c = index[r]
+                con = system.contacts[c]
+                if con.restitution > 0.0:
+                    nv_before = -float(con.normal @ vb[k]) / con.restitution
+                    mn = minv @ con.normal
+                    vb[k] = vb[k] + (1.0 + con.restitution) * nv_before * mn / float(con.normal @ mn)
+                    continue
+            if kinds[r] in ("impact", "rest"):
+                ask.append(("b", int(k), float(np.nextafter(cuts[k + 1], -np.inf))))
+        ask.append(("m", 0, 0.5 * (cuts[0] + cuts[1])))
+        # Sampled states, in one call (each piece evaluated once).
+        qs, vs = sol.sample(np.maximum([t for _, _, t in ask], cuts[0]))
+        mid_q, mid_v = None, None
+        for (which, k, _), q, v in zip(ask, qs, vs, strict=True):
+            if which == "a":
+                qa[k], va[k] = q, v
+            elif which == "b":
+                qb[k], vb[k] = q, v
+            else:
+                mid_q, mid_v = q, v
+        # The first piece's mode from its samples, then the events switch it.
+        spring = np.array([not c.rigid for c in system.contacts], dtype=bool)
+        eng = (system.gaps(mid_q) > 0.0) & spring
+        fix = (va[0] == 0.0) & (mid_v == 0.0) & (vb[0] == 0.0)
+        rest = np.array([c.rigid and fix[coord[i]] and abs(float(system.gaps(mid_q)[i])) <= 1e-9 * c.gap
+                         for i, c in enumerate(system.contacts)], dtype=bool)
+        fric_coord = np.array([f.coordinate for f in system.friction], dtype=int)
+        engaged, fixed, resting = np.empty((m, nc), bool), np.empty((m, n), bool), np.empty((m, nc), bool)
+        switches = np.flatnonzero(np.isin(kinds, ("contact_start", "contact_end", "stick", "release", "rest",
+                                                  "lift")))
+        piece = np.searchsorted(cuts, times[switches], side="right") - 1  # the piece each switch starts
+        s = 0
+        for k in range(m):
+            while s < switches.size and piece[s] <= k:
+                r = switches[s]
+                kind, i = kinds[r], index[r]
+                if kind in ("contact_start", "contact_end"):
+                    eng[i] = kind == "contact_start"
+                elif kind in ("stick", "release"):
+                    fix[fric_coord[i]] = kind == "stick"
+                else:
+                    rest[i] = kind == "rest"
+                    fix[coord[i]] = kind == "rest"
+                s += 1
+            engaged[k], fixed[k], resting[k] = eng, fix, rest
+        slip = np.zeros((m, n))
+        for j in fric_coord:
+            slip[:, j] = np.where(fixed[:, j], 0.0, np.sign(va[:, j] + vb[:, j]))
+        # A slip that starts and ends at rest (a release, then a reversal or a stick): its sign mid-way.
+        unsure = np.flatnonzero(np.any((slip == 0.0) & ~fixed & np.isin(np.arange(n), fric_coord)[None, :], axis=1))
+        if unsure.size:
+            _, v_mid = sol.sample(0.5 * (cuts[unsure] + cuts[unsure + 1]))
+            for j in fric_coord:
+                col = slip[unsure, j]
+                slip[unsure, j] = np.where(col == 0.0, np.where(fixed[unsure, j], 0.0, np.sign(v_mid[:, j])), col)
+        return qa, va, qb, vb, engaged, fixed, slip, resting
 
     def _add_impacts(self, impulse, impacts, coord, side, v_before, cuts) -> None:
         """The momentum jump of every instant with an impact, on the coordinate of its stop.
