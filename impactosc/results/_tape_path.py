@@ -129,9 +129,9 @@ class TapePathRun:
             p0 = sel[0]
             kmode = system.K.copy()
             const = -fric * slip[p0]
-            for c in np.flatnonzero(engaged[p0]):
-                kmode[coord[c], coord[c]] += stiff[c]
-                const[coord[c]] += stiff[c] * gap0[c] * side[c]
+            for ce in map(int, np.flatnonzero(engaged[p0])):
+                kmode[coord[ce], coord[ce]] += stiff[ce]
+                const[coord[ce]] += stiff[ce] * gap0[ce] * side[ce]
             fx = fixed[p0]
             q_int[np.ix_(sel, fx)] = qa[np.ix_(sel, fx)] * dt[sel, None]
             free = ~fx
@@ -180,18 +180,17 @@ class TapePathRun:
         if not has[0]:
             ask.append(("a", 0, 0.0))
         minv = system.minv
-        for k in np.flatnonzero(has[1:]):
-            r = first[k + 1]
+        for kb in map(int, np.flatnonzero(has[1:])):
+            r = first[kb + 1]
             if kinds[r] == "impact":
-                c = index[r]
-                con = system.contacts[c]
+                con = system.contacts[int(index[r])]
                 if con.restitution > 0.0:
-                    nv_before = -float(con.normal @ vb[k]) / con.restitution
+                    nv_before = -float(con.normal @ vb[kb]) / con.restitution
                     mn = minv @ con.normal
-                    vb[k] = vb[k] + (1.0 + con.restitution) * nv_before * mn / float(con.normal @ mn)
+                    vb[kb] = vb[kb] + (1.0 + con.restitution) * nv_before * mn / float(con.normal @ mn)
                     continue
             if kinds[r] in ("impact", "rest"):
-                ask.append(("b", int(k), float(np.nextafter(cuts[k + 1], -np.inf))))
+                ask.append(("b", kb, float(np.nextafter(cuts[kb + 1], -np.inf))))
         ask.append(("m", 0, 0.5 * (cuts[0] + cuts[1])))
         # Sampled states, in one call (each piece evaluated once).
         qs, vs = sol.sample(np.maximum([t for _, _, t in ask], cuts[0]))
