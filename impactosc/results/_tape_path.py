@@ -155,18 +155,41 @@ class TapePathRun:
     def _piece_states(self, cuts: np.ndarray, coord: np.ndarray):
         """States at both ends of every piece between the cuts, and its mode, from the events table.
 
+        The mode (engaged spring flanges, stuck coordinates, resting stops) follows the events
+        from the first piece's, which is sampled; a slip that starts and ends at rest is sampled
+        mid-way for its sign.
+        """
+        qa, va, qb, vb, mid_q, mid_v = self._end_states(cuts)
+        engaged, fixed, resting = self._modes(cuts, coord, va[0], vb[0], mid_q, mid_v)
+        system, sol = self._system, self.solution
+        n = system.n
+        fric_coord = np.array([f.coordinate for f in system.friction], dtype=int)
+        slip = np.zeros((cuts.size - 1, n))
+        for j in fric_coord:
+            slip[:, j] = np.where(fixed[:, j], 0.0, np.sign(va[:, j] + vb[:, j]))
+        # A slip that starts and ends at rest (a release, then a reversal or a stick): its sign mid-way.
+        unsure = np.flatnonzero(np.any((slip == 0.0) & ~fixed & np.isin(np.arange(n), fric_coord)[None, :], axis=1))
+        if unsure.size:
+            _, v_mid = sol.sample(0.5 * (cuts[unsure] + cuts[unsure + 1]))
+            for j in fric_coord:
+                col = slip[unsure, j]
+                slip[unsure, j] = np.where(col == 0.0, np.where(fixed[unsure, j], 0.0, np.sign(v_mid[:, j])), col)
+        return qa, va, qb, vb, engaged, fixed, slip, resting
+
+    def _end_states(self, cuts: np.ndarray):
+        """``(q, v)`` after the start and before the end of every piece, and mid-way through the first.
+
         The state after an instant is its last event's; the state before it is its first event's
-        (positions and, but for an impact, velocities are continuous there), an impact's velocity
-        before undone with Newton's law. The mode (engaged spring flanges, stuck coordinates,
-        resting stops) follows the events; where the table cannot tell (the first piece, a
-        plastic impact, a rest reached without an impact row) the closed form is sampled.
+        (positions and, but for an impact, velocities are continuous there), an elastic impact's
+        velocity before undone with Newton's law. Where the table cannot tell (the start of the
+        run, a plastic impact, a rest reached without an impact row) the closed form is sampled.
         """
         system, sol = self._system, self.solution
         ev = sol.events
         times = np.asarray(ev.t, dtype=float)
         kinds = np.asarray(ev.kind)
         index = np.asarray(ev.index, dtype=int)
-        m, n, nc = cuts.size - 1, system.n, len(system.contacts)
+        m, n = cuts.size - 1, system.n
         first = np.searchsorted(times, cuts, side="left")
         last = np.searchsorted(times, cuts, side="right") - 1
         has = last >= first  # an event instant
@@ -202,10 +225,22 @@ class TapePathRun:
                 qb[k], vb[k] = q, v
             else:
                 mid_q, mid_v = q, v
-        # The first piece's mode from its samples, then the events switch it.
+        return qa, va, qb, vb, mid_q, mid_v
+
+    def _modes(self, cuts: np.ndarray, coord: np.ndarray, va0, vb0, mid_q, mid_v):
+        """Engaged spring flanges, fixed coordinates and resting stops of every piece: shapes ``(pieces, .)``.
+
+        The first piece's from its samples (``va0``, ``vb0`` at its ends, ``mid_q``, ``mid_v``
+        mid-way), then each switching event sets its flag for the pieces after it.
+        """
+        system, ev = self._system, self.solution.events
+        times = np.asarray(ev.t, dtype=float)
+        kinds = np.asarray(ev.kind)
+        index = np.asarray(ev.index, dtype=int)
+        m, n, nc = cuts.size - 1, system.n, len(system.contacts)
         spring = np.array([not c.rigid for c in system.contacts], dtype=bool)
         eng = (system.gaps(mid_q) > 0.0) & spring
-        fix = (va[0] == 0.0) & (mid_v == 0.0) & (vb[0] == 0.0)
+        fix = (va0 == 0.0) & (mid_v == 0.0) & (vb0 == 0.0)
         rest = np.array([c.rigid and fix[coord[i]] and abs(float(system.gaps(mid_q)[i])) <= 1e-9 * c.gap
                          for i, c in enumerate(system.contacts)], dtype=bool)
         fric_coord = np.array([f.coordinate for f in system.friction], dtype=int)
@@ -227,17 +262,7 @@ class TapePathRun:
                     fix[coord[i]] = kind == "rest"
                 s += 1
             engaged[k], fixed[k], resting[k] = eng, fix, rest
-        slip = np.zeros((m, n))
-        for j in fric_coord:
-            slip[:, j] = np.where(fixed[:, j], 0.0, np.sign(va[:, j] + vb[:, j]))
-        # A slip that starts and ends at rest (a release, then a reversal or a stick): its sign mid-way.
-        unsure = np.flatnonzero(np.any((slip == 0.0) & ~fixed & np.isin(np.arange(n), fric_coord)[None, :], axis=1))
-        if unsure.size:
-            _, v_mid = sol.sample(0.5 * (cuts[unsure] + cuts[unsure + 1]))
-            for j in fric_coord:
-                col = slip[unsure, j]
-                slip[unsure, j] = np.where(col == 0.0, np.where(fixed[unsure, j], 0.0, np.sign(v_mid[:, j])), col)
-        return qa, va, qb, vb, engaged, fixed, slip, resting
+        return engaged, fixed, resting
 
     def _add_impacts(self, impulse, impacts, coord, side, v_before, cuts) -> None:
         """The momentum jump of every instant with an impact, on the coordinate of its stop.
