@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import impactosc
 from impactosc import Guide, MechanicalSystem, TapeDrive, TapePath, TapePathRun, simulate_mechanical
@@ -299,3 +301,24 @@ def test_speed_benchmark_runs_quick(capsys):
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| spring") or
             line.startswith("| rigid")]
     assert len(rows) == 2 and all(row.split("|")[8].strip() == "0" for row in rows)
+
+
+@settings(max_examples=40, deadline=None)
+@given(gaps=st.lists(st.floats(2e-3, 0.1), min_size=1, max_size=6), end=st.one_of(st.none(), st.floats(2e-3, 0.1)))
+def test_chain_statics_properties(gaps, end):
+    """Any chain: M, K symmetric positive definite; a chain held only at the pack follows its offset
+    rigidly; with a fixed end the static deflection falls monotonically along the path, between 0 and
+    the run-out."""
+    positions = np.cumsum(gaps)
+    path = TapePath(TapeDrive(), [Guide(float(p)) for p in positions], end_span=end)
+    K, M = path.stiffness_matrix, path.mass_matrix
+    np.testing.assert_allclose(K, K.T, rtol=0, atol=0)
+    assert np.all(np.linalg.eigvalsh(K) > 0) and np.all(np.diag(M) > 0)
+    assert np.sum(np.diag(M)) == pytest.approx(path.drive.density * path.drive.width * path.drive.thickness
+                                                * (positions[-1] + (end or 0.0)), rel=1e-12)  # all the tape, once
+    x = path.quasi_static_deflection()
+    u = path.drive.runout
+    if end is None:
+        np.testing.assert_allclose(x, u, rtol=1e-9)
+    else:
+        assert np.all(np.diff(x) < 0) and np.all((x > 0) & (x < u))
