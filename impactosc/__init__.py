@@ -26,14 +26,15 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from .backends import simulate
     from .backends._exact_mdof import simulate_mechanical
     from .engine import EVENT_KINDS, Mode
-    from .model import Contact, Friction, MechanicalSystem, Oscillator, TapeDrive
+    from .model import Contact, Friction, Guide, MechanicalSystem, Oscillator, TapeDrive, TapePath
     from .model.hybrid import Guard, HybridMode, HybridSystem, stick_slip, symbols
-    from .results import MechanicalSolution, Solution
+    from .results import MechanicalSolution, Solution, TapePathRun
     from .sweeps import load_sweep, sweep
 
 __all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
            "HybridSystem", "HybridMode", "Guard", "symbols", "stick_slip",
-           "MechanicalSystem", "Contact", "Friction", "simulate_mechanical", "MechanicalSolution"]
+           "MechanicalSystem", "Contact", "Friction", "simulate_mechanical", "MechanicalSolution", "TapePath", "Guide",
+           "TapePathRun"]
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -55,6 +56,9 @@ _LAZY = {
     "Friction": "model",
     "simulate_mechanical": "backends._exact_mdof",
     "MechanicalSolution": "results",
+    "TapePath": "model",
+    "Guide": "model",
+    "TapePathRun": "results",
 }
 _SUBPACKAGES = ("dynamics", "signal")
 

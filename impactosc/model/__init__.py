@@ -9,6 +9,8 @@
 - :class:`MechanicalSystem`: linear systems of many degrees of freedom with contacts
   (:class:`Contact`: springs or rigid stops with restitution) and Coulomb friction
   (:class:`Friction`).
+- :class:`TapePath`: a path of several guides (:class:`Guide`) in SI units, the tape drive's
+  physics assembled into a :class:`MechanicalSystem` chain.
 
 Importing this package loads neither numba nor heyoka: the compiled rule is imported
 when a model first computes a force.
@@ -17,6 +19,7 @@ when a model first computes a force.
 from ._mechanical import CONTACT_LAWS, Contact, Friction, MechanicalSystem
 from ._oscillator import FLANGE_LAWS, Oscillator
 from ._tape import BENDING_OPTIONS, FIELD_UNITS, TapeDrive
+from ._tape_path import Guide, TapePath
 
 __all__ = ["Oscillator", "TapeDrive", "FLANGE_LAWS", "BENDING_OPTIONS", "FIELD_UNITS", "MechanicalSystem", "Contact",
-           "Friction", "CONTACT_LAWS"]
+           "Friction", "CONTACT_LAWS", "TapePath", "Guide"]

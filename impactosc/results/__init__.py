@@ -9,8 +9,9 @@ from ._mechanical import MechanicalSolution
 from ._observables import CONTACT_DTYPE, OBSERVABLES, contact_observables, contact_table, moving_rms_force
 from ._plotting import plot_solution
 from ._solution import EVENT_DTYPE, IMPACT_DTYPE, RECORD_OPTIONS, Solution
+from ._tape_path import TapePathRun
 
 __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE", "Units", "units_of", "events_frame",
            "impacts_frame", "plot_solution", "draw_flanges", "HybridSolution", "HybridEvent",
            "MechanicalSolution", "contact_table", "contact_observables", "moving_rms_force",
-           "CONTACT_DTYPE", "OBSERVABLES"]
+           "CONTACT_DTYPE", "OBSERVABLES", "TapePathRun"]
