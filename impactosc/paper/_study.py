@@ -1,6 +1,6 @@
 """What the sensor saw: which model and which observable give the four trends of the paper's Fig. 4.
 
-The criteria are fixed here, before any number is computed (:data:`CRITERIA`,
+The criteria are fixed here, before any number is computed (:data:`~impactosc.paper.STUDY_CRITERIA`,
 :func:`trend_checks`); the candidates (:data:`CANDIDATES`) are the paper's eq. 3 with its
 parameters and readings of it whose ranges have a source; the search
 (:func:`search_region`) walks the span length and clearance of the in-plane reading over
@@ -156,7 +156,7 @@ def lead_peak_runout(clearance: float, runout_at_zero: float = 0.0) -> float:
 # Criteria
 # ---------------------------------------------------------------------------------------
 def trend_checks(values: np.ndarray, diameters, speeds, t_sin) -> dict[str, bool]:
-    """The four criteria of :data:`CRITERIA` on an observable of shape (diameter, speed, T sin).
+    """The four criteria of :data:`~impactosc.paper.STUDY_CRITERIA` on an observable of shape (diameter, speed, T sin).
 
     A curve that is zero everywhere holds no trend; NaN (a failed point) holds none either.
 
@@ -198,7 +198,7 @@ def trend_checks(values: np.ndarray, diameters, speeds, t_sin) -> dict[str, bool
 
 
 def mid_pack_fraction(values: np.ndarray, diameters) -> float:
-    """Fraction of the curves (speed, T sin) that peak mid pack by :data:`CRITERIA` (``trend_checks`` wants 1)."""
+    """Fraction of the curves (speed, T sin) that peak mid pack by :data:`~impactosc.paper.STUDY_CRITERIA` (``trend_checks`` wants 1)."""
     y = np.asarray(values, dtype=float)
     d = np.asarray(diameters, dtype=float)
     lo, hi = d[0] + (d[-1] - d[0]) / 3.0, d[0] + 2.0 * (d[-1] - d[0]) / 3.0

@@ -40,7 +40,7 @@ class HybridSolution:
         The requested end time and where the run stopped.
     status : int
         0 end reached, 1 event limit, 2 accumulation of events (Zeno) with
-        :attr:`accumulation_time` estimated, -1 failure (results up to ``t_final`` kept).
+        ``accumulation_time`` estimated, -1 failure (results up to ``t_final`` kept).
     message : str
     events : list of HybridEvent
     state_final : numpy.ndarray
