@@ -198,7 +198,7 @@ def trend_checks(values: np.ndarray, diameters, speeds, t_sin) -> dict[str, bool
 
 
 def mid_pack_fraction(values: np.ndarray, diameters) -> float:
-    """Fraction of the curves (speed, T sin) that peak mid pack by :data:`~impactosc.paper.STUDY_CRITERIA` (``trend_checks`` wants 1)."""
+    """Fraction of the curves (speed, T sin) that peak mid pack by the study's criteria (``trend_checks`` wants 1)."""
     y = np.asarray(values, dtype=float)
     d = np.asarray(diameters, dtype=float)
     lo, hi = d[0] + (d[-1] - d[0]) / 3.0, d[0] + 2.0 * (d[-1] - d[0]) / 3.0
