@@ -24,14 +24,17 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from . import dynamics as dynamics
     from . import signal as signal
     from .backends import simulate
+    from .backends._exact_mdof import simulate_mechanical
     from .engine import EVENT_KINDS, Mode
-    from .model import Oscillator, TapeDrive
+    from .model import MechanicalSystem, Oscillator, TapeDrive
     from .model.hybrid import Guard, HybridMode, HybridSystem, stick_slip, symbols
     from .results import Solution
+    from .results._mechanical import MechanicalSolution
     from .sweeps import load_sweep, sweep
 
 __all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
-           "HybridSystem", "HybridMode", "Guard", "symbols", "stick_slip"]
+           "HybridSystem", "HybridMode", "Guard", "symbols", "stick_slip",
+           "MechanicalSystem", "simulate_mechanical", "MechanicalSolution"]
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -48,6 +51,9 @@ _LAZY = {
     "Guard": "model.hybrid",
     "symbols": "model.hybrid",
     "stick_slip": "model.hybrid",
+    "MechanicalSystem": "model",
+    "simulate_mechanical": "backends._exact_mdof",
+    "MechanicalSolution": "results._mechanical",
 }
 _SUBPACKAGES = ("dynamics", "signal")
 
