@@ -317,3 +317,49 @@ def test_grazing_a_spring_contact_closes_and_opens(grazing, backend):
     sol = impactosc.simulate(mechanical_system(ms), t_end, [*q0, *v0], backend=backend)
     assert sol.status == 0, sol.message
     assert [k for _, k, _ in hybrid_events(ms, sol)] == ["contact_start", "contact_end"]
+
+
+# -- the analyses of user systems on a mechanical system ----------------------------------------------
+
+
+def test_periodic_orbit_of_a_forced_two_mass_system_is_its_closed_form():
+    """No contact: the steady response ``q = Re(X e^{i w t})``, ``(K - w^2 M + i w C) X = f e^{i phi}``, and
+    the Floquet multipliers ``exp(lambda T)`` of the first-order matrix ``A = [[0, I], [-M^-1 K, -M^-1 C]]``."""
+    from scipy.linalg import expm
+
+    from impactosc.dynamics.hybrid_map import HybridMap, periodic_orbit_of
+
+    M = np.array([[2.0, 0.3], [0.3, 1.0]])
+    K = np.array([[3.0, -1.0], [-1.0, 1.5]])
+    C = np.array([[0.1, 0.2], [-0.2, 0.05]])  # with a gyroscopic (skew) part
+    f, om, ph = np.array([1.0, -0.5]), 1.3, 0.4
+    ms = MechanicalSystem(M=M, C=C, K=K, harmonics=[(f, om, ph)])
+    X = np.linalg.solve(K - om**2 * M + 1j * om * C, f * np.exp(1j * ph))
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    orbit = periodic_orbit_of(HybridMap(mechanical_system(ms, energy=False)), np.zeros(4))
+    assert orbit.status == 0, orbit.message
+    assert np.allclose(orbit.z, np.r_[X.real, -om * X.imag], rtol=0.0, atol=1e-12)
+    expected = np.linalg.eigvals(expm(A * 2.0 * np.pi / om))
+    assert np.allclose(np.sort_complex(orbit.multipliers), np.sort_complex(expected), rtol=0.0, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_impacting_periodic_orbit_of_a_chain_returns_under_the_exact_backend():
+    """The fixed point of the stroboscopic map (heyoka, saltation matrices) is one of the exact backend too,
+    and its monodromy obeys Liouville's rule: each impact multiplies the determinant by ``e^2`` (its
+    reset ``-e`` along ``M^-1 n``, its crossing speeds ``n.v+ / n.v- = -e``), the flow by
+    ``exp(-trace(M^-1 C) T)``."""
+    from impactosc.dynamics.hybrid_map import HybridMap, periodic_orbit_of
+
+    ms = chain(2, restitution=0.8)
+    period = 2.0 * math.pi / 0.8
+    settled = impactosc.simulate_mechanical(ms, 300 * period, np.zeros(2), np.zeros(2), energy=False)
+    orbit = periodic_orbit_of(HybridMap(mechanical_system(ms, energy=False)), np.r_[settled.q, settled.v])
+    assert orbit.status == 0, orbit.message
+    impacts = [g for g, _, _ in orbit.signature if g.startswith("impact")]
+    assert len(impacts) >= 2
+    back = impactosc.simulate_mechanical(ms, period, orbit.z[:2], orbit.z[2:])
+    assert len(back.events) == len(impacts)
+    assert np.allclose(np.r_[back.q, back.v], orbit.z, rtol=0.0, atol=1e-9)
+    liouville = 0.8 ** (2 * len(impacts)) * math.exp(-np.trace(ms.minv @ ms.C) * period)
+    assert np.linalg.det(orbit.monodromy) == pytest.approx(liouville, rel=1e-8)
