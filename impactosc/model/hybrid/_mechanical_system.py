@@ -38,9 +38,18 @@ MAX_MODES = 54
 #: Friction states of a coordinate, in the order its candidate modes are tried.
 _STUCK, _UP, _DOWN = 0, 1, -1
 _TAG = {_STUCK: "0", _UP: "+", _DOWN: "-"}
-#: The slip-end guard fires at ``v_j = -/+ _OFFSET`` rather than 0 (see its comment); the shift of
-#: its time, ``_OFFSET / |v_j'|``, is far below any rounding of it.
+#: Every guard ``h`` with direction ``d`` is written ``h - d _OFFSET``: a piece that starts on the
+#: surface (a slip that reverses from ``v_j = 0`` exactly, a contact that closes where ``n.q - gap``
+#: rounds to 0) then starts just on the side the guard fires from, not on zero. heyoka's root
+#: isolation misses the later roots of an event polynomial that is exactly zero at the start of
+#: its step (the opening of a contact 1e-6 deep, a slip that ends within the step of its
+#: reversal). The shift of an event time, ``_OFFSET / |h'|``, is far below any rounding of it.
 _OFFSET = 1e-300
+
+
+def _fires(expression, direction: int):
+    """``expression`` moved by :data:`_OFFSET` towards the side a guard of ``direction`` fires from."""
+    return expression - direction * _OFFSET
 
 
 def _linear(coefficients, variables):
@@ -271,7 +280,8 @@ class _Writer:
                 for c, on in zip(self.springs, engaged, strict=True):
                     flipped = tuple((not o) if s == c else o for s, o in zip(self.springs, engaged, strict=True))
                     what = "opens" if on else "closes"
-                    guards.append(Guard(f"{here}: contact {c} {what}", self.gaps[c], -1 if on else 1, armed=here,
+                    d = -1 if on else 1
+                    guards.append(Guard(f"{here}: contact {c} {what}", _fires(self.gaps[c], d), d, armed=here,
                                         to=self.name(flipped, motion)))
                 guards += self.friction_guards(engaged, motion)
         for c in self.stops:
@@ -284,7 +294,8 @@ class _Writer:
                 # the impulse may set a stuck coordinate moving or reverse a slip: the entry conditions decide
                 targets = [self.name(engaged, m) for m in motions]
                 tag = "/".join(f"c{s}{'in' if on else 'out'}" for s, on in zip(self.springs, engaged, strict=True))
-                guards.append(Guard(f"impact {c}" + (f" [{tag}]" if tag else ""), self.gaps[c], 1, armed=targets,
+                guards.append(Guard(f"impact {c}" + (f" [{tag}]" if tag else ""), _fires(self.gaps[c], 1), 1,
+                                    armed=targets,
                                     to=targets if len(targets) > 1 else None, reset=reset))
         return modes, guards
 
@@ -301,14 +312,12 @@ class _Writer:
 
             if s == _STUCK:
                 force = self.effective_force(engaged, motion, k)
-                out.append(Guard(f"{here}: q{j} released up", force - f.static, 1, armed=here, to=becomes(_UP)))
-                out.append(Guard(f"{here}: q{j} released down", force + f.static, -1, armed=here,
+                out.append(Guard(f"{here}: q{j} released up", _fires(force - f.static, 1), 1, armed=here,
+                                 to=becomes(_UP)))
+                out.append(Guard(f"{here}: q{j} released down", _fires(force + f.static, -1), -1, armed=here,
                                  to=becomes(_DOWN)))
             else:
-                # The velocity is snapped onto v_j = 0 (the stuck mode's entry tests it exactly). The
-                # guard is offset by _OFFSET towards the side it fires from: after a reversal the
-                # piece starts at v_j = 0 exactly, and heyoka's root isolation misses the later
-                # root of an event polynomial that is exactly zero at the start of the step.
-                out.append(Guard(f"{here}: q{j} stops", self.v[j] + s * _OFFSET, -s, armed=here,
+                # the velocity is snapped onto v_j = 0: the stuck mode's entry tests it exactly
+                out.append(Guard(f"{here}: q{j} stops", _fires(self.v[j], -s), -s, armed=here,
                                  to=(becomes(_STUCK), becomes(-s)), reset={self.v[j]: hy.expression(0.0)}))
         return out
