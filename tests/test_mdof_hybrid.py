@@ -156,6 +156,13 @@ def test_refuses_more_modes_than_the_bound():
         mechanical_system(ms)
 
 
+def test_refuses_expressions_too_long_for_heyoka_to_print_in_full():
+    """heyoka abbreviates a long expression's text, by which the hybrid backends know it."""
+    assert len(mechanical_system(random_system(0, 10, laws=("rigid",), friction=0, contacts=1)).modes) == 1
+    with pytest.raises(ValueError, match=r"mode 'free': the rate of v\d+ prints over heyoka's limit"):
+        mechanical_system(random_system(0, 20, laws=("rigid",), friction=0, contacts=1))
+
+
 def test_refuses_what_is_not_a_mechanical_system():
     with pytest.raises(TypeError, match="ms must be an impactosc.MechanicalSystem"):
         mechanical_system(impactosc.Oscillator(0.5, 1.1, 0.0, 1e4))

@@ -91,6 +91,31 @@ def _check(ms: MechanicalSystem) -> None:
                          "coordinates")
 
 
+def _check_printed_in_full(modes, guards, states) -> None:
+    """Refuse expressions that heyoka prints abbreviated (over about 1000 characters, ending in "...").
+
+    The hybrid backends know an expression by its text (the terms that modes share, the cache
+    of compiled integrators): two long expressions with the same first 1000 characters would
+    be taken for one another. The energy integrands are left out: they are the same in every mode.
+    """
+    for m in modes:
+        for name, rate in zip(states, m.field, strict=False):
+            if str(rate).endswith("..."):
+                raise ValueError(
+                    f"mode {m.name!r}: the rate of {name} prints over heyoka's limit of about 1000 characters "
+                    f"({len(states) // 2} coordinates and the harmonics make it long); the hybrid backends know "
+                    "expressions by their text and could confuse it with another. Use simulate_mechanical (the "
+                    "exact backend), or fewer coordinates or harmonics")
+        for i, c in enumerate(m.entry):
+            if str(c).endswith("..."):
+                raise ValueError(f"mode {m.name!r}: entry condition {i} prints over heyoka's limit of about 1000 "
+                                 "characters (see the rates); use simulate_mechanical, or fewer coordinates")
+    for g in guards:
+        if str(g.expression).endswith("..."):
+            raise ValueError(f"guard {g.name!r}: its expression prints over heyoka's limit of about 1000 "
+                             "characters (see the rates); use simulate_mechanical, or fewer coordinates")
+
+
 def _period(ms: MechanicalSystem, omegas):
     """``2 pi / omega`` of the oscillating harmonics when they share one frequency, else None."""
     oscillating = [i for i, (_, om, _) in enumerate(ms.harmonics) if om > 0.0]
@@ -129,7 +154,10 @@ def mechanical_system(ms: MechanicalSystem, *, energy: bool = True) -> HybridSys
     ValueError
         Naming the contact or coordinates: a nonlinear spring, two friction coordinates
         coupled by ``M^-1`` (a stick test to solve jointly), or more modes than
-        :data:`MAX_MODES`.
+        :data:`MAX_MODES`; naming the mode or guard: an expression too long for heyoka to
+        print in full (about 1000 characters: ``2 n`` terms of about 27 characters and about
+        50 per harmonic, so ``n`` up to about 15), which the hybrid backends could take for
+        another that starts alike.
 
     Notes
     -----
@@ -170,6 +198,7 @@ def mechanical_system(ms: MechanicalSystem, *, energy: bool = True) -> HybridSys
         omegas.append(symbols(f"omega{h}"))
     writer = _Writer(ms, q, v, omegas, energy)
     modes, guards = writer.modes_and_guards()
+    _check_printed_in_full(modes, guards, names)
     return HybridSystem(names, params, modes, guards, integrals=("work", "damping", "friction") if energy else (),
                         period=_period(ms, omegas), name=f"mechanical n={n}")
 
