@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import impactosc
@@ -215,9 +215,17 @@ def test_chatter_on_a_stop_ends_where_the_exact_run_rests(backend):
 @given(seed=st.integers(0, 10_000), n=st.integers(2, 6),
        laws=st.sampled_from([("spring",), ("rigid",), ("spring", "rigid")]), friction=st.integers(0, 1),
        contacts=st.integers(1, 3), elastic=st.booleans())
+# releases from sticking with mu_s = mu_k (a tangency of the slip-end guard) that the loops once took for a
+# stop lost to rounding: a spurious stick and release at the same instant, then a failed root search
+@example(seed=0, n=2, laws=("spring",), friction=1, contacts=2, elastic=False)
+@example(seed=135, n=2, laws=("spring",), friction=1, contacts=2, elastic=False)
 def test_random_systems_three_way(seed, n, laws, friction, contacts, elastic):
-    ms = random_system(seed, n, laws=laws, friction=friction, contacts=contacts, orthogonal=True,
-                       restitution=(1.0, 1.0) if elastic else (0.6, 1.0))
+    try:
+        ms = random_system(seed, n, laws=laws, friction=friction, contacts=contacts, orthogonal=True,
+                           restitution=(1.0, 1.0) if elastic else (0.6, 1.0))
+    except ValueError as exc:  # n = 2: a stop made orthogonal to the friction coordinate lies along it
+        assume("act along the same line" not in str(exc))
+        raise
     q0, v0 = initial_state(seed, n)
     three_way(ms, 15.0, q0, v0, min_events=0)
 

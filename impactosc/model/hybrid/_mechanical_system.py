@@ -43,8 +43,11 @@ _TAG = {_STUCK: "0", _UP: "+", _DOWN: "-"}
 #: rounds to 0) then starts just on the side the guard fires from, not on zero. heyoka's root
 #: isolation misses the later roots of an event polynomial that is exactly zero at the start of
 #: its step (the opening of a contact 1e-6 deep, a slip that ends within the step of its
-#: reversal). The shift of an event time, ``_OFFSET / |h'|``, is far below any rounding of it.
-_OFFSET = 1e-300
+#: reversal). It also exceeds the excursion that rounding gives a slip released from sticking
+#: with ``mu_s = mu_k`` (``v_j' = 0`` in theory, ``~1e-16`` in floats: ``v_j`` moves ``~1e-32`` the
+#: wrong way before it turns), which the loops took for a stop missed by rounding. The shift of
+#: an event time, ``_OFFSET / |h'|``, is far below the tolerances of the event times.
+_OFFSET = 1e-20
 
 
 def _fires(expression, direction: int):
