@@ -169,6 +169,9 @@ def mechanical_system(ms: MechanicalSystem, *, energy: bool = True) -> HybridSys
     accumulation time, where the exact backend sums the chatter and lets the system rest on
     the stop (the resting contact is a constraint the modes here do not write).
 
+    Each guard is moved by 1e-20 towards the side it fires from (``_fires``), so that no
+    piece starts exactly on a guard: the event times move by ``1e-20 / |h'|``.
+
     Examples
     --------
     Two masses, the second one between two rigid stops:
