@@ -187,3 +187,34 @@ def test_a_system_without_guards_and_with_an_unused_parameter(backend):
     sol = impactosc.simulate(system, 2.0, [1.0], backend=backend)
     assert sol.status == 0 and sol.events == []
     assert sol.state_final[0] == pytest.approx(math.exp(-1.0), rel=1e-11)
+
+
+def test_long_vector_fields_that_print_alike_stay_apart():
+    # heyoka prints an expression cut after about 1000 characters ("... + ..."): two modes whose
+    # long rates differ only in their last term must not be merged into one, and two systems
+    # that differ only there must not share a compiled integrator
+    import heyoka as hy
+
+    from impactosc import simulate
+    from impactosc.model.hybrid import Guard, HybridMode, HybridSystem
+
+    names = [f"x{i}" for i in range(40)]
+    xs = hy.make_vars(*names)
+    terms = [x * (1.0 + 1e-3 * i) for i, x in enumerate(xs[1:-1])]
+
+    def system(last: float) -> HybridSystem:
+        # the distinguishing term last: it is where the printed text is cut
+        rates = {xs[0]: hy.sum([*terms, last * xs[-1]])}
+        rates.update({x: hy.expression(0.0) for x in xs[1:]})
+        mode = HybridMode("m", rates)
+        return HybridSystem(names, modes=[mode], guards=[Guard("g", xs[0] - 1e9, 1, "m")])
+
+    a, b = system(1.0), system(2.0)
+    rate = a.modes[0].field[0]
+    assert "..." in str(rate[1] if isinstance(rate, tuple) else rate)  # the text really is cut
+    assert a.structure != b.structure
+    y0 = [0.0] * 39 + [1.0]
+    xa = simulate(a, 1.0, y0).sample([1.0])
+    xb = simulate(b, 1.0, y0).sample([1.0])
+    # x0' = sum of the constant states x1..x38 (all 0) + last * x39 (= 1): x0(1) = last
+    assert abs(float(xa[0][0]) - 1.0) < 1e-12 and abs(float(xb[0][0]) - 2.0) < 1e-12

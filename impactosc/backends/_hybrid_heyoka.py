@@ -151,10 +151,10 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
 
     # One slot per distinct (expression, direction): the guards that share it in different
     # modes, and the extremum checks whose Lie derivative it is.
-    slots: dict[tuple[str, int], tuple] = {}
+    slots: dict[tuple[object, int], tuple] = {}
 
     def slot(expr, d):
-        key = (str(expr), d)
+        key = (expr, d)  # the expression, not its text (heyoka cuts str() after ~1000 characters)
         if key not in slots:
             slots[key] = (expr, d, set(), _Callback(holder))
         return slots[key]
@@ -210,7 +210,7 @@ def _words(text: str) -> set[str]:
     return set(text.replace("(", " ").replace(")", " ").replace(",", " ").split())
 
 
-_cache: dict[tuple[str, float, float], CompiledSystem] = {}
+_cache: dict[tuple[tuple, float, float], CompiledSystem] = {}
 _cache_lock = threading.Lock()
 
 

@@ -113,7 +113,7 @@ class _Tangent:
         return np.array(ta.state[self.n_all:]).reshape(self.n_all, self.width)
 
 
-_tangents: dict[tuple[str, float], _Tangent] = {}
+_tangents: dict[tuple[tuple, float], _Tangent] = {}
 
 
 def _tangent(system: HybridSystem, tol: float) -> _Tangent:

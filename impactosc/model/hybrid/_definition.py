@@ -289,7 +289,7 @@ class HybridSystem:
     period: Any = None
     section: str | None = None
     name: str = "system"
-    structure: str = field(init=False, repr=False)
+    structure: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
         object.__setattr__(self, "states", _names("states", self.states))
@@ -394,13 +394,15 @@ def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:
     return replace(mode, field=tuple(rates), integrands=mode.integrands)
 
 
-def _structure(system: HybridSystem) -> str:
-    """Everything a backend compiles, as text: the key of its cache (parameter values left out)."""
-    parts = [f"states={system.states}", f"integrals={system.integrals}", f"params={system.parameter_names}",
-             f"period={system.period}", f"section={system.section}"]
-    for m in system.modes:
-        parts.append(f"mode {m.name}: {[str(f) for f in m.field]} entry {[str(c) for c in m.entry]}")
-    for g in system.guards:
-        parts.append(f"guard {g.name}: {g.expression} dir {g.direction} armed {g.armed} to {g.to} "
-                     f"reset {[(k, str(e)) for k, e in g.reset]} terminal {g.terminal}")
-    return "\n".join(parts)
+def _structure(system: HybridSystem) -> tuple:
+    """Everything a backend compiles: the key of its cache (parameter values left out).
+
+    The expressions are kept as expressions (hashable, compared by structure), never as their
+    printed text: heyoka cuts ``str(expr)`` after about 1000 characters with "...", so two
+    different long vector fields could print alike and share a compiled integrator.
+    """
+    modes = tuple((m.name, tuple(m.field), tuple(m.entry), tuple(m.integrands)) for m in system.modes)
+    guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal)
+                   for g in system.guards)
+    return (tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
+            system.section, modes, guards)

@@ -16,7 +16,7 @@ cannot reproduce uses the compiled function.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -123,7 +123,7 @@ class Numeric:
         return hy.subs(expr, self._subs)
 
 
-_by_structure: dict[str, Numeric] = {}
+_by_structure: dict[tuple, Numeric] = {}
 
 
 def numeric(system: HybridSystem) -> Numeric:
@@ -260,9 +260,11 @@ def gated_sum(exprs_by_mode, indicators):
     """
     import heyoka as hy
 
-    groups: dict[str, tuple] = {}
+    # Keyed by the expression itself (hashable, compared by structure), never by its printed
+    # text, which heyoka cuts after about 1000 characters.
+    groups: dict[Any, tuple] = {}
     for m, e in enumerate(exprs_by_mode):
-        key = str(e)
+        key = e
         if e == hy.expression(0.0):
             continue
         expr, modes = groups.get(key, (e, []))
