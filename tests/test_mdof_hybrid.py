@@ -373,3 +373,23 @@ def test_impacting_periodic_orbit_of_a_chain_returns_under_the_exact_backend():
     assert np.allclose(np.r_[back.q, back.v], orbit.z, rtol=0.0, atol=1e-9)
     liouville = 0.8 ** (2 * len(impacts)) * math.exp(-np.trace(ms.minv @ ms.C) * period)
     assert np.linalg.det(orbit.monodromy) == pytest.approx(liouville, rel=1e-8)
+
+
+def test_simulate_runs_a_mechanical_system_on_every_event_locating_backend():
+    # one entry point: the exact n-DOF backend by default ("auto" too), heyoka and scipy through the
+    # system's form as a user system; the same impacts at the same times
+    import numpy as np
+
+    import impactosc as io
+
+    system = io.MechanicalSystem(M=np.eye(2), K=[[2.0, -1.0], [-1.0, 1.0]], harmonics=[([1.0, 0.0], 0.9, 0.0)],
+                                 contacts=[io.Contact([0.0, 1.0], 1.0, law="rigid", restitution=0.7)])
+    exact = io.simulate(system, 30.0, [0.0, 0.0], [0.0, 0.0], backend="exact")
+    assert exact.status == 0
+    t_exact = exact.events["t"][exact.events["kind"] == "impact"]
+    assert t_exact.size > 0
+    for backend, tol in (("heyoka", 1e-10), ("scipy", 1e-7)):
+        sol = io.simulate(system, 30.0, [0.0, 0.0], [0.0, 0.0], backend=backend)
+        assert sol.status == 0, sol.message
+        t = np.array([e.t for e in sol.events if e.guard == "impact 0" and e.kind == "crossing"])
+        assert t.shape == t_exact.shape and np.max(np.abs(t - t_exact)) < tol, (backend, t, t_exact)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .._util import validation as _v
 from ..engine._driver import check_run_arguments, check_sample_times
 from ..model._oscillator import Oscillator
@@ -45,6 +47,9 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
              max_events: int = DEFAULT_MAX_EVENTS, sample_at=None, **options) -> Solution:
     """Integrate the impact oscillator event by event from ``(x0, v0)`` at ``Lambda = 0``.
 
+    ``simulate(system, t_end, q0, v0, backend="exact")`` runs a :class:`~impactosc.MechanicalSystem`
+    (``"heyoka"`` and ``"scipy"`` through its form as a user system) and returns a
+    :class:`~impactosc.results.MechanicalSolution` (a :class:`~impactosc.results.HybridSolution`).
     ``simulate(system, t_end, state0, backend=..., **options)`` runs a user's
     :class:`~impactosc.HybridSystem` instead (see ``impactosc.backends._hybrid.simulate_system``
     for its options) and returns a :class:`~impactosc.results.HybridSolution`.
@@ -119,6 +124,9 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     >>> io.simulate(io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4), 400.0, backend="auto").backend
     'exact'
     """
+    if type(osc).__name__ == "MechanicalSystem":  # n degrees of freedom: x0, v0 are the vectors q0, q0'
+        return _simulate_mechanical(osc, t_end, x0, v0, backend=backend, record=record, max_events=max_events,
+                                    sample_at=sample_at, **options)
     if type(osc).__name__ == "HybridSystem":  # a user's system (checked by name: no heyoka import for the rest)
         from ._hybrid import simulate_system
 
@@ -138,6 +146,27 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
         if "unexpected keyword argument" in str(exc):
             raise TypeError(f"backend {backend!r} does not accept that option: {exc}") from None
         raise
+
+
+def _simulate_mechanical(system, t_end, q0, v0, *, backend, record, max_events, sample_at, **options):
+    """A :class:`~impactosc.MechanicalSystem` on the exact n-DOF backend (``"exact"``, ``"auto"``), or on
+    heyoka or scipy through its form as a user system (:func:`impactosc.model.hybrid.mechanical_system`)."""
+    _v.choice("backend", backend, ("exact", "auto", "heyoka", "scipy"))
+    if backend in ("exact", "auto"):
+        if record != "full" or sample_at is not None:
+            raise ValueError("the exact n-DOF backend keeps every event and samples afterwards "
+                             "(MechanicalSolution.sample): leave record and sample_at at their defaults")
+        from ._exact_mdof import simulate_mechanical
+
+        return simulate_mechanical(system, t_end, q0, v0, max_events=max_events, **options)
+    from ..model.hybrid import mechanical_system
+    from ._hybrid import simulate_system
+
+    n = system.n
+    q = np.broadcast_to(np.asarray(q0, dtype=float), (n,))
+    v = np.broadcast_to(np.asarray(v0, dtype=float), (n,))
+    return simulate_system(mechanical_system(system), t_end, np.concatenate([q, v]), backend=backend, record=record,
+                           max_events=max_events, sample_at=sample_at, **options)
 
 
 def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> None:
