@@ -30,6 +30,7 @@ from impactosc.results import contact_table, moving_rms_force
 
 # Quick by default (CI); IMPACTOSC_QUICK=0 runs the full study (minutes).
 QUICK = os.environ.get("IMPACTOSC_QUICK", "1") == "1"
+print("impactosc", impactosc.__version__, "| quick mode" if QUICK else "| full mode")
 
 # %% [markdown]
 # ## 1. Observables of one drive
@@ -114,7 +115,7 @@ print("best:", summary["best"]["model"], summary["best"]["observable"], summary[
 
 # %% tags=["gallery"]
 img = plt.imread(os.path.join(out, "figures", "fig4_study_best.png"))
-fig, ax = plt.subplots(figsize=(14, 3.6))
+fig, ax = plt.subplots(figsize=(9, 2.4))
 ax.imshow(img)
 ax.axis("off")
 

@@ -17,7 +17,7 @@ analyses of user systems run it beside its exact closed-form backend:
   again when ``|F_j|`` rises to ``mu_s``.
 
 A mode is one choice per spring contact (open or engaged) and per friction coordinate
-(stuck, up, down): ``2^springs 3^frictions`` of them, refused above :data:`MAX_MODES`.
+(stuck, up, down): ``2^springs 3^frictions`` of them, refused above ``MAX_MODES``.
 """
 
 from __future__ import annotations
@@ -157,7 +157,7 @@ def mechanical_system(ms: MechanicalSystem, *, energy: bool = True) -> HybridSys
     ValueError
         Naming the contact or coordinates: a nonlinear spring, two friction coordinates
         coupled by ``M^-1`` (a stick test to solve jointly), or more modes than
-        :data:`MAX_MODES`; naming the mode or guard: an expression too long for heyoka to
+        ``MAX_MODES``; naming the mode or guard: an expression too long for heyoka to
         print in full (about 1000 characters: ``2 n`` terms of about 27 characters and about
         50 per harmonic, so ``n`` up to about 15), which the hybrid backends could take for
         another that starts alike.
