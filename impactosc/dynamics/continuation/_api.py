@@ -22,7 +22,7 @@ from .._common import (
 )
 from ..shooting import PeriodicOrbit
 from ..tangent import check_backend, check_start
-from ._arclength import Corrected, Settings, correct, scaled, unscaled
+from ._arclength import Corrected, Settings, correct, illinois, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
 from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
 from ._follow import Found, Node, follow, make_node
@@ -482,15 +482,7 @@ def _locate_in_parameter(problem: MapProblem, a: Node, b: Node, test: str, setti
             # bracket reached so far is the accuracy
             return (best, abs(hi - lo) * scale) if best is not None else None
         best = Node(c.u, a.t, c, info, a.arclength)
-        if value * fhi < 0.0:
-            lo, flo = hi, fhi
-            hi, fhi = s, value
-            side = 0
-        else:
-            hi, fhi = s, value
-            if side == -1:
-                flo *= 0.5
-            side = -1
+        lo, flo, hi, fhi, side = illinois(lo, flo, hi, fhi, s, value, side)
         width = abs(hi - lo) * scale
         if value == 0.0 or width <= settings.locate_tol * max(1.0, abs(s * scale)):
             return best, width

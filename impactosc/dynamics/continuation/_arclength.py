@@ -21,7 +21,7 @@ import numpy as np
 from ._problem import MapEvaluation, MapProblem
 from ._sensitivity import flange_gap
 
-__all__ = ["Settings", "Corrected", "correct", "tangent", "scaled", "unscaled"]
+__all__ = ["Settings", "Corrected", "correct", "tangent", "scaled", "unscaled", "illinois"]
 
 #: Largest Newton correction (scaled units) and largest distance of the corrected point from the
 #: prediction, as multiples of the step length: beyond them the corrector is leaving the branch.
@@ -145,3 +145,17 @@ def correct(problem: MapProblem, u_pred: np.ndarray, constraint: np.ndarray, set
         if float(np.linalg.norm(u - u_pred)) > max_distance:
             return f"the corrector moved {np.linalg.norm(u - u_pred):.3g} from the prediction: leaving the branch"
     return why
+
+
+def illinois(lo: float, flo: float, hi: float, fhi: float, s: float, fs: float, side: int):
+    """One bracket update of the Illinois variant of regula falsi.
+
+    The new point ``(s, fs)`` replaces the end whose sign it shares. When the same end
+    (``lo``) is kept twice in a row its value is halved, so the bracket shrinks from both
+    sides instead of creeping from one. Returns ``lo, flo, hi, fhi, side``.
+    """
+    if fs * fhi < 0.0:
+        return hi, fhi, s, fs, 0
+    if side == -1:
+        flo *= 0.5
+    return lo, flo, s, fs, -1

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from ._arclength import Corrected, Settings, correct, unscaled
+from ._arclength import Corrected, Settings, correct, illinois, unscaled
 from ._grazing import approaching
 from ._nodes import Found, Node, make_node
 from ._nonsmooth import across_section, regular_grazing, try_crossing
@@ -306,15 +306,7 @@ def _illinois(problem, a: Node, t, h: float, name: str, kind: str, va: float, vb
         best = node
         if not math.isfinite(f):
             break
-        if f * fhi < 0.0:
-            lo, flo = hi, fhi
-            hi, fhi = s, f
-            side = 0
-        else:
-            hi, fhi = s, f
-            if side == -1:
-                flo *= 0.5
-            side = -1
+        lo, flo, hi, fhi, side = illinois(lo, flo, hi, fhi, s, f, side)
         value = abs(c.u[2] * problem.scales[0])
         width = abs(hi - lo) * abs(t[2]) * problem.scales[0]
         if f == 0.0 or abs(hi - lo) <= settings.locate_tol or width <= settings.locate_tol * max(1.0, value):
