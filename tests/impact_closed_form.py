@@ -81,6 +81,16 @@ def period_doubling(W: float, zeta: float, e: float, c: float, lo: float, hi: fl
     return _bisect(g, lo, hi)
 
 
+def period_doubling_near(W: float, zeta: float, e: float, c: float, near: float, width: float = 2e-3):
+    """The period doubling of either single-impact orbit within ``width`` of ``F = near``, or None."""
+    for which in (0, 1):
+        try:
+            return period_doubling(W, zeta, e, c, near - width, near + width, which=which)
+        except (ValueError, IndexError):
+            continue
+    return None
+
+
 def grazing(W: float, zeta: float, e: float, c: float, lo: float, hi: float, which: int = 1) -> float:
     """``F`` in ``(lo, hi)`` where orbit ``which`` hits the stop at zero speed (bisection on its ``v``)."""
 

@@ -138,15 +138,6 @@ def test_the_fold_curve_ends_labelled_at_the_resonant_grazing(W):
         assert p.parameters["Omega"] > w_d
 
 
-def _pd_reference(W, near):
-    for which in (0, 1):
-        try:
-            return cf.period_doubling(W, ZETA, E, 0.0, near - 2e-3, near + 2e-3, which=which)
-        except (ValueError, IndexError):
-            continue
-    return None
-
-
 @pytest.mark.slow
 def test_the_period_doubling_curve_runs_between_two_resonant_grazings():
     # The period doubling of the single-impact orbits, v det(S M + I) = 0, reaches zero impact speed where the
@@ -163,7 +154,7 @@ def test_the_period_doubling_curve_runs_between_two_resonant_grazings():
     assert abs(ends[0] - 2.0 * w_d / 3.0) < 1e-8 and abs(ends[1] - w_d) < 1e-8
     checked = 0
     for p in curve.points:
-        ref = _pd_reference(p.parameters["Omega"], p.parameters["F"])
+        ref = cf.period_doubling_near(p.parameters["Omega"], ZETA, E, 0.0, p.parameters["F"])
         if ref is not None:  # the closed form's bracket holds one period doubling (not next to the ends)
             assert abs(p.parameters["F"] - ref) < 1e-9
             checked += 1

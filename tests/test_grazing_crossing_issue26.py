@@ -69,17 +69,9 @@ def test_the_crossed_branch_finds_the_closed_form_period_doubling():
     br = _branch(0.05, W, limits=(0.02, 0.6))
     pd = br.find("period_doubling")
     assert pd, br.summary()
-    assert abs(pd[0].parameter - _pd_reference(W, pd[0].parameter)) < 1e-9
-
-
-def _pd_reference(W, near):
-    """The closed-form period doubling next to ``near`` (either of the two single-impact orbits)."""
-    for which in (0, 1):
-        try:
-            return cf.period_doubling(W, ZETA, E, 0.0, near - 2e-3, near + 2e-3, which=which)
-        except (ValueError, IndexError):
-            continue
-    raise AssertionError(f"no closed-form period doubling near F = {near}")
+    ref = cf.period_doubling_near(W, ZETA, E, 0.0, pd[0].parameter)
+    assert ref is not None, f"no closed-form period doubling near F = {pd[0].parameter}"
+    assert abs(pd[0].parameter - ref) < 1e-9
 
 
 @pytest.mark.parametrize("W, case", [(0.8, "persistent"), (1.0, "nonsmooth_fold")])
