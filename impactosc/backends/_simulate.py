@@ -8,7 +8,9 @@ import numpy as np
 
 from .._util import validation as _v
 from ..engine._driver import check_run_arguments, check_sample_times
+from ..model._mechanical import MechanicalSystem
 from ..model._oscillator import Oscillator
+from ..model.hybrid import HybridSystem
 from ..results._solution import RECORD_OPTIONS, Solution
 from ._registry import MAX_HEYOKA_TERMS, MAX_ZETA_OF, get_backend, resolve_backend
 
@@ -124,10 +126,10 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     >>> io.simulate(io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4), 400.0, backend="auto").backend
     'exact'
     """
-    if type(osc).__name__ == "MechanicalSystem":  # n degrees of freedom: x0, v0 are the vectors q0, q0'
+    if isinstance(osc, MechanicalSystem):  # n degrees of freedom: x0, v0 are the vectors q0, q0'
         return _simulate_mechanical(osc, t_end, x0, v0, backend=backend, record=record, max_events=max_events,
                                     sample_at=sample_at, **options)
-    if type(osc).__name__ == "HybridSystem":  # a user's system (checked by name: no heyoka import for the rest)
+    if isinstance(osc, HybridSystem):  # a user's system
         from ._hybrid import simulate_system
 
         return simulate_system(osc, t_end, x0, v0, backend=backend, record=record, max_events=max_events,
