@@ -79,8 +79,9 @@ print(f"both branches in {time.perf_counter() - t0:.2f} s")
 # %% [markdown]
 # The period-1 branch is stable down to the period doubling `PD1`, where a multiplier passes
 # through -1 (its value there is printed below), and unstable below it until its impact speed
-# falls to zero: the branch ends at a grazing (`GR`), where the map is not differentiable (its
-# square-root singularity, see the theory page) and no single-impact orbit exists beyond. The
+# falls to zero at a grazing (`GR`), where the map is not differentiable (its square-root
+# singularity, see the theory page) and no single-impact orbit exists beyond: the branch
+# crosses there onto the contact-free orbits and goes on to the limit (a persistent grazing). The
 # period-2 branch that bifurcates at `PD1` is followed from there by branch switching. The
 # closed forms of the single-impact orbits (Shaw and Holmes 1983, with damping) put the period
 # doubling at `F = 0.5182098665978725` and the grazing at `F = 0.3687817782917154`.
