@@ -200,11 +200,39 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     """Cross the grazing of the flange on ``side`` from ``node``: a :class:`Crossing`, or a string saying why not.
 
     ``bounds`` are the ``(lo, hi)`` limits of the parameter: a grazing beyond them is not crossed.
+    Three steps: the grazing located on the virtual family (:func:`_grazing_near`), the first
+    point of the family beyond it (:func:`_far_side`), and the label saying which case it is
+    (:func:`_crossing_message`).
     """
     if len(problem.names) != 1:
         return "crossing a grazing is done on branches in one parameter"
     virtual = problem.virtual(stripped_sides(node.info, side))
     from_contact = margin(node.info, side) < 0.0
+    found = _grazing_near(problem, virtual, node, side, h, settings, bounds)
+    if isinstance(found, str):
+        return found
+    u_g, ev_g, error, t_free = found
+    far = _far_side(problem, ev_g, u_g, t_free, side, h, settings, from_contact)
+    if isinstance(far, str):
+        return far
+    far, went = far
+    came = np.sign(u_g[2] - node.u[2])
+    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
+    info = point_info(virtual, ev_g)
+    if problem.rigid:
+        info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
+                                   singular="the map is not differentiable at a grazing of a rigid flange (a "
+                                            "square-root term, Nordmark 1991)")
+    message = _crossing_message(side, problem.rigid, from_contact, case, _grazes_other(virtual, ev_g, side))
+    return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
+
+
+def _grazing_near(problem: MapProblem, virtual: MapProblem, node, side: int, h: float, settings: Settings, bounds):
+    """``(u_g, ev_g, error, t_free)``: the grazing the branch reaches, located on the virtual family, or why not.
+
+    ``t_free`` is the virtual family's tangent at the grazing, oriented towards the contact-free
+    side (``gap - max X`` growing along it).
+    """
     found = locate(virtual, side, node.u, settings.tol)
     if isinstance(found, str):
         return f"the grazing could not be located on the contact-free orbits: {found}"
@@ -221,34 +249,31 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     slope = float(row[0] @ t_v)
     if abs(slope) < 1e-12:
         return "the contact-free family is tangent to the flange's grazing condition here (a degenerate grazing)"
-    t_free = t_v if slope > 0 else -t_v
-    p_g = u_g[2]
-    came = np.sign(p_g - node.u[2])
-    rigid = problem.rigid
+    return u_g, ev_g, error, (t_v if slope > 0 else -t_v)
+
+
+def _far_side(problem: MapProblem, ev_g, u_g, t_free, side: int, h: float, settings: Settings, from_contact: bool):
+    """``(first point beyond the grazing, direction of the parameter there)``, or why there is none.
+
+    From contact: back along the contact-free family. Into a rigid flange: the impact
+    formulation. Into a spring flange: the same (a stiff spring's contacting orbits are close
+    to those of an elastic impact, e = 1, regular in the impact formulation), else for a
+    softer one the virtual family's tangent into the flange.
+    """
     if from_contact:
         far = _beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
-        went = np.sign(t_free[2])
-    elif rigid:
-        far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
-        went = np.sign(far[1]) if not isinstance(far, str) else 0.0
-        far = far[0] if not isinstance(far, str) else far
-    else:
-        # a stiff spring flange: near its grazing the contacting orbits are close to those of an elastic
-        # impact (e = 1), whose family is regular in the impact formulation; smaller stiffness, the tangent
-        far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
-        if isinstance(far, str):
-            far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
-            went = -np.sign(t_free[2])
-        else:
-            far, went = far[0], np.sign(far[1])
-    if isinstance(far, str):
+        return far if isinstance(far, str) else (far, np.sign(t_free[2]))
+    far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
+    if not isinstance(far, str):
+        return far[0], np.sign(far[1])
+    if problem.rigid:
         return far
-    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
-    info = point_info(virtual, ev_g)
-    if rigid:
-        info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
-                                   singular="the map is not differentiable at a grazing of a rigid flange (a "
-                                            "square-root term, Nordmark 1991)")
+    far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
+    return far if isinstance(far, str) else (far, -np.sign(t_free[2]))
+
+
+def _crossing_message(side: int, rigid: bool, from_contact: bool, case: str, grazes_other: bool) -> str:
+    """What a crossed grazing's label says: the flange, its law, the direction and the case."""
     flange = "upper" if side > 0 else "lower"
     law = "rigid" if rigid else "spring"
     into = "into contact with" if not from_contact else "off"
@@ -257,10 +282,10 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
                  "and end together (a nonsmooth fold, the discontinuous grazing case)")
     message = (f"the orbit grazes the {flange} flange ({law}): located as a regular point of the contact-free "
                f"orbits (gap - max X = 0); the branch crosses {into} the flange, and {what}")
-    if _grazes_other(virtual, ev_g, side):
+    if grazes_other:
         message += ("; the orbit touches the other flange at the same point (a symmetric orbit grazing both at once, "
                     "where the families that contact either flange or both meet): the branch follows one of them")
-    return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
+    return message
 
 
 #: The other flange's margin below which a grazing orbit touches both flanges at once.
