@@ -22,6 +22,7 @@ import numpy as np
 from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
+from ._codim2 import cusps
 from ._grazing import grazing_test, stripped_sides
 from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
@@ -93,7 +94,8 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
     nodes = list(reversed(back[0])) + [start] + fwd[0]
     ends = [tuple(back[2:]), tuple(fwd[2:])]
-    return assemble(curve, nodes, [], ends, len(back[0]))
+    found = cusps(curve, nodes, extra, settings) if point.kind == "fold" and "cusp" in settings.locate else []
+    return assemble(curve, nodes, found, ends, len(back[0]))
 
 
 #: The test functions a boundary solves (a margin of :mod:`._points` or a smooth test).

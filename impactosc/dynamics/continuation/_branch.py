@@ -19,9 +19,9 @@ __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 #: another change of the event signature; RG resonant grazing, where a fold or period-doubling curve of impacting
 #: orbits meets the grazing and ends).
 SPECIAL_KINDS = ("fold", "branch_point", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border",
-                 "resonant_grazing")
+                 "resonant_grazing", "cusp")
 LABELS = {"fold": "LP", "branch_point": "BP", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "GR",
-          "stick_onset": "ST", "border": "SC", "resonant_grazing": "RG"}
+          "stick_onset": "ST", "border": "SC", "resonant_grazing": "RG", "cusp": "CP"}
 
 
 @dataclass(frozen=True, eq=False)
