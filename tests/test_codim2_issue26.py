@@ -4,9 +4,19 @@
   has, between W = 1.04 and 1.13, a region where three period-1 orbits coexist, bounded by two fold curves that
   meet at a cusp at either end. The orbit's amplitude as a function of its contact time is a closed form
   (``impact_closed_form.spring_amplitude``), folds are its extrema and cusps its degenerate extrema.
+* fold-grazing and period-doubling-grazing on the rigid stop ``X'' + 0.1 X' + X = F cos(W t)``, wall at ``X = 1``,
+  ``e = 0.8``: in the impact formulation (unknowns the impact's phase and speed) the fold test
+  ``det dR/d(psi, v)`` and the period-doubling test ``v det(S M + I)`` of the single-impact orbits both reduce, at
+  zero impact speed, to ``(1 + e) a M12`` up to a nonzero factor (``a = -W^2`` the acceleration at the grazing,
+  ``M12 = exp(-zeta T) sin(w_d T) / w_d`` over the period ``T = 2 pi / W``): the fold and the period-doubling
+  curves meet the grazing curve ``F = |1 - W^2 + 2 i zeta W|`` where ``w_d T = k pi``, ``W = 2 w_d / k``. The
+  closed form of the fold (``impact_closed_form.fold``, ``F_fold = F_gr |P| / sqrt(P^2 + W^2 Q^2)`` with
+  ``Q = (1 + e) M12``) touches the grazing curve exactly there.
 """
 
 from __future__ import annotations
+
+import math
 
 import impact_closed_form as cf
 import pytest
@@ -58,3 +68,56 @@ def test_the_fold_curve_passes_both_cusps_labelled_and_goes_on(spring_fold_curve
         folds = cf.spring_folds(W, ZETA, K, 0.3, 2.0)
         assert min(abs(F - f) for f in folds) < 1e-9, (W, F, folds)
 
+
+
+RIGID = dict(zeta=ZETA, flange="rigid", restitution=0.8, gap_lower=None)
+W_D = math.sqrt(1.0 - ZETA * ZETA)
+
+
+@pytest.fixture(scope="module")
+def rigid_grazing_curve():
+    orb = dy.periodic_orbit(io.Oscillator(0.05, 1.0, 0.0, None, **RIGID), backend="exact", transient_periods=300)
+    graze = dy.continuation(orb, "F", (0.02, 1.0)).find("grazing")[0]
+    return dy.continuation(graze, ("F", "Omega"), {"Omega": (0.5, 1.5)}, max_points=400)
+
+
+@pytest.mark.parametrize("kind, label", [("fold_grazing", "FG"), ("period_doubling_grazing", "PDG")])
+def test_fold_and_period_doubling_curves_meet_the_rigid_grazing_curve_at_the_closed_form(rigid_grazing_curve, kind,
+                                                                                         label):
+    curve = rigid_grazing_curve
+    assert curve.status == 0, curve.message
+    points = sorted(curve.find(kind), key=lambda s: s.parameters["Omega"])
+    # W = 2 w_d / k in (0.5, 1.5): k = 2 and 3 (k = 4 gives 0.4994)
+    expected = [2.0 * W_D / 3.0, W_D]
+    assert len(points) == 2, curve.summary()
+    for s, W in zip(points, expected, strict=True):
+        assert abs(s.parameters["Omega"] - W) < 1e-8
+        assert abs(s.parameters["F"] - cf.grazing_amplitude(W, ZETA)) < 1e-8
+        assert s.label.startswith(label) and s.accuracy < 1e-8
+    assert sum(row["type"] == label for row in curve.table()) == 2
+    # the grazing curve goes on past them
+    assert all(0 < s.index < len(curve) - 1 for s in points)
+
+
+def test_the_closed_form_fold_touches_the_grazing_curve_where_its_impact_speed_vanishes():
+    # the independent side of the test above: impact_closed_form's fold reaches the grazing amplitude at W = 2 w_d / k,
+    # and its orbit's impact speed changes sign there (the fold curve of admissible orbits ends on the grazing curve)
+    for k in (2, 3):
+        W = 2.0 * W_D / k
+        assert abs(cf.fold(W, ZETA, 0.8, 0.0) - cf.grazing_amplitude(W, ZETA)) < 1e-12
+        speeds = [cf.orbits(cf.fold(W + dW, ZETA, 0.8, 0.0) * (1 + 1e-13), W + dW, ZETA, 0.8, 0.0)[0]["v"]
+                  for dW in (-1e-3, 1e-3)]
+        assert speeds[0] * speeds[1] < 0.0
+
+
+@pytest.mark.parametrize("W, case", [(0.6, "nonsmooth_fold"), (0.7, "persistent"), (0.99, "persistent"),
+                                     (1.01, "nonsmooth_fold")])
+def test_the_grazing_case_changes_across_each_fold_grazing_point(W, case):
+    # the fold test at zero impact speed is d F / d v along the impacting family: its sign decides whether that family
+    # lies beyond the grazing (persistent) or on the contact-free side (nonsmooth fold), and it changes at the fold-
+    # grazing points 2 w_d / 3 = 0.666 and w_d = 0.9987
+    F_gr = cf.grazing_amplitude(W, ZETA)
+    orb = dy.periodic_orbit(io.Oscillator(0.5 * F_gr, W, 0.0, None, **RIGID), backend="exact", transient_periods=300)
+    br = dy.continuation(orb, "F", (0.02, 1.5 * F_gr), tol=1e-12)
+    graze = br.find("grazing")
+    assert len(graze) == 1 and graze[0].context[2]["case"] == case, br.summary()

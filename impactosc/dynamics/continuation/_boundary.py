@@ -22,7 +22,7 @@ import numpy as np
 from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
-from ._codim2 import cusps
+from ._codim2 import cusps, grazing_points
 from ._grazing import grazing_test, stripped_sides
 from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
@@ -95,6 +95,8 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     nodes = list(reversed(back[0])) + [start] + fwd[0]
     ends = [tuple(back[2:]), tuple(fwd[2:])]
     found = cusps(curve, nodes, extra, settings) if point.kind == "fold" and "cusp" in settings.locate else []
+    if test in ("upper_margin", "lower_margin"):
+        found += grazing_points(curve, nodes, extra, settings, 1 if test == "upper_margin" else -1)
     return assemble(curve, nodes, found, ends, len(back[0]))
 
 

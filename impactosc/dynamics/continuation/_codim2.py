@@ -20,12 +20,15 @@ the curve corrected on its own defining equations.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ._arclength import Corrected, Settings, correct, illinois, jacobian_rows, tangent
+from ._arclength import Corrected, Settings, correct, illinois, jacobian_rows, tangent, unscaled
+from ._impact_curves import zero_speed_tests
 from ._nodes import Found, Node, make_node
 
-__all__ = ["cusps"]
+__all__ = ["cusps", "grazing_points"]
 
 #: Illinois iterations at most for one located point.
 _LOCATE_STEPS = 60
@@ -63,6 +66,30 @@ def cusps(curve, nodes: list, extra, settings: Settings) -> list:
 
 def _locate_cusp(curve, a: Node, ta, h: float, extra, settings: Settings, fa: float, fb: float):
     """``(node, accuracy, tangent)`` where the first parameter's tangent component vanishes between ``a`` and ``b``."""
+    found = _locate_zero(curve, a, ta, h, extra, settings, lambda result, t: float(t[2]), fa, fb)
+    if found is None:
+        return None
+    result, t, width = found
+    node = make_node(curve, result, ta, a.arclength + float(np.linalg.norm(result.u - a.u)), extra)
+    # the parameters are quadratic in the arclength at a cusp: a bracket of width d places them to O(d^2)
+    accuracy = (width**2 + float(t[3]) ** 2) * max(curve.scales)
+    return node, accuracy, t
+
+
+def _cusp_message(curve, t) -> str:
+    p1, p2 = curve.names
+    return (f"cusp: the fold's quadratic normal-form coefficient vanishes; {p1} and {p2} turn back together along "
+            f"the fold curve (its tangent's parameter components {t[2]:.2g}, {t[3]:.2g}: it runs along the critical "
+            "eigenvector), where two fold curves meet and the region of three coexisting orbits between them ends; "
+            "the curve goes on along the other fold curve")
+
+
+def _locate_zero(curve, a: Node, ta, h: float, extra, settings: Settings, value, fa: float, fb: float):
+    """``(corrected, tangent, bracket width)`` where ``value(corrected, tangent)`` vanishes on ``a + [0, h] ta``.
+
+    Illinois regula falsi on the arclength from ``a``; each evaluation a point corrected on
+    the curve's own equations (``extra``). None where the corrector or the test fails.
+    """
     lo, hi, flo, fhi, side = 0.0, h, float(fa), float(fb), 0
     best = None
     for _ in range(_LOCATE_STEPS):
@@ -73,23 +100,70 @@ def _locate_cusp(curve, a: Node, ta, h: float, extra, settings: Settings, fa: fl
         if not isinstance(result, Corrected):
             return None
         t = _tangent_at(curve, result, extra, ta)
+        fs = value(result, t)
+        if isinstance(fs, str) or not math.isfinite(fs):
+            return None
         best = (result, t)
-        value = float(t[2])
-        lo, flo, hi, fhi, side = illinois(lo, flo, hi, fhi, s, value, side)
-        if value == 0.0 or abs(hi - lo) <= settings.locate_tol:
+        lo, flo, hi, fhi, side = illinois(lo, flo, hi, fhi, s, fs, side)
+        if fs == 0.0 or abs(hi - lo) <= settings.locate_tol:
             break
-    if best is None:
-        return None
-    result, t = best
-    node = make_node(curve, result, ta, a.arclength + float(np.linalg.norm(result.u - a.u)), extra)
-    # the parameters are quadratic in the arclength at a cusp: a bracket of width d places them to O(d^2)
-    accuracy = abs(hi - lo) ** 2 * max(curve.scales) + abs(float(t[3])) ** 2 * max(curve.scales)
-    return node, accuracy, t
+    return None if best is None else (*best, abs(hi - lo))
 
 
-def _cusp_message(curve, t) -> str:
-    p1, p2 = curve.names
-    return (f"cusp: the fold's quadratic normal-form coefficient vanishes; {p1} and {p2} turn back together along "
-            f"the fold curve (its tangent's parameter components {t[2]:.2g}, {t[3]:.2g}: it runs along the critical "
-            "eigenvector), where two fold curves meet and the region of three coexisting orbits between them ends; "
-            "the curve goes on along the other fold curve")
+# -- fold-grazing and period-doubling-grazing on a rigid flange's grazing curve ------------------------------------
+def _zero_speed(curve, side: int, ev, u):
+    """The impacting family's fold and PD tests at the grazing orbit ``(ev, u)`` of the virtual curve."""
+    rec = ev.recorder
+    params = unscaled(curve, u)[1]
+    psi = curve.section_phase + curve.section(params).Omega * (rec.top_t if side > 0 else rec.bottom_t)
+    return zero_speed_tests(curve.virtual(side), side, np.concatenate([[psi, 0.0], u[2:]]))
+
+
+_GRAZING_KINDS = (("fold_grazing", 0, "fold"), ("period_doubling_grazing", 1, "period doubling"))
+
+
+def grazing_points(curve, nodes: list, extra, settings: Settings, side: int) -> list:
+    """The fold-grazing and period-doubling-grazing points of a rigid flange's grazing curve, as :class:`Found`."""
+    kinds = [k for k in _GRAZING_KINDS if k[0] in settings.locate]
+    if not curve.rigid or not kinds or len(nodes) < 2:
+        return []
+    values = [_zero_speed(curve, side, n.corrected.ev, n.u) for n in nodes]
+    out = []
+    for i in range(len(nodes) - 1):
+        va, vb = values[i], values[i + 1]
+        if isinstance(va, str) or isinstance(vb, str):
+            continue
+        a, b = nodes[i], nodes[i + 1]
+        chord = b.u - a.u
+        h = float(np.linalg.norm(chord))
+        for kind, j, name in kinds:
+            if not va[j] * vb[j] < 0.0 or h == 0.0:
+                continue
+
+            def value(result, t, j=j):
+                tests = _zero_speed(curve, side, result.ev, result.u)
+                return tests if isinstance(tests, str) else tests[j]
+
+            ta = _oriented(a, chord)
+            found = _locate_zero(curve, a, ta, h, extra, settings, value, va[j], vb[j])
+            if found is None:
+                continue
+            result, t, width = found
+            node = make_node(curve, result, ta, a.arclength + float(np.linalg.norm(result.u - a.u)), extra)
+            accuracy = width * max(curve.scales)
+            out.append(Found(kind, node, a.info.signature, b.info.signature, accuracy,
+                             _grazing_message(name, side), i, {"test": kind, "side": side}))
+    return out
+
+
+def _grazing_message(name: str, side: int) -> str:
+    flange = "upper" if side > 0 else "lower"
+    what = ("the fold test of the impacting family, det d(return to the wall)/d(phase, speed), vanishes at zero "
+            "impact speed: the family's parameter turns there, so the grazing's case changes across this point "
+            "(a persistent crossing on one side, a nonsmooth fold on the other)" if name == "fold"
+            else "the period-doubling test v det(S M + I) of the impacting family vanishes at zero impact speed")
+    return (f"{name}-grazing: a {name} curve of the single-impact orbits meets the grazing curve of the {flange} "
+            f"flange here; {what}. On a rigid flange both tests reduce to (1 + e) a M12 at zero speed (a the "
+            "acceleration at the grazing, M12 of the flight's monodromy): this is where the square-root term of the "
+            f"grazing map vanishes, the resonant grazing at which the {name} curve ends (RG on it); the grazing curve "
+            "goes on")
