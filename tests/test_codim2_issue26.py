@@ -121,3 +121,40 @@ def test_the_grazing_case_changes_across_each_fold_grazing_point(W, case):
     br = dy.continuation(orb, "F", (0.02, 1.5 * F_gr), tol=1e-12)
     graze = br.find("grazing")
     assert len(graze) == 1 and graze[0].context[2]["case"] == case, br.summary()
+
+
+def test_a_grazing_curve_without_friction_has_no_grazing_stick(rigid_grazing_curve):
+    assert not rigid_grazing_curve.find("grazing_stick")
+
+
+BETA_GS = 0.49  # the grazing-stick point of Den Hartog's orbit lies at W = sqrt(beta) = 0.7
+
+
+def test_the_grazing_curve_of_den_hartog_orbits_passes_the_grazing_stick_point_labelled():
+    # Den Hartog's undamped Coulomb oscillator between spring flanges at X = +-1 (K = 24): his non-stop orbit has
+    # amplitude A(F, W) and turns at X = +-A, where f_net = A W^2 (den_hartog_multipliers). It grazes the flanges
+    # at A = 1 (F = den_hartog_onset) and starts to stick at its reversals at A W^2 = beta: on the grazing curve both
+    # hold at W = sqrt(beta). Above it the grazing orbit slides through its reversals, below it sticks at them.
+    W = 0.8
+    Fc = dy.den_hartog_onset(W, BETA_GS)
+    orb = dy.periodic_orbit(io.Oscillator(0.9 * Fc, W, BETA_GS, 24.0), backend="exact", transient_periods=300,
+                            phase=1.0)
+    br = dy.continuation(orb, "F", (0.5 * Fc, 1.1 * Fc), direction="forward")
+    graze = br.find("grazing")[0]
+    curve = dy.continuation(graze, ("F", "Omega"), {"Omega": (0.6, 0.8)}, max_points=300)
+    assert curve.status == 0, curve.message  # no stall at the grazing-stick point: the curve goes on past it
+    gs = curve.find("grazing_stick")
+    assert len(gs) == 1, curve.summary()
+    W_gs = math.sqrt(BETA_GS)
+    assert abs(gs[0].parameters["Omega"] - W_gs) < 1e-8
+    assert abs(gs[0].parameters["F"] - dy.den_hartog_onset(W_gs, BETA_GS)) < 1e-8
+    assert gs[0].label.startswith("GS") and any(row["type"] == "GS" for row in curve.table())
+    assert 0 < gs[0].index < len(curve) - 1
+    sliding = [p for p in curve.points if p.parameters["Omega"] > W_gs + 1e-6]
+    sticking = [p for p in curve.points if p.parameters["Omega"] < W_gs - 1e-6]
+    assert sliding and sticking
+    for p in sliding:  # the non-stop orbit grazing: Den Hartog's closed form
+        assert abs(p.parameters["F"] - dy.den_hartog_onset(p.parameters["Omega"], BETA_GS)) < 1e-9
+        assert not any(kind == "stick" for (kind, _), _n in p.signature)
+    for p in sticking:  # beyond, the grazing orbits stick at their reversals on the flange
+        assert any(kind == "stick" for (kind, _), _n in p.signature)

@@ -22,7 +22,7 @@ import numpy as np
 from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
-from ._codim2 import cusps, grazing_points
+from ._codim2 import cusps, grazing_points, grazing_stick_points
 from ._grazing import grazing_test, stripped_sides
 from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
@@ -96,7 +96,10 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     ends = [tuple(back[2:]), tuple(fwd[2:])]
     found = cusps(curve, nodes, extra, settings) if point.kind == "fold" and "cusp" in settings.locate else []
     if test in ("upper_margin", "lower_margin"):
-        found += grazing_points(curve, nodes, extra, settings, 1 if test == "upper_margin" else -1)
+        side = 1 if test == "upper_margin" else -1
+        found += grazing_points(curve, nodes, extra, settings, side)
+        stick = stick_test(curve)
+        found += grazing_stick_points(curve, nodes, extra, settings, side, lambda ev, u: stick(ev, u)[0][0])
     return assemble(curve, nodes, found, ends, len(back[0]))
 
 

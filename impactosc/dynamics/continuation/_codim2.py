@@ -28,7 +28,7 @@ from ._arclength import Corrected, Settings, correct, illinois, jacobian_rows, t
 from ._impact_curves import zero_speed_tests
 from ._nodes import Found, Node, make_node
 
-__all__ = ["cusps", "grazing_points"]
+__all__ = ["cusps", "grazing_points", "grazing_stick_points", "zeros_along"]
 
 #: Illinois iterations at most for one located point.
 _LOCATE_STEPS = 60
@@ -122,38 +122,74 @@ def _zero_speed(curve, side: int, ev, u):
 _GRAZING_KINDS = (("fold_grazing", 0, "fold"), ("period_doubling_grazing", 1, "period doubling"))
 
 
-def grazing_points(curve, nodes: list, extra, settings: Settings, side: int) -> list:
-    """The fold-grazing and period-doubling-grazing points of a rigid flange's grazing curve, as :class:`Found`."""
-    kinds = [k for k in _GRAZING_KINDS if k[0] in settings.locate]
-    if not curve.rigid or not kinds or len(nodes) < 2:
-        return []
-    values = [_zero_speed(curve, side, n.corrected.ev, n.u) for n in nodes]
+def zeros_along(curve, nodes: list, extra, settings: Settings, kind: str, value, message: str, extra_info: dict):
+    """Every zero of the test ``value(corrected, tangent) -> float`` between two points of a curve, as :class:`Found`.
+
+    The test is evaluated on the accepted points ``nodes`` (in arclength order); each sign
+    change is located by :func:`_locate_zero`. A test that cannot be evaluated (a string)
+    at either end of an interval skips it.
+    """
+    values = [value(n.corrected, n.t) for n in nodes]
     out = []
     for i in range(len(nodes) - 1):
         va, vb = values[i], values[i + 1]
-        if isinstance(va, str) or isinstance(vb, str):
+        if isinstance(va, str) or isinstance(vb, str) or not va * vb < 0.0:
             continue
         a, b = nodes[i], nodes[i + 1]
         chord = b.u - a.u
         h = float(np.linalg.norm(chord))
-        for kind, j, name in kinds:
-            if not va[j] * vb[j] < 0.0 or h == 0.0:
-                continue
-
-            def value(result, t, j=j):
-                tests = _zero_speed(curve, side, result.ev, result.u)
-                return tests if isinstance(tests, str) else tests[j]
-
-            ta = _oriented(a, chord)
-            found = _locate_zero(curve, a, ta, h, extra, settings, value, va[j], vb[j])
-            if found is None:
-                continue
-            result, t, width = found
-            node = make_node(curve, result, ta, a.arclength + float(np.linalg.norm(result.u - a.u)), extra)
-            accuracy = width * max(curve.scales)
-            out.append(Found(kind, node, a.info.signature, b.info.signature, accuracy,
-                             _grazing_message(name, side), i, {"test": kind, "side": side}))
+        ta = _oriented(a, chord)
+        found = _locate_zero(curve, a, ta, h, extra, settings, value, va, vb) if h > 0.0 else None
+        if found is None:
+            continue
+        result, t, width = found
+        node = make_node(curve, result, ta, a.arclength + float(np.linalg.norm(result.u - a.u)), extra)
+        out.append(Found(kind, node, a.info.signature, b.info.signature, width * max(curve.scales), message, i,
+                         dict(extra_info)))
     return out
+
+
+def grazing_points(curve, nodes: list, extra, settings: Settings, side: int) -> list:
+    """The fold-grazing and period-doubling-grazing points of a rigid flange's grazing curve, as :class:`Found`."""
+    if not curve.rigid or len(nodes) < 2:
+        return []
+    out = []
+    for kind, j, name in _GRAZING_KINDS:
+        if kind not in settings.locate:
+            continue
+
+        def value(result, t, j=j):
+            tests = _zero_speed(curve, side, result.ev, result.u)
+            return tests if isinstance(tests, str) else tests[j]
+
+        out += zeros_along(curve, nodes, extra, settings, kind, value, _grazing_message(name, side),
+                           {"test": kind, "side": side})
+    return out
+
+
+def grazing_stick_points(curve, nodes: list, extra, settings: Settings, side: int, stick_value) -> list:
+    """The grazing-stick points of a grazing curve of friction orbits, as :class:`Found`.
+
+    ``stick_value(ev, u) -> float`` is the stick test ``beta_s - |f_net|`` at the velocity
+    zero nearest to sticking (:func:`._boundary.stick_test`): negative while every reversal
+    slides on, positive once one sticks. Where it vanishes on the grazing curve, the orbit
+    grazes the flange and its reversal there is about to stick at once.
+    """
+    if "grazing_stick" not in settings.locate or len(nodes) < 2 or math.isnan(nodes[0].info.stick_margin):
+        return []  # no friction: no stick test
+
+    def value(result, t):
+        return float(stick_value(result.ev, result.u))
+
+    flange = "upper" if side > 0 else "lower"
+    message = (f"grazing-stick: the orbit grazes the {flange} flange and a reversal is on the point of sticking at "
+               "the same time (both the grazing test gap - max X and the stick test beta_s - |f_net| vanish): the "
+               "crossing-sliding curve (stick onset) meets the grazing curve here. On one side the grazing orbit "
+               "slides through its reversals, on the other it sticks; the flange exerts no force at the touch, so "
+               "the grazing condition stays regular and the grazing curve goes on, as the grazing of the "
+               "stick-slip orbits")
+    return zeros_along(curve, nodes, extra, settings, "grazing_stick", value, message,
+                       {"test": "grazing_stick", "side": side})
 
 
 def _grazing_message(name: str, side: int) -> str:
