@@ -233,3 +233,37 @@ def spring_folds(W: float, zeta: float, K: float, lo: float, hi: float, n: int =
                 tau = mp.findroot(slope, (taus[i], taus[i + 1]), solver="anderson")
                 out.append(float(spring_amplitude(tau, w, z, k)))
         return out
+
+
+# -- a period-1 orbit with two impacts a period on the rigid stop, at the grazing of one of them ---------------------
+def _flight(F: float, W: float, zeta: float, c: float, t_a: float, z_a, t_b: float) -> np.ndarray:
+    """``(X, V)`` at ``t_b`` of the contact-free motion from ``z_a`` at ``t_a``."""
+    A, delta = particular(F, W, zeta)
+
+    def xp(t):
+        return np.array([c + A * math.cos(W * t - delta), -A * W * math.sin(W * t - delta)])
+
+    return xp(t_b) + transition(zeta, t_b - t_a) @ (np.asarray(z_a, float) - xp(t_a))
+
+
+def two_impact_grazing(W: float, zeta: float, e: float, c: float, guess):
+    """``(F, t1, t2, v1)``: the two-impact orbit whose impact at ``t2`` has zero speed.
+
+    The orbit leaves the wall at ``t1`` at ``-e v1``, reaches it at ``t2`` with zero speed
+    (so leaves it unchanged) and hits it again at ``t1 + T`` at ``v1``: four equations in
+    ``(F, t1, t2, v1)``, solved by Newton (scipy's ``hybr``) from ``guess``.
+    """
+    from scipy.optimize import root
+
+    T = 2.0 * math.pi / W
+
+    def equations(y):
+        F, t1, t2, v1 = y
+        first = _flight(F, W, zeta, c, t1, (1.0, -e * v1), t2)
+        second = _flight(F, W, zeta, c, t2, (1.0, 0.0), t1 + T)
+        return [first[0] - 1.0, first[1], second[0] - 1.0, second[1] - v1]
+
+    sol = root(equations, np.asarray(guess, float), method="hybr", options={"xtol": 1e-14})
+    if np.max(np.abs(equations(sol.x))) > 1e-13:
+        raise ValueError(f"the two-impact grazing orbit was not found: {sol.message}")
+    return tuple(float(v) for v in sol.x)

@@ -43,6 +43,9 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     if point.kind not in BOUNDARY_KINDS:
         raise ValueError(f"a {point.kind!r} point has no boundary to follow; the kinds that do: "
                          f"{', '.join(BOUNDARY_KINDS)}")
+    if extra_info.get("one_of_several"):
+        raise ValueError(f"the grazing {point.label!r} is one impact of several on its flange; its boundary (the "
+                         "grazing condition over a window around that impact) is not followed in two parameters yet")
     if len(names) != 2 or names[0] == names[1]:
         raise ValueError(f"parameter must be two distinct names for a boundary, got {names!r}")
     here = problem.model(unscaled(problem, node.u)[1])

@@ -35,6 +35,7 @@ import numpy as np
 from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
+from ._multi_impact import grazing_of_one_impact, impacts_on
 from ._points import PointInfo, point_info
 from ._problem import BOTH, MapEvaluation, MapProblem
 
@@ -62,6 +63,8 @@ class Crossing:
     far: Corrected  #: the first point beyond, corrected on the branch's own problem
     case: str  #: "persistent" (the parameter goes on) or "nonsmooth_fold" (it turns back)
     message: str
+    #: One impact of several on that flange grazed (:mod:`._multi_impact`), not the orbit's only contact.
+    one_of_several: bool = False
 
 
 def margin(info: PointInfo, side: int) -> float:
@@ -85,12 +88,17 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
         m0, m1 = margin(previous.info, side), margin(node.info, side)
         if not (math.isfinite(m0) and math.isfinite(m1)) or abs(m1) >= NEAR or abs(m1) >= abs(m0) or m0 * m1 <= 0:
             continue
-        if m1 < 0.0 and contacts_on(node.info, side) != 1:
-            continue  # several contacts with that flange: not one about to vanish (taking the flange away is wrong)
+        if m1 < 0.0 and contacts_on(node.info, side) != 1 and not _only_impacts(problem, node.info, side):
+            continue  # several contacts with a spring flange: not one about to vanish (taking the flange away is wrong)
         rate = abs(m1 - m0) / max(ds, 1e-300)
         if failed or abs(m1) <= 1.5 * h * rate:
             return side
     return 0
+
+
+def _only_impacts(problem: MapProblem, info: PointInfo, side: int) -> bool:
+    """Every contact with the flange of ``side`` is an impact on a rigid wall (one of them may graze alone)."""
+    return problem.rigid and len(impacts_on(info, side)) == contacts_on(info, side)
 
 
 def stripped_sides(info: PointInfo, side: int) -> int:
@@ -208,6 +216,12 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
         return "crossing a grazing is done on branches in one parameter"
     virtual = problem.virtual(stripped_sides(node.info, side))
     from_contact = margin(node.info, side) < 0.0
+    if from_contact and contacts_on(node.info, side) > 1:
+        one = grazing_of_one_impact(problem, node, side, h, settings, bounds)
+        if isinstance(one, str):
+            return one
+        u_g, ev_g, info, accuracy, far, case, message = one
+        return Crossing(side, u_g, ev_g, info, accuracy, far, case, message, one_of_several=True)
     found = _grazing_near(problem, virtual, node, side, h, settings, bounds)
     if isinstance(found, str):
         return found
