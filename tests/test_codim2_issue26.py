@@ -158,3 +158,21 @@ def test_the_grazing_curve_of_den_hartog_orbits_passes_the_grazing_stick_point_l
         assert not any(kind == "stick" for (kind, _), _n in p.signature)
     for p in sticking:  # beyond, the grazing orbits stick at their reversals on the flange
         assert any(kind == "stick" for (kind, _), _n in p.signature)
+
+
+@pytest.mark.slow
+def test_on_a_stiff_spring_flange_the_fold_grazing_unfolds_into_a_cusp_next_to_the_grazing_curve():
+    # A spring flange's map is C^1 at the grazing (its correction grows like d^(3/2) over penetrations d below ~1/K),
+    # so no fold curve of contacting orbits can end on the grazing curve, as the rigid stop's does at w_d. At K = 1e4
+    # the fold curve from W = 1.05 comes down to the rigid fold-grazing point and turns there at a cusp, 3e-4 from
+    # w_d, whose other fold curve runs along the grazing curve at penetrations of 1e-7. The closed form of the
+    # one-contact orbits of a linear spring flange (impact_closed_form.spring_cusp) places it.
+    osc = io.Oscillator(0.3, 1.05, 0.0, 1e4, zeta=ZETA, gap_lower=None)
+    orb = dy.periodic_orbit(osc, backend="exact", transient_periods=300)
+    fold = dy.continuation(orb, "F", (0.02, 0.5), tol=1e-12).find("fold")[0]
+    curve = dy.continuation(fold, ("F", "Omega"), {"Omega": (0.99, 1.1)}, max_points=30)
+    cusps = curve.find("cusp")
+    assert len(cusps) == 1, curve.summary()
+    W_ref, F_ref = cf.spring_cusp(ZETA, 1e4, 0.008, 0.99904)
+    assert abs(cusps[0].parameters["Omega"] - W_ref) < 1e-8 and abs(cusps[0].parameters["F"] - F_ref) < 1e-8
+    assert abs(W_ref - W_D) < 1e-3 and 0.0 < F_ref - cf.grazing_amplitude(W_ref, ZETA) < 1e-6
