@@ -22,7 +22,7 @@ import numpy as np
 from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
-from ._codim2 import cusps, grazing_points, grazing_stick_points
+from ._codim2 import codim2_points
 from ._grazing import grazing_test, stripped_sides
 from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
@@ -97,12 +97,7 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
     nodes = list(reversed(back[0])) + [start] + fwd[0]
     ends = [tuple(back[2:]), tuple(fwd[2:])]
-    found = cusps(curve, nodes, extra, settings) if point.kind == "fold" and "cusp" in settings.locate else []
-    if test in ("upper_margin", "lower_margin"):
-        side = 1 if test == "upper_margin" else -1
-        found += grazing_points(curve, nodes, extra, settings, side)
-        stick = stick_test(curve)
-        found += grazing_stick_points(curve, nodes, extra, settings, side, lambda ev, u: stick(ev, u)[0][0])
+    found = codim2_points(curve, point.kind, test, nodes, extra, settings, stick_test)
     return assemble(curve, nodes, found, ends, len(back[0]))
 
 

@@ -16,6 +16,22 @@ the curve corrected on its own defining equations.
   parameter turning alone is a smooth turn of the curve in the plane, no cusp). The curve
   goes on through it: in ``(X, V, p1, p2)`` it is smooth there, and beyond it is the other
   fold curve of the pair.
+* **Fold-grazing** (``FG``) and **period-doubling-grazing** (``PDG``) on a rigid flange's
+  grazing curve: where a fold or a period-doubling curve of the single-impact orbits meets
+  it. Their tests in the impact formulation (:mod:`._impact_curves`: the impact's phase
+  ``psi`` and speed ``v`` as unknowns), ``det dR/d(psi, v)`` and ``v det(S M + I)``, are
+  evaluated at ``v = 0`` on the grazing orbit. There both reduce to ``(1 + e) a M12`` up to a
+  nonzero factor (``a`` the acceleration at the grazing, ``M`` the flight's monodromy from
+  it): zero where the square-root term of the grazing map vanishes, the resonant grazing, so
+  on a rigid flange FG and PDG come together. The fold test is ``dp/dv`` along the impacting
+  family, so the grazing's case (persistent or nonsmooth fold) changes across an FG point.
+  A spring flange's map is C^1 at its grazing: no fold curve ends on its grazing curve (a
+  stiff one has a cusp next to it instead), and none is reported there.
+* **Grazing-stick** (``GS``) on a grazing curve of friction orbits: the stick test
+  ``beta_s - |f_net|`` at the velocity zero nearest to sticking vanishes too, where the
+  crossing-sliding curve meets the grazing curve. The flange exerts no force at the touch,
+  so the grazing condition stays regular and the curve goes on as the grazing of the
+  stick-slip orbits.
 """
 
 from __future__ import annotations
@@ -28,10 +44,27 @@ from ._arclength import Corrected, Settings, correct, illinois, jacobian_rows, t
 from ._impact_curves import zero_speed_tests
 from ._nodes import Found, Node, make_node
 
-__all__ = ["cusps", "grazing_points", "grazing_stick_points", "zeros_along"]
+__all__ = ["codim2_points", "cusps", "grazing_points", "grazing_stick_points", "zeros_along"]
 
 #: Illinois iterations at most for one located point.
 _LOCATE_STEPS = 60
+
+
+def codim2_points(curve, kind: str, test: str, nodes: list, extra, settings: Settings, stick_test) -> list:
+    """The codimension-two points along the boundary ``nodes`` of a ``kind`` point that solves the test ``test``.
+
+    A fold curve: its cusps. A grazing curve (``test`` a flange's margin): its fold-grazing and
+    period-doubling-grazing points (rigid flange) and its grazing-stick points (friction);
+    ``stick_test(curve) -> extra(ev, u)`` is the boundary's stick test.
+    """
+    if kind == "fold":
+        return cusps(curve, nodes, extra, settings) if "cusp" in settings.locate else []
+    if test not in ("upper_margin", "lower_margin"):
+        return []
+    side = 1 if test == "upper_margin" else -1
+    stick = stick_test(curve)
+    return (grazing_points(curve, nodes, extra, settings, side)
+            + grazing_stick_points(curve, nodes, extra, settings, side, lambda ev, u: stick(ev, u)[0][0]))
 
 
 def _oriented(node: Node, chord) -> np.ndarray:
