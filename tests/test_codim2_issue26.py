@@ -99,8 +99,16 @@ def test_fold_and_period_doubling_curves_meet_the_rigid_grazing_curve_at_the_clo
     assert all(0 < s.index < len(curve) - 1 for s in points)
 
 
+def test_the_new_labels_survive_a_file(rigid_grazing_curve, tmp_path):
+    rigid_grazing_curve.save(tmp_path / "curve.nc")
+    again = dy.Branch.load(tmp_path / "curve.nc")
+    for kind in ("fold_grazing", "period_doubling_grazing"):
+        before = [s.parameters["Omega"] for s in rigid_grazing_curve.find(kind)]
+        assert [s.parameters["Omega"] for s in again.find(kind)] == pytest.approx(before, abs=1e-15)
+
+
 def test_the_closed_form_fold_touches_the_grazing_curve_where_its_impact_speed_vanishes():
-    # the independent side of the test above: impact_closed_form's fold reaches the grazing amplitude at W = 2 w_d / k,
+    # the independent side of the fold-grazing test: the closed-form fold reaches the grazing amplitude at 2 w_d / k,
     # and its orbit's impact speed changes sign there (the fold curve of admissible orbits ends on the grazing curve)
     for k in (2, 3):
         W = 2.0 * W_D / k

@@ -80,14 +80,18 @@ def _tangent_at(curve, result: Corrected, extra, along) -> np.ndarray:
 def cusps(curve, nodes: list, extra, settings: Settings) -> list:
     """The cusps of a fold curve between its accepted points ``nodes`` (in arclength order), as :class:`Found`."""
     out = []
+    # the tangents oriented along the travel, continuously from the first point on
+    tangents = [nodes[0].t] if nodes else []
+    for node in nodes[1:]:
+        tangents.append(node.t if float(node.t @ tangents[-1]) >= 0.0 else -node.t)
+    second = [i for i in range(len(nodes) - 1) if tangents[i][3] * tangents[i + 1][3] < 0.0]
     for i in range(len(nodes) - 1):
         a, b = nodes[i], nodes[i + 1]
         chord = b.u - a.u
         h = float(np.linalg.norm(chord))
-        if h == 0.0:
-            continue
         ta, tb = _oriented(a, chord), _oriented(b, chord)
-        if not (ta[2] * tb[2] < 0.0 and ta[3] * tb[3] < 0.0):
+        # the second parameter turns in the same interval, or a neighbour (a node may fall between the two zeros)
+        if h == 0.0 or not ta[2] * tb[2] < 0.0 or not any(abs(j - i) <= 1 for j in second):
             continue
         found = _locate_cusp(curve, a, ta, h, extra, settings, ta[2], tb[2])
         if found is not None:
