@@ -43,6 +43,7 @@ import numpy as np
 from ._arclength import Corrected, Settings, correct, illinois, jacobian_rows, tangent, unscaled
 from ._impact_curves import zero_speed_tests
 from ._nodes import Found, Node, make_node
+from ._problem import MapProblem
 
 __all__ = ["codim2_points", "cusps", "grazing_points", "grazing_stick_points", "zeros_along"]
 
@@ -153,20 +154,25 @@ def _zero_speed(curve, side: int, ev, u):
     rec = ev.recorder
     params = unscaled(curve, u)[1]
     psi = curve.section_phase + curve.section(params).Omega * (rec.top_t if side > 0 else rec.bottom_t)
-    return zero_speed_tests(curve.virtual(side), side, np.concatenate([[psi, 0.0], u[2:]]))
+    # the tests need the map's state derivatives only: the member at these parameters, none of them free (no
+    # parameter stencils to run)
+    fixed = MapProblem(curve.model(params), (), curve.n, psi, curve.backend, curve.options, stripped=side)
+    return zero_speed_tests(fixed, side, np.array([psi, 0.0]))
 
 
 _GRAZING_KINDS = (("fold_grazing", 0, "fold"), ("period_doubling_grazing", 1, "period doubling"))
 
 
-def zeros_along(curve, nodes: list, extra, settings: Settings, kind: str, value, message: str, extra_info: dict):
+def zeros_along(curve, nodes: list, extra, settings: Settings, kind: str, value, message: str, extra_info: dict,
+                values=None):
     """Every zero of the test ``value(corrected, tangent) -> float`` between two points of a curve, as :class:`Found`.
 
-    The test is evaluated on the accepted points ``nodes`` (in arclength order); each sign
-    change is located by :func:`_locate_zero`. A test that cannot be evaluated (a string)
-    at either end of an interval skips it.
+    The test is evaluated on the accepted points ``nodes`` (in arclength order; or given, as
+    ``values``); each sign change is located by :func:`_locate_zero`. A test that cannot be
+    evaluated (a string) at either end of an interval skips it.
     """
-    values = [value(n.corrected, n.t) for n in nodes]
+    if values is None:
+        values = [value(n.corrected, n.t) for n in nodes]
     out = []
     for i in range(len(nodes) - 1):
         va, vb = values[i], values[i + 1]
@@ -191,16 +197,16 @@ def grazing_points(curve, nodes: list, extra, settings: Settings, side: int) -> 
     if not curve.rigid or len(nodes) < 2:
         return []
     out = []
-    for kind, j, name in _GRAZING_KINDS:
-        if kind not in settings.locate:
-            continue
+    kinds = [k for k in _GRAZING_KINDS if k[0] in settings.locate]
+    both = [_zero_speed(curve, side, n.corrected.ev, n.u) for n in nodes] if kinds else []
+    for kind, j, name in kinds:
 
         def value(result, t, j=j):
             tests = _zero_speed(curve, side, result.ev, result.u)
             return tests if isinstance(tests, str) else tests[j]
 
         out += zeros_along(curve, nodes, extra, settings, kind, value, _grazing_message(name, side),
-                           {"test": kind, "side": side})
+                           {"test": kind, "side": side}, [v if isinstance(v, str) else v[j] for v in both])
     return out
 
 
