@@ -36,6 +36,7 @@ from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
 from ._multi_impact import grazing_of_one_impact, impacts_on
+from ._newton import newton as _newton
 from ._points import PointInfo, point_info
 from ._problem import BOTH, MapEvaluation, MapProblem
 
@@ -44,7 +45,6 @@ __all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contac
 #: A flange margin (distance, penetration or impact speed) below which a branch moving towards the
 #: grazing hands over to :func:`cross` once its next step would reach it.
 NEAR = 0.05
-_NEWTON_STEPS = 12
 #: The first step (scaled arclength) tried from a grazing into the family beyond it.
 FAR_STEP = 0.01
 #: The farthest (scaled) a grazing located from a branch's last point may lie (besides ten steps).
@@ -131,28 +131,6 @@ def grazing_test(virtual: MapProblem, side: int):
         return np.array([psi]), grad[None, :]
 
     return test
-
-
-def _newton(fun, u0, tol: float, fixed_rows=None):
-    """Newton on ``fun(u) -> (F, J, payload)`` (square); returns ``(u, payload, error estimate)`` or a reason."""
-    u = np.array(u0, dtype=float)
-    for it in range(_NEWTON_STEPS + 1):
-        out = fun(u)
-        if isinstance(out, str):
-            return f"{out} (iteration {it})"
-        F, J, payload = out
-        try:
-            du = np.linalg.solve(J, -F)
-        except np.linalg.LinAlgError:
-            return "a singular Jacobian"
-        if not np.all(np.isfinite(du)):
-            return "a Newton step that is not finite"
-        if float(np.linalg.norm(F)) <= tol * max(1.0, float(np.linalg.norm(u[:2]))):
-            return u, payload, du  # the step not taken: the error estimate of the converged point
-        if it == _NEWTON_STEPS:
-            break
-        u = u + du
-    return f"Newton did not converge (residual {np.linalg.norm(F):.3g})"
 
 
 def locate(virtual: MapProblem, side: int, u0, tol: float):

@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from ._arclength import Corrected, Settings, correct, tangent, unscaled
+from ._newton import newton
 from ._points import point_info
 from ._problem import MapProblem
 
@@ -61,21 +62,30 @@ def impacts_on(info, side: int) -> list:
 class WindowedMap:
     """The map of one period with the flange on ``side`` taken away in a window of forcing phase (module docstring).
 
-    ``centre`` and ``half`` are the window's centre and half-width in forcing phase from the
-    section (radians). :meth:`evaluate` returns ``(image, M, dp, (x, dx/du), evaluations)``
-    with ``x`` the extreme of ``side X`` inside the window and ``dx/du`` its gradient in the
-    scaled unknowns; or a string saying why it failed.
+    ``segments`` are ``(start, stop, windowed)`` in forcing phase (radians) from ``origin``;
+    :meth:`around` builds the usual one, a window around a phase. :meth:`evaluate` returns
+    ``(image, M, dp, (x, dx/du), evaluations)`` with ``x`` the extreme of ``side X`` inside the
+    (last) window and ``dx/du`` its gradient in the scaled unknowns; or a string saying why it
+    failed.
     """
 
-    def __init__(self, problem: MapProblem, side: int, centre: float, half: float):
+    def __init__(self, problem: MapProblem, side: int, segments, origin: float | None = None):
         self.problem, self.side = problem, side
-        lo, hi = centre - half, centre + half
-        end = 2.0 * math.pi * problem.n
-        self.segments = [(0.0, lo, False), (lo, hi, True), (hi, end, False)]
+        #: ``(start, stop, without the flange)`` in forcing phase from ``origin`` (default: the section).
+        self.segments = [seg for seg in segments if seg[1] > seg[0]]
+        self.origin = problem.section_phase if origin is None else float(origin)
 
-    def _segment(self, start: float, stop: float, windowed: bool) -> MapProblem:
+    @classmethod
+    def around(cls, problem: MapProblem, side: int, centre: float, half: float) -> WindowedMap:
+        """The map of one period from the section, the flange taken away in ``centre -+ half``."""
+        end = 2.0 * math.pi * problem.n
+        return cls(problem, side, [(0.0, centre - half, False), (centre - half, centre + half, True),
+                                   (centre + half, end, False)])
+
+    def segment(self, start: float, stop: float, windowed: bool) -> MapProblem:
+        """The problem of one segment: its section at its start, its span its share of the period."""
         base = self.problem.virtual(self.side) if windowed else self.problem
-        seg = base.at_phase(self.problem.section_phase + start)
+        seg = base.at_phase(self.origin + start)
         width = stop - start
 
         def span(osc) -> float:  # the segment's share of the period: its parameter derivative follows Omega
@@ -92,7 +102,7 @@ class WindowedMap:
         extreme = None
         evs = []
         for start, stop, windowed in self.segments:
-            seg = self._segment(start, stop, windowed)
+            seg = self.segment(start, stop, windowed)
             ev = seg.evaluate(state, params)
             if not ev.ok or ev.singular:
                 return f"the windowed map could not be evaluated: {ev.failure or ev.singular}"
@@ -108,27 +118,23 @@ class WindowedMap:
         return state, M, dp, extreme, evs
 
 
-def _newton_grazing(wmap: WindowedMap, u0, tol: float, gap: float, max_steps: int = 12):
-    """The windowed family's orbit that touches the flange in the window: ``(u, M, dp, gradient, last step)``."""
+def _newton_grazing(wmap: WindowedMap, u0, tol: float, gap: float):
+    """The windowed family's orbit touching the flange in the window: ``(u, (M, dp, gradient, evaluations), step)``."""
     problem, side = wmap.problem, wmap.side
     scales = np.asarray(problem.scales)
-    u = np.array(u0, float)
-    for _ in range(max_steps + 1):
+
+    def fun(u):
         z, params = u[:2], tuple(float(s * c) for s, c in zip(u[2:], scales, strict=True))
         out = wmap.evaluate(z, params)
         if isinstance(out, str):
             return out
-        image, M, dp, (x, grad), _ = out
+        image, M, dp, (x, grad), evs = out
         F = np.concatenate([image - z, [gap - side * x]])
         J = np.vstack([np.hstack([M - np.eye(2), dp * scales[None, :]]), -side * grad[None, :]])
-        try:
-            du = np.linalg.solve(J, -F)
-        except np.linalg.LinAlgError:
-            return "a singular Jacobian at the grazing of one impact"
-        if float(np.linalg.norm(F)) <= tol * max(1.0, float(np.linalg.norm(z))):
-            return u, M, dp, grad, du
-        u = u + du
-    return f"Newton did not converge at the grazing of one impact (residual {np.linalg.norm(F):.3g})"
+        return F, J, (M, dp, grad, evs)
+
+    solved = newton(fun, u0, tol)
+    return f"the grazing of one impact was not solved: {solved}" if isinstance(solved, str) else solved
 
 
 def grazing_of_one_impact(problem: MapProblem, node, side: int, h: float, settings: Settings, bounds):
@@ -138,12 +144,12 @@ def grazing_of_one_impact(problem: MapProblem, node, side: int, h: float, settin
     window = window_around(problem, node, side)
     if isinstance(window, str):
         return window
-    wmap = WindowedMap(problem, side, *window)
+    wmap = WindowedMap.around(problem, side, *window)
     gap = problem.flange_gaps[(side + 1) // 2]
     solved = _newton_grazing(wmap, node.u, settings.tol, gap)
     if isinstance(solved, str):
         return solved
-    u_g, M, dp, grad, error = solved
+    u_g, (M, dp, grad, _), error = solved
     value = u_g[2] * problem.scales[0]
     if bounds is not None and not bounds[0] <= value <= bounds[1]:
         return f"the grazing lies beyond the limits, at {problem.names[0]} = {value!r}"
