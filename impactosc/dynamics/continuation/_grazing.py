@@ -35,7 +35,7 @@ import numpy as np
 from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
-from ._multi_impact import grazing_of_one_impact, impacts_on
+from ._multi_impact import grazing_of_new_impact, grazing_of_one_impact, impacts_on
 from ._newton import newton as _newton
 from ._points import PointInfo, point_info
 from ._problem import BOTH, MapEvaluation, MapProblem
@@ -90,10 +90,27 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
             continue
         if m1 < 0.0 and contacts_on(node.info, side) != 1 and not _only_impacts(problem, node.info, side):
             continue  # several contacts with a spring flange: not one about to vanish (taking the flange away is wrong)
+        if m1 < 0.0 and contacts_on(node.info, side) != contacts_on(previous.info, side):
+            continue  # the branch has just crossed from another family: its margins do not compare
         rate = abs(m1 - m0) / max(ds, 1e-300)
         if failed or abs(m1) <= 1.5 * h * rate:
             return side
+    for side in (1, -1):
+        if _touch_near(problem, previous, node, side, ds, h, failed):
+            return side
     return 0
+
+
+def _touch_near(problem: MapProblem, previous, node, side: int, ds: float, h: float, failed: bool) -> bool:
+    """A turning point of an orbit that hits a rigid flange approaches it (a new impact is about to be born)."""
+    if not problem.rigid or math.isinf(problem.walls[(side + 1) // 2]) or contacts_on(node.info, side) < 1 \
+            or not _only_impacts(problem, node.info, side) or abs(margin(node.info, side)) < NEAR \
+            or contacts_on(previous.info, side) != contacts_on(node.info, side):
+        return False  # (the last condition: the branch has just crossed from another family)
+    a0, a1 = previous.info.approach.get(side, math.inf), node.info.approach.get(side, math.inf)
+    if not (math.isfinite(a0) and math.isfinite(a1)) or a1 >= NEAR or a1 >= a0:
+        return False
+    return failed or a1 <= 1.5 * h * abs(a1 - a0) / max(ds, 1e-300)
 
 
 def _only_impacts(problem: MapProblem, info: PointInfo, side: int) -> bool:
@@ -194,8 +211,11 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
         return "crossing a grazing is done on branches in one parameter"
     virtual = problem.virtual(stripped_sides(node.info, side))
     from_contact = margin(node.info, side) < 0.0
-    if from_contact and contacts_on(node.info, side) > 1:
-        one = grazing_of_one_impact(problem, node, side, h, settings, bounds)
+    new_impact = (problem.rigid and from_contact and abs(margin(node.info, side)) >= NEAR
+                  and node.info.approach.get(side, math.inf) < NEAR and _only_impacts(problem, node.info, side))
+    if new_impact or (from_contact and contacts_on(node.info, side) > 1):
+        crossing = grazing_of_new_impact if new_impact else grazing_of_one_impact
+        one = crossing(problem, node, side, h, settings, bounds)
         if isinstance(one, str):
             return one
         u_g, ev_g, info, accuracy, far, case, message = one
