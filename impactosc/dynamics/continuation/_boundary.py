@@ -22,6 +22,7 @@ import numpy as np
 from .._common import check_parameter, parameter_value
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
+from ._codim2 import codim2_points
 from ._grazing import grazing_test, stripped_sides
 from ._impact_curves import fold_curve, single_impact_side
 from ._points import SMOOTH_TESTS, point_info
@@ -42,6 +43,9 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     if point.kind not in BOUNDARY_KINDS:
         raise ValueError(f"a {point.kind!r} point has no boundary to follow; the kinds that do: "
                          f"{', '.join(BOUNDARY_KINDS)}")
+    if extra_info.get("one_of_several"):
+        raise ValueError(f"the grazing {point.label!r} is one impact of several on its flange; its boundary (the "
+                         "grazing condition over a window around that impact) is not followed in two parameters yet")
     if len(names) != 2 or names[0] == names[1]:
         raise ValueError(f"parameter must be two distinct names for a boundary, got {names!r}")
     here = problem.model(unscaled(problem, node.u)[1])
@@ -93,7 +97,8 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
     nodes = list(reversed(back[0])) + [start] + fwd[0]
     ends = [tuple(back[2:]), tuple(fwd[2:])]
-    return assemble(curve, nodes, [], ends, len(back[0]))
+    found = codim2_points(curve, point.kind, test, nodes, extra, settings, stick_test)
+    return assemble(curve, nodes, found, ends, len(back[0]))
 
 
 #: The test functions a boundary solves (a margin of :mod:`._points` or a smooth test).

@@ -17,11 +17,13 @@ __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 
 #: The kinds of special point a branch labels (AUTO's abbreviations LP, BP, PD, NS; GR grazing, ST stick onset, SC
 #: another change of the event signature; RG resonant grazing, where a fold or period-doubling curve of impacting
-#: orbits meets the grazing and ends).
+#: orbits meets the grazing and ends; CP a cusp of a fold curve; FG, PDG where a fold or a period-doubling curve meets a
+#: grazing curve; GS where a stick onset meets a grazing curve).
 SPECIAL_KINDS = ("fold", "branch_point", "period_doubling", "neimark_sacker", "grazing", "stick_onset", "border",
-                 "resonant_grazing")
+                 "resonant_grazing", "cusp", "fold_grazing", "period_doubling_grazing", "grazing_stick")
 LABELS = {"fold": "LP", "branch_point": "BP", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "GR",
-          "stick_onset": "ST", "border": "SC", "resonant_grazing": "RG"}
+          "stick_onset": "ST", "border": "SC", "resonant_grazing": "RG", "cusp": "CP",
+          "fold_grazing": "FG", "period_doubling_grazing": "PDG", "grazing_stick": "GS"}
 
 
 @dataclass(frozen=True, eq=False)

@@ -35,6 +35,8 @@ import numpy as np
 from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
+from ._multi_impact import grazing_of_new_impact, grazing_of_one_impact, impacts_on
+from ._newton import newton as _newton
 from ._points import PointInfo, point_info
 from ._problem import BOTH, MapEvaluation, MapProblem
 
@@ -43,7 +45,6 @@ __all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contac
 #: A flange margin (distance, penetration or impact speed) below which a branch moving towards the
 #: grazing hands over to :func:`cross` once its next step would reach it.
 NEAR = 0.05
-_NEWTON_STEPS = 12
 #: The first step (scaled arclength) tried from a grazing into the family beyond it.
 FAR_STEP = 0.01
 #: The farthest (scaled) a grazing located from a branch's last point may lie (besides ten steps).
@@ -62,6 +63,8 @@ class Crossing:
     far: Corrected  #: the first point beyond, corrected on the branch's own problem
     case: str  #: "persistent" (the parameter goes on) or "nonsmooth_fold" (it turns back)
     message: str
+    #: One impact of several on that flange grazed (:mod:`._multi_impact`), not the orbit's only contact.
+    one_of_several: bool = False
 
 
 def margin(info: PointInfo, side: int) -> float:
@@ -85,12 +88,34 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
         m0, m1 = margin(previous.info, side), margin(node.info, side)
         if not (math.isfinite(m0) and math.isfinite(m1)) or abs(m1) >= NEAR or abs(m1) >= abs(m0) or m0 * m1 <= 0:
             continue
-        if m1 < 0.0 and contacts_on(node.info, side) != 1:
-            continue  # several contacts with that flange: not one about to vanish (taking the flange away is wrong)
+        if m1 < 0.0 and contacts_on(node.info, side) != 1 and not _only_impacts(problem, node.info, side):
+            continue  # several contacts with a spring flange: not one about to vanish (taking the flange away is wrong)
+        if m1 < 0.0 and contacts_on(node.info, side) != contacts_on(previous.info, side):
+            continue  # the branch has just crossed from another family: its margins do not compare
         rate = abs(m1 - m0) / max(ds, 1e-300)
         if failed or abs(m1) <= 1.5 * h * rate:
             return side
+    for side in (1, -1):
+        if _touch_near(problem, previous, node, side, ds, h, failed):
+            return side
     return 0
+
+
+def _touch_near(problem: MapProblem, previous, node, side: int, ds: float, h: float, failed: bool) -> bool:
+    """A turning point of an orbit that hits a rigid flange approaches it (a new impact is about to be born)."""
+    if not problem.rigid or math.isinf(problem.walls[(side + 1) // 2]) or contacts_on(node.info, side) < 1 \
+            or not _only_impacts(problem, node.info, side) or abs(margin(node.info, side)) < NEAR \
+            or contacts_on(previous.info, side) != contacts_on(node.info, side):
+        return False  # (the last condition: the branch has just crossed from another family)
+    a0, a1 = previous.info.approach.get(side, math.inf), node.info.approach.get(side, math.inf)
+    if not (math.isfinite(a0) and math.isfinite(a1)) or a1 >= NEAR or a1 >= a0:
+        return False
+    return failed or a1 <= 1.5 * h * abs(a1 - a0) / max(ds, 1e-300)
+
+
+def _only_impacts(problem: MapProblem, info: PointInfo, side: int) -> bool:
+    """Every contact with the flange of ``side`` is an impact on a rigid wall (one of them may graze alone)."""
+    return problem.rigid and len(impacts_on(info, side)) == contacts_on(info, side)
 
 
 def stripped_sides(info: PointInfo, side: int) -> int:
@@ -123,28 +148,6 @@ def grazing_test(virtual: MapProblem, side: int):
         return np.array([psi]), grad[None, :]
 
     return test
-
-
-def _newton(fun, u0, tol: float, fixed_rows=None):
-    """Newton on ``fun(u) -> (F, J, payload)`` (square); returns ``(u, payload, error estimate)`` or a reason."""
-    u = np.array(u0, dtype=float)
-    for it in range(_NEWTON_STEPS + 1):
-        out = fun(u)
-        if isinstance(out, str):
-            return f"{out} (iteration {it})"
-        F, J, payload = out
-        try:
-            du = np.linalg.solve(J, -F)
-        except np.linalg.LinAlgError:
-            return "a singular Jacobian"
-        if not np.all(np.isfinite(du)):
-            return "a Newton step that is not finite"
-        if float(np.linalg.norm(F)) <= tol * max(1.0, float(np.linalg.norm(u[:2]))):
-            return u, payload, du  # the step not taken: the error estimate of the converged point
-        if it == _NEWTON_STEPS:
-            break
-        u = u + du
-    return f"Newton did not converge (residual {np.linalg.norm(F):.3g})"
 
 
 def locate(virtual: MapProblem, side: int, u0, tol: float):
@@ -200,11 +203,48 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     """Cross the grazing of the flange on ``side`` from ``node``: a :class:`Crossing`, or a string saying why not.
 
     ``bounds`` are the ``(lo, hi)`` limits of the parameter: a grazing beyond them is not crossed.
+    Three steps: the grazing located on the virtual family (:func:`_grazing_near`), the first
+    point of the family beyond it (:func:`_far_side`), and the label saying which case it is
+    (:func:`_crossing_message`).
     """
     if len(problem.names) != 1:
         return "crossing a grazing is done on branches in one parameter"
     virtual = problem.virtual(stripped_sides(node.info, side))
     from_contact = margin(node.info, side) < 0.0
+    new_impact = (problem.rigid and from_contact and abs(margin(node.info, side)) >= NEAR
+                  and node.info.approach.get(side, math.inf) < NEAR and _only_impacts(problem, node.info, side))
+    if new_impact or (from_contact and contacts_on(node.info, side) > 1):
+        crossing = grazing_of_new_impact if new_impact else grazing_of_one_impact
+        one = crossing(problem, node, side, h, settings, bounds)
+        if isinstance(one, str):
+            return one
+        u_g, ev_g, info, accuracy, far, case, message = one
+        return Crossing(side, u_g, ev_g, info, accuracy, far, case, message, one_of_several=True)
+    found = _grazing_near(problem, virtual, node, side, h, settings, bounds)
+    if isinstance(found, str):
+        return found
+    u_g, ev_g, error, t_free = found
+    far = _far_side(problem, ev_g, u_g, t_free, side, h, settings, from_contact)
+    if isinstance(far, str):
+        return far
+    far, went = far
+    came = np.sign(u_g[2] - node.u[2])
+    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
+    info = point_info(virtual, ev_g)
+    if problem.rigid:
+        info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
+                                   singular="the map is not differentiable at a grazing of a rigid flange (a "
+                                            "square-root term, Nordmark 1991)")
+    message = _crossing_message(side, problem.rigid, from_contact, case, _grazes_other(virtual, ev_g, side))
+    return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
+
+
+def _grazing_near(problem: MapProblem, virtual: MapProblem, node, side: int, h: float, settings: Settings, bounds):
+    """``(u_g, ev_g, error, t_free)``: the grazing the branch reaches, located on the virtual family, or why not.
+
+    ``t_free`` is the virtual family's tangent at the grazing, oriented towards the contact-free
+    side (``gap - max X`` growing along it).
+    """
     found = locate(virtual, side, node.u, settings.tol)
     if isinstance(found, str):
         return f"the grazing could not be located on the contact-free orbits: {found}"
@@ -221,34 +261,31 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     slope = float(row[0] @ t_v)
     if abs(slope) < 1e-12:
         return "the contact-free family is tangent to the flange's grazing condition here (a degenerate grazing)"
-    t_free = t_v if slope > 0 else -t_v
-    p_g = u_g[2]
-    came = np.sign(p_g - node.u[2])
-    rigid = problem.rigid
+    return u_g, ev_g, error, (t_v if slope > 0 else -t_v)
+
+
+def _far_side(problem: MapProblem, ev_g, u_g, t_free, side: int, h: float, settings: Settings, from_contact: bool):
+    """``(first point beyond the grazing, direction of the parameter there)``, or why there is none.
+
+    From contact: back along the contact-free family. Into a rigid flange: the impact
+    formulation. Into a spring flange: the same (a stiff spring's contacting orbits are close
+    to those of an elastic impact, e = 1, regular in the impact formulation), else for a
+    softer one the virtual family's tangent into the flange.
+    """
     if from_contact:
         far = _beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
-        went = np.sign(t_free[2])
-    elif rigid:
-        far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
-        went = np.sign(far[1]) if not isinstance(far, str) else 0.0
-        far = far[0] if not isinstance(far, str) else far
-    else:
-        # a stiff spring flange: near its grazing the contacting orbits are close to those of an elastic
-        # impact (e = 1), whose family is regular in the impact formulation; smaller stiffness, the tangent
-        far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
-        if isinstance(far, str):
-            far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
-            went = -np.sign(t_free[2])
-        else:
-            far, went = far[0], np.sign(far[1])
-    if isinstance(far, str):
+        return far if isinstance(far, str) else (far, np.sign(t_free[2]))
+    far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
+    if not isinstance(far, str):
+        return far[0], np.sign(far[1])
+    if problem.rigid:
         return far
-    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
-    info = point_info(virtual, ev_g)
-    if rigid:
-        info = dataclasses.replace(info, multipliers=np.full(2, math.nan, dtype=complex), stability="undefined",
-                                   singular="the map is not differentiable at a grazing of a rigid flange (a "
-                                            "square-root term, Nordmark 1991)")
+    far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
+    return far if isinstance(far, str) else (far, -np.sign(t_free[2]))
+
+
+def _crossing_message(side: int, rigid: bool, from_contact: bool, case: str, grazes_other: bool) -> str:
+    """What a crossed grazing's label says: the flange, its law, the direction and the case."""
     flange = "upper" if side > 0 else "lower"
     law = "rigid" if rigid else "spring"
     into = "into contact with" if not from_contact else "off"
@@ -257,10 +294,10 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
                  "and end together (a nonsmooth fold, the discontinuous grazing case)")
     message = (f"the orbit grazes the {flange} flange ({law}): located as a regular point of the contact-free "
                f"orbits (gap - max X = 0); the branch crosses {into} the flange, and {what}")
-    if _grazes_other(virtual, ev_g, side):
+    if grazes_other:
         message += ("; the orbit touches the other flange at the same point (a symmetric orbit grazing both at once, "
                     "where the families that contact either flange or both meet): the branch follows one of them")
-    return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
+    return message
 
 
 #: The other flange's margin below which a grazing orbit touches both flanges at once.

@@ -35,7 +35,7 @@ from ._nodes import Found, Node
 from ._points import point_info
 from ._problem import MapProblem
 
-__all__ = ["single_impact_side", "fold_curve"]
+__all__ = ["single_impact_side", "fold_curve", "zero_speed_tests"]
 
 _FD = 1e-7
 _NAMES = {"fold": "fold", "period_doubling": "period doubling"}
@@ -102,6 +102,21 @@ class _CurveSystem:
                 return up if isinstance(up, str) else down
             grad[i] = (up[2] - down[2]) / (2.0 * d[i])
         return np.concatenate([F, [g]]), np.vstack([J, grad[None, :]]), ev
+
+
+def zero_speed_tests(virtual: MapProblem, side: int, w) -> tuple[float, float] | str:
+    """``(fold test, period-doubling test)`` of the impacting family at ``w = (psi, v, s...)``, or why not.
+
+    At zero impact speed (a grazing orbit) both reduce to ``(1 + e) a M_12`` up to a positive
+    factor (``a`` the acceleration at the grazing, ``M`` the flight's monodromy from it); the
+    fold test is ``det dR/d(psi, v)``, proportional to ``d p / d v`` along the impacting family,
+    so its sign says on which side of the grazing the family lies.
+    """
+    fold = _CurveSystem(virtual, side, "fold")._g(w)
+    if isinstance(fold, str):
+        return fold
+    F, J, g, ev = fold
+    return g, _CurveSystem(virtual, side, "period_doubling")._period_doubling(w, ev)
 
 
 def fold_curve(curve: MapProblem, z0, params0, side: int, bounds, settings: Settings, kind: str = "fold"):

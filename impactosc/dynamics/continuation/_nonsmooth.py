@@ -97,7 +97,8 @@ def crossed(problem, node: Node, result: Crossing, direction: int, index: int):
                  graze_arc)
     test = "upper_margin" if result.side > 0 else "lower_margin"
     graze = Found("grazing", gnode, node.info.signature, new.info.signature, result.accuracy, result.message,
-                  index, {"test": test, "side": result.side, "case": result.case, "virtual": True})
+                  index, {"test": test, "side": result.side, "case": result.case, "virtual": True,
+                          "one_of_several": result.one_of_several})
     return new, graze
 
 
