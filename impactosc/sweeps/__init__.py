@@ -1,9 +1,13 @@
 """Sweeps: one run per point of a parameter grid, on any executor, into an xarray Dataset.
 
 A sweep can be stored point by point (a verified, resumable store) and loaded back with
-:func:`load_sweep`.
+:func:`load_sweep`. Tape paths: :func:`simulate_path` runs one, :func:`sweep_path` a grid of
+their SI parameters.
 """
 
+from ._path_point import simulate_path
+from ._path_sweep import sweep_path
 from ._sweep import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, SWEEP_KEYS, load, load_sweep, sweep
 
-__all__ = ["sweep", "load_sweep", "load", "SWEEP_KEYS", "STATUS_EXCEPTION", "STATUS_LOST", "STATUS_NOT_COMPUTED"]
+__all__ = ["sweep", "load_sweep", "load", "SWEEP_KEYS", "STATUS_EXCEPTION", "STATUS_LOST", "STATUS_NOT_COMPUTED",
+           "simulate_path", "sweep_path"]
