@@ -451,7 +451,7 @@ class TapePath:
         C = c_nd * (ms * self.omega_scale)
         contacts: list[Contact] = []
         friction: list[Friction] = []
-        left_out = {self._guide_index("leave_out_flanges", i) for i in leave_out_flanges}
+        left_out = {self.check_guide(i, "leave_out_flanges") for i in leave_out_flanges}
         for i in range(self.n):
             c, f = self._guide_laws(i, float(K[i, i]))
             contacts += [] if i in left_out else c
@@ -464,7 +464,8 @@ class TapePath:
             raise ValueError(f"TapePath: {exc} (contacts 2i, 2i+1 and friction on coordinate i belong to "
                              "guides[i])") from None
 
-    def _guide_index(self, name: str, i) -> int:
+    def check_guide(self, i, name: str = "guide") -> int:
+        """``i`` as the index of one of the path's guides; a ``TypeError``/``ValueError`` naming ``name``."""
         g = _v.integer(name, i, minimum=0)
         if g >= self.n:
             raise ValueError(f"{name} must name guides 0 to {self.n - 1} (the path's guides), got {i!r}")

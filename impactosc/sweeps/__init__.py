@@ -5,9 +5,11 @@ A sweep can be stored point by point (a verified, resumable store) and loaded ba
 their SI parameters.
 """
 
+from ._path_contact import contact_boundary, critical_clearance, critical_clearance_chart, steady_deflection
 from ._path_point import simulate_path
 from ._path_sweep import sweep_path
 from ._sweep import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED, SWEEP_KEYS, load, load_sweep, sweep
 
 __all__ = ["sweep", "load_sweep", "load", "SWEEP_KEYS", "STATUS_EXCEPTION", "STATUS_LOST", "STATUS_NOT_COMPUTED",
-           "simulate_path", "sweep_path"]
+           "simulate_path", "sweep_path", "steady_deflection", "critical_clearance", "critical_clearance_chart",
+           "contact_boundary"]

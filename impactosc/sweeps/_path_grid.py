@@ -76,16 +76,19 @@ def plan_paths(base: TapePath, grid, settings: dict) -> dict:
             "base": base}
 
 
-def run_paths(plan: dict, fn, args: tuple, failure, *, kind: str, store, executor, progress: bool) -> dict:
+def run_paths(plan: dict, fn, args: tuple, failure, *, kind: str, executor, progress: bool, store=None,
+              codec=PATH_CODEC, batch: bool = True) -> dict:
     """Run ``fn(fields, *args)`` at every planned point not in ``store``; every point's result by key.
 
-    ``failure(status, message)`` makes the result of a lost or invalid point.
+    ``failure(status, message)`` makes the result of a lost or invalid point; ``codec`` writes
+    and reads a point's file in ``store`` (the path sweep's by default); ``batch=False`` sends one
+    point per task (points whose cost varies widely, such as root searches).
     """
     check_executor(executor)
     st = None
     if store is not None:
         check_store_path(store)
-        st = PointStore.create(store, plan["settings"], PATH_CODEC, kind=kind, fmt=STORE_FORMAT,
+        st = PointStore.create(store, plan["settings"], codec, kind=kind, fmt=STORE_FORMAT,
                                required=("settings", "grid"),
                                extra={"grid": {k: v.tolist() for k, v in plan["grid"].items()}}, version=_version())
     results = {key: failure(r["status"], r["message"]) for key, r in plan["invalid"].items()}
@@ -107,7 +110,7 @@ def run_paths(plan: dict, fn, args: tuple, failure, *, kind: str, store, executo
     if todo:
         run_points(fn, todo, args, executor=executor, on_result=on_result,
                    on_lost=lambda key, message: on_result(key, failure(STATUS_LOST, message)), progress=progress,
-                   desc=kind, unit="point", initial=len(plan["unique"]) - len(todo), what=kind)
+                   desc=kind, unit="point", initial=len(plan["unique"]) - len(todo), what=kind, batch=batch)
     return results
 
 
