@@ -158,8 +158,8 @@ class TapePath:
     def from_file(cls, file) -> TapePath:
         """A path from a path file (``.toml`` or ``.json``; the layout of :meth:`from_dict`).
 
-        A file's other tables (``run``, ``output``: read by ``impactosc path``) are allowed and
-        not read here. Errors name the file and the key.
+        A file's ``run`` and ``output`` tables (read by ``impactosc path``) are allowed and not
+        read here (:meth:`read_file` returns them). Errors name the file and the key.
 
         Examples
         --------
@@ -169,10 +169,16 @@ class TapePath:
         >>> path.n
         4
         """
+        return cls.read_file(file)[0]
+
+    @classmethod
+    def read_file(cls, file) -> tuple[TapePath, dict]:
+        """A path file's path and all its tables (the ``run`` and ``output`` tables included, unchecked)."""
         source = f"path file {str(file)!r}"
-        drive, guides, end_span = parse_path(read_path_file(file), source=source, extra=("run", "output"))
+        data = read_path_file(file)
+        drive, guides, end_span = parse_path(data, source=source, extra=("run", "output"))
         try:
-            return cls(drive, guides, end_span=end_span)
+            return cls(drive, guides, end_span=end_span), data
         except (TypeError, ValueError) as exc:
             raise type(exc)(f"{source}: {exc}") from None
 
