@@ -22,6 +22,8 @@ def test_example_prints_a_file_that_runs(capsys, tmp_path):
     f = tmp_path / "four.toml"
     f.write_text(text)
     assert TapePath.from_file(f) == TapePath.from_file(FOUR)
+    assert main(["path", str(f), "--duration", "0.0005"]) == 0  # every table of the example is read
+    assert "4 guides at 20, 50, 80, 110 mm" in capsys.readouterr().out
 
 
 def test_one_run_prints_the_guides_and_writes_motion_and_events(capsys, tmp_path):
