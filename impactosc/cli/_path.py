@@ -7,7 +7,7 @@ settings, and none of ``simulate``'s model options (an oscillator's or one drive
 to it.
 
 The path file (TOML or JSON; ``impactosc path --example four-guides`` prints one) holds the
-tables of :meth:`TapePath.from_dict <impactosc.model.TapePath.from_dict>` (``drive``,
+tables of :meth:`TapePath.from_dict <impactosc.TapePath.from_dict>` (``drive``,
 ``guides``, ``end_span``) and two optional tables read here::
 
     [run]

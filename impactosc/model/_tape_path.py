@@ -96,6 +96,18 @@ class TapePath:
     >>> system.n, len(system.contacts), len(system.friction)
     (3, 6, 3)
     >>> t_end = path.seconds_to_time(1e-3)   # nondimensional time of 1 ms
+
+    A path from a path file, run for a millisecond, and where contact starts at its second
+    guide (the tools of :mod:`impactosc.sweeps`; ``impactosc path FILE`` on the command line):
+
+    >>> from importlib.resources import files
+    >>> from impactosc.sweeps import critical_clearance, simulate_path
+    >>> two = TapePath.from_file(files("impactosc.cli") / "paths" / "two-guides.toml")
+    >>> run = simulate_path(two, 1e-3)
+    >>> run.mean_flange_force().shape, run.status        # N per guide
+    ((2,), 0)
+    >>> round(critical_clearance(two, 1) * 1e6, 1)       # um: its 40 um clearance is touched
+    52.3
     """
 
     drive: TapeDrive
@@ -132,7 +144,7 @@ class TapePath:
     def from_dict(cls, data, *, source: str = "path") -> TapePath:
         """A path from its dict form (a path file's tables: ``drive``, ``guides``, ``end_span``).
 
-        The layout is that of a path file (module :mod:`impactosc.model._tape_path_file`): a
+        The layout is that of a path file (``impactosc path --example two-guides`` prints one): a
         ``drive`` table of :class:`TapeDrive` fields, a list ``guides`` of tables of
         :class:`Guide` fields (``position`` required), an optional ``end_span`` and ``format``.
         Errors start with ``source`` and name the key (``guides[1].clearance``...).

@@ -1,7 +1,7 @@
 """A tape path as plain data: the tables of a path file (TOML or JSON), and its SI parameters by name.
 
 The same dict is a path file's content, a sweep point's stored inputs and the argument of
-:meth:`TapePath.from_dict <impactosc.model.TapePath.from_dict>`::
+:meth:`TapePath.from_dict <impactosc.TapePath.from_dict>`::
 
     format = 1                 # optional: the version of this layout
     end_span = 0.03            # m, optional: a free span from the last guide to a fixed support
@@ -21,7 +21,7 @@ The same dict is a path file's content, a sweep point's stored inputs and the ar
                                # friction, static_friction, roller_runout, roller_diameter, roller_phase
 
 A parameter of a path is named by one string, the coordinate of a sweep: a numeric
-:class:`TapeDrive` field (``"speed"``, ``"tension"``, ``"pack_diameter"``, ``"clearance"``...:
+:class:`~impactosc.TapeDrive` field (``"speed"``, ``"tension"``, ``"pack_diameter"``, ``"clearance"``...:
 the drive's, so every guide that does not set its own), ``"end_span"``, or
 ``"guide<i>_<field>"`` for guide ``i``'s own numeric field (``"guide1_clearance"``,
 ``"guide0_wrap_angle"``, ``"guide2_position"``, ``"guide3_roller_runout"``...).
@@ -107,7 +107,7 @@ def parse_path(data, *, source: str = "path", extra=()) -> tuple[TapeDrive, tupl
     Parameters
     ----------
     data : dict
-        The tables of :data:`PATH_KEYS` (and any of ``extra``, which are not read here).
+        The tables of ``PATH_KEYS`` (and any of ``extra``, which are not read here).
     source : str
         What the data came from, the start of every error message (a file name).
     extra : sequence of str
@@ -117,8 +117,8 @@ def parse_path(data, *, source: str = "path", extra=()) -> tuple[TapeDrive, tupl
     ------
     TypeError, ValueError
         ``"<source>: <key>: <rule>, got <value>"``: an unknown key (with the valid ones),
-        a missing ``guides`` or ``position``, a field that :class:`TapeDrive` or :class:`Guide`
-        refuses, a ``format`` other than :data:`FILE_FORMAT`.
+        a missing ``guides`` or ``position``, a field that :class:`~impactosc.TapeDrive` or :class:`~impactosc.Guide`
+        refuses, a ``format`` other than ``FILE_FORMAT``.
     """
     data = _table(data, "the path", source)
     _unknown(data, PATH_KEYS + tuple(extra), "the top level", source)

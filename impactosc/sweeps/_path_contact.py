@@ -271,7 +271,7 @@ def contact_boundary(path: TapePath, guide: int, vary: str, bracket, along: Mapp
     path : TapePath
     guide : int
     vary : str
-        The parameter solved for (a name of :meth:`TapePath.with_parameter`).
+        The parameter solved for (a name of :meth:`~impactosc.TapePath.with_parameter`).
     bracket : (float, float)
         Its search interval; the sign of ``critical_clearance - clearance`` must differ at the
         ends (else that point's status is -2 with both values in its message).

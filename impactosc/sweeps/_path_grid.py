@@ -1,7 +1,7 @@
 """A grid of tape paths run through the runner: the plan, the store, the Dataset.
 
 What :func:`~impactosc.sweeps.sweep_path` and the contact charts share: each point of the
-outer product of a grid of path parameters (named as :meth:`TapePath.with_parameter` names
+outer product of a grid of path parameters (named as :meth:`~impactosc.TapePath.with_parameter` names
 them) is the base path's dict form with those values set; points are keyed, stored and run
 by :mod:`impactosc.runner` exactly as :func:`~impactosc.sweep` runs drives, and assembled
 into an xarray Dataset with one dimension per swept parameter (and ``guide`` for per-guide

@@ -1,7 +1,7 @@
 """One run of a tape path, and one point of a path sweep as a worker runs it; its store file.
 
 Module-level functions of plain arguments (a path's dict form, numbers), so that they pickle
-by reference under any executor, as :mod:`._point` does for drives.
+by reference under any executor, as ``_point.py`` does for drives.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ def simulate_path(path: TapePath, duration: float, *, phase: float = 0.0, q0=Non
         The supply reel's angle at ``t = 0`` in radians.
     q0, v0 : array_like or None
         Lateral positions in m and velocities in m/s of the tape at the guides at ``t = 0``
-        (relative to each guide, as :attr:`TapePath.length_scale` scales them); ``None``: at
+        (relative to each guide, as :attr:`~impactosc.TapePath.length_scale` scales them); ``None``: at
         rest on the guides' axes.
     max_events : int
         Stop with status 1 after this many events (what was computed is kept).

@@ -21,7 +21,7 @@ def sweep_path(base: TapePath, grid: Mapping | None, *, duration: float, phase: 
     """Run a tape path at every point of a grid of its SI parameters; per-guide results as a Dataset.
 
     Each point of the outer product of ``grid`` is ``base`` with those parameters set
-    (:meth:`TapePath.with_parameter`), run from rest on the guides' axes for ``duration``
+    (:meth:`~impactosc.TapePath.with_parameter`), run from rest on the guides' axes for ``duration``
     seconds on the exact n-DOF backend (:func:`simulate_path`). Points run on the runner of
     :func:`impactosc.sweep` (a local process pool by default, ``"serial"``, any
     ``concurrent.futures.Executor``, ``"dask"`` or a ``dask.distributed`` client), and with
@@ -33,7 +33,7 @@ def sweep_path(base: TapePath, grid: Mapping | None, *, duration: float, phase: 
         The path whose parameters are kept where the grid does not set them.
     grid : dict or None
         ``{parameter: values}``, 1-D sequences of distinct finite numbers. A parameter is a
-        numeric :class:`TapeDrive` field (``"speed"`` m/s, ``"tension"`` N, ``"pack_diameter"``
+        numeric :class:`~impactosc.TapeDrive` field (``"speed"`` m/s, ``"tension"`` N, ``"pack_diameter"``
         m, ``"clearance"`` m: the drive's, for every guide that does not set its own...),
         ``"end_span"`` (m) or ``"guide<i>_<field>"`` for guide ``i``'s own field
         (``"guide2_clearance"``, ``"guide1_guide_offset"``, ``"guide0_position"``...). The
