@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from impactosc import Guide, TapeDrive, TapePath
 from impactosc.sweeps import (
@@ -166,3 +168,19 @@ def test_examples_in_the_docstrings_run(module):
 
     result = doctest.testmod(importlib.import_module(module))
     assert result.attempted > 0 and result.failed == 0
+
+
+@pytest.mark.slow
+@settings(max_examples=8, deadline=None)
+@given(gaps=st.lists(st.floats(5e-3, 0.05), min_size=1, max_size=4), end=st.one_of(st.none(), st.floats(5e-3, 0.05)),
+       offset=st.floats(-20e-6, 20e-6), zeta=st.floats(0.02, 0.2), speed=st.floats(2.0, 12.0),
+       data=st.data())
+def test_critical_clearance_of_any_linear_chain_is_its_harmonic_response(gaps, end, offset, zeta, speed, data):
+    positions = np.cumsum(gaps)
+    guide = data.draw(st.integers(0, len(gaps) - 1))
+    guides = [Guide(float(p), clearance=1e-3, guide_offset=offset if i == guide else 0.0)
+              for i, p in enumerate(positions)]
+    path = TapePath(TapeDrive(friction=0.0, damping_ratio=zeta, speed=speed), guides, end_span=end)
+    q_max, q_min = _harmonic_response(path, guide)
+    expected = max(q_max + offset, -q_min - offset)
+    assert critical_clearance(path, guide) == pytest.approx(expected, rel=1e-8)

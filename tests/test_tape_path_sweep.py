@@ -118,3 +118,21 @@ def test_examples_in_the_docstrings_run(module):
 
     result = doctest.testmod(importlib.import_module(module))
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_a_one_guide_path_sweep_is_the_tape_drive_sweep():
+    """The one-guide path is the paper's drive: its sweep gives the drive sweep's forces and contact counts."""
+    from impactosc import sweep
+
+    drive = TapeDrive(clearance=50e-6, friction=0.0, damping_ratio=0.01)
+    grid = {"speed": [2.0, 8.0], "pack_diameter": [0.05, 0.09]}
+    path_ds = sweep_path(TapePath.from_drive(drive), grid, duration=DURATION, executor="serial", progress=False)
+    drive_ds = sweep(drive, grid, duration=DURATION, backend="exact", executor="serial", progress=False, x0=0.0,
+                     v0=0.0)
+    assert (path_ds.status == 0).all() and (drive_ds.status == 0).all()
+    assert (drive_ds.impacts > 0).any()
+    np.testing.assert_allclose(path_ds.mean_flange_force.sel(guide=0), drive_ds.mean_flange_force, rtol=1e-9,
+                               atol=1e-12)
+    np.testing.assert_allclose(path_ds.mean_flange_force_upper.sel(guide=0), drive_ds.mean_flange_force_upper,
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(path_ds.contacts.sel(guide=0), drive_ds.impacts)
