@@ -136,3 +136,21 @@ def test_a_one_guide_path_sweep_is_the_tape_drive_sweep():
     np.testing.assert_allclose(path_ds.mean_flange_force_upper.sel(guide=0), drive_ds.mean_flange_force_upper,
                                rtol=1e-9, atol=1e-12)
     np.testing.assert_array_equal(path_ds.contacts.sel(guide=0), drive_ds.impacts)
+
+
+def test_load_path_sweep_reads_the_store_back(tmp_path):
+    from impactosc.sweeps import load_path_sweep
+
+    store = tmp_path / "store"
+    ds = sweep_path(PATH, {"speed": [2.0, 4.0]}, duration=DURATION, executor="serial", progress=False, store=store)
+    loaded = load_path_sweep(store)
+    np.testing.assert_array_equal(loaded.mean_flange_force, ds.mean_flange_force)
+    assert loaded.attrs["duration"] == DURATION and loaded.mean_flange_force.attrs["units"] == "N"
+    # One point file gone: that point is "not computed", the other is kept.
+    files = sorted((store / "points").glob("*.nc"))
+    files[0].unlink()
+    with pytest.warns(RuntimeWarning, match="1 of 2 points not computed"):
+        partial = load_path_sweep(store)
+    assert sorted(partial.status.values.tolist()) == [-4, 0]
+    with pytest.raises(FileNotFoundError, match="no manifest.json"):
+        load_path_sweep(tmp_path / "nothing")

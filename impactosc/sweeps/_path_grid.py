@@ -22,10 +22,10 @@ from ..model._tape_path import TapePath
 from ..model._tape_path_file import check_parameter, parameter_units, set_parameter
 from ..runner import PointStore, check_executor, check_store_path, point_key, run_points
 from ._path_point import PATH_CODEC
-from ._point import STATUS_EXCEPTION, STATUS_LOST
+from ._point import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED
 from ._sweep import _STATUS_DOC, _point_label, _version, _warn_failures
 
-__all__ = ["check_path_grid", "plan_paths", "run_paths", "assemble_paths"]
+__all__ = ["check_path_grid", "plan_paths", "run_paths", "assemble_paths", "read_paths", "STORE_FORMAT"]
 
 STORE_FORMAT = 1
 
@@ -90,7 +90,8 @@ def run_paths(plan: dict, fn, args: tuple, failure, *, kind: str, executor, prog
         check_store_path(store)
         st = PointStore.create(store, plan["settings"], codec, kind=kind, fmt=STORE_FORMAT,
                                required=("settings", "grid"),
-                               extra={"grid": {k: v.tolist() for k, v in plan["grid"].items()}}, version=_version())
+                               extra={"grid": {k: v.tolist() for k, v in plan["grid"].items()},
+                                      "base": plan["base"].to_dict()}, version=_version())
     results = {key: failure(r["status"], r["message"]) for key, r in plan["invalid"].items()}
     todo = []
     for key, fields in plan["unique"].items():
@@ -114,7 +115,8 @@ def run_paths(plan: dict, fn, args: tuple, failure, *, kind: str, executor, prog
     return results
 
 
-def assemble_paths(plan: dict, results: dict, guide_vars: dict, point_vars: dict, attrs: dict) -> xr.Dataset:
+def assemble_paths(plan: dict, results: dict, guide_vars: dict, point_vars: dict, attrs: dict, *,
+                   warn: bool = True) -> xr.Dataset:
     """The Dataset: a dimension per swept parameter, ``guide`` for ``guide_vars``; SI units in ``attrs``."""
     grid, base = plan["grid"], plan["base"]
     dims = list(grid)
@@ -145,5 +147,28 @@ def assemble_paths(plan: dict, results: dict, guide_vars: dict, point_vars: dict
                                 meta("m", "guide position along the path (base path)"))
     ds_attrs = {"base_path": json.dumps(base.to_dict()), **attrs, "impactosc_version": _version()}
     ds = xr.Dataset(data, coords=coords, attrs=ds_attrs)
-    _warn_failures(plan, ds)
+    if warn:
+        _warn_failures(plan, ds)
     return ds
+
+
+def read_paths(store, *, kind: str, failure, codec=PATH_CODEC) -> tuple[dict, dict, dict]:
+    """An existing store's plan, its points' results (``failure(-4, message, n_guides)`` where missing) and manifest.
+
+    Nothing is computed or changed on disk; unusable point files count as not computed (a
+    warning names them).
+    """
+    st, manifest = PointStore.read(store, codec, kind=kind, fmt=STORE_FORMAT, required=("settings", "grid", "base"))
+    try:
+        plan = plan_paths(TapePath.from_dict(manifest["base"]), manifest["grid"], manifest["settings"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"store manifest {str(st.root / 'manifest.json')!r} does not describe a valid {kind} "
+                         f"({type(exc).__name__}: {exc})") from None
+    n = plan["base"].n
+    results = {key: failure(r["status"], r["message"], n) for key, r in plan["invalid"].items()}
+    for key in plan["unique"]:
+        stored = st.load(key)
+        results[key] = stored if stored is not None else failure(STATUS_NOT_COMPUTED,
+                                                                 "not computed yet: rerun with this store", n)
+    st.warn_unusable(stacklevel=3)
+    return plan, results, manifest

@@ -10,10 +10,12 @@ import xarray as xr
 from .._util import validation as _v
 from ..backends._simulate import DEFAULT_MAX_EVENTS
 from ..model._tape_path import TapePath
-from ._path_grid import assemble_paths, plan_paths, run_paths
+from ._path_grid import assemble_paths, plan_paths, read_paths, run_paths
 from ._path_point import GUIDE_RESULTS, PATH_RESULTS, path_failure, run_path_point
 
-__all__ = ["sweep_path"]
+__all__ = ["sweep_path", "load_path_sweep"]
+
+KIND = "path sweep"
 
 
 def sweep_path(base: TapePath, grid: Mapping | None, *, duration: float, phase: float = 0.0, executor=None,
@@ -43,7 +45,7 @@ def sweep_path(base: TapePath, grid: Mapping | None, *, duration: float, phase: 
     phase : float
         The supply reel's angle at ``t = 0`` in radians.
     executor, progress, store
-        As in :func:`impactosc.sweep`.
+        As in :func:`impactosc.sweep`; :func:`load_path_sweep` reads a store back.
     max_events : int
         Event limit of each run (status 1 when reached).
 
@@ -96,8 +98,40 @@ def sweep_path(base: TapePath, grid: Mapping | None, *, duration: float, phase: 
     plan = plan_paths(base, grid, settings)
     n = base.n
     results = run_paths(plan, run_path_point, (duration, phase, max_events),
-                        lambda status, message: path_failure(status, message, n), kind="path sweep", store=store,
+                        lambda status, message: path_failure(status, message, n), kind=KIND, store=store,
                         executor=executor, progress=progress)
-    return assemble_paths(plan, results, GUIDE_RESULTS, PATH_RESULTS,
-                          {"duration": duration, "duration_units": "s", "phase": phase, "phase_units": "rad",
-                           "max_events": max_events, "backend": "exact"})
+    return assemble_paths(plan, results, GUIDE_RESULTS, PATH_RESULTS, _attrs(settings))
+
+
+def _attrs(settings: dict) -> dict:
+    return {"duration": settings["duration"], "duration_units": "s", "phase": settings["phase"],
+            "phase_units": "rad", "max_events": settings["max_events"], "backend": settings["backend"]}
+
+
+def load_path_sweep(store) -> xr.Dataset:
+    """Read a store written by :func:`sweep_path` back as its Dataset, without computing anything.
+
+    Points not computed yet (an interrupted sweep) have status -4 and NaN results, and a
+    warning says how many; an unusable point file counts as not computed (a warning names it).
+
+    Raises
+    ------
+    FileNotFoundError
+        ``store`` has no manifest.
+    ValueError
+        The manifest is not a path sweep's, or does not describe a valid one.
+
+    Examples
+    --------
+    >>> from impactosc.sweeps import load_path_sweep
+    >>> ds = load_path_sweep("path-sweep-store")          # doctest: +SKIP
+    """
+    import warnings
+
+    plan, results, manifest = read_paths(store, kind=KIND, failure=path_failure)
+    ds = assemble_paths(plan, results, GUIDE_RESULTS, PATH_RESULTS, _attrs(manifest["settings"]), warn=False)
+    missing = int((ds.status == -4).sum())
+    if missing:
+        warnings.warn(f"store {str(store)!r} is incomplete: {missing} of {ds.status.size} points not computed",
+                      RuntimeWarning, stacklevel=2)
+    return ds
