@@ -58,10 +58,11 @@ def test_options_override_the_file(capsys):
 def test_grid_sweeps_and_writes_a_dataset(capsys, tmp_path):
     import xarray as xr
 
-    nc = tmp_path / "s.nc"
+    nc, png = tmp_path / "s.nc", tmp_path / "s.png"
     assert main(["path", str(TWO), "--grid", "guide1_clearance=30e-6,1e-3", "--duration", "0.001", "--serial",
-                 "--no-progress", "--out", str(nc)]) == 0
+                 "--no-progress", "--out", str(nc), "--plot", str(png)]) == 0
     assert "2 points (guide1_clearance[2])" in capsys.readouterr().out
+    assert png.stat().st_size > 10_000
     with xr.open_dataset(nc, engine="scipy") as ds:
         assert ds.mean_flange_force.dims == ("guide1_clearance", "guide")
         assert ds.mean_flange_force.attrs["units"] == "N"
@@ -76,6 +77,22 @@ def test_critical_clearance_of_a_guide(capsys):
     assert f"critical clearance {expected * 1e6:.6g} um" in out and "its clearance 40 um: contact" in out
 
 
+def test_critical_clearance_chart_writes_its_dataset_and_figure(capsys, tmp_path):
+    import xarray as xr
+
+    nc, png = tmp_path / "c.nc", tmp_path / "c.png"
+    assert main(["path", str(TWO), "--critical-clearance", "1", "--grid", "pack_diameter=0.05,0.09", "--serial",
+                 "--no-progress", "--out", str(nc), "--plot", str(png)]) == 0
+    assert "critical clearance of guide 1 [um] over pack_diameter[2]: 0 failed" in capsys.readouterr().out
+    assert png.stat().st_size > 10_000
+    with xr.open_dataset(nc, engine="scipy") as ds:
+        assert ds.critical_clearance.attrs["units"] == "m"
+        path = TapePath.from_file(TWO)
+        for d in (0.05, 0.09):
+            assert float(ds.critical_clearance.sel(pack_diameter=d)) == pytest.approx(
+                critical_clearance(path.with_parameter("pack_diameter", d), 1), rel=1e-12)
+
+
 @pytest.mark.parametrize("extra, text, message", [
     ([], "[run]\nduration = -1\n", r"\[run\] duration must be > 0, got -1"),
     ([], "[run]\nduraton = 1\n", r"\[run\] has an unknown key 'duraton'"),
@@ -86,6 +103,8 @@ def test_critical_clearance_of_a_guide(capsys):
     (["--grid", "colour=1,2"], "", "'colour' is not a path parameter"),
     (["--grid", "speed=1,fast"], "", "'fast' is not a number"),
     (["--out", "x.nc"], "", "--out is for a --grid sweep"),
+    (["--plot", "x.png"], "", "--plot is for a --grid sweep"),
+    (["--grid", "speed=1,2", "--plot", "x.xyz"], "", "the figure's format is its extension"),
     (["--grid", "speed=1,2", "--motion", "m.csv"], "", "--motion and --events are for a single run"),
     (["--critical-clearance", "5"], "", "--critical-clearance must name guides 0 to 0"),
     (["--head", "1.0"], "", "head must lie on the path"),

@@ -29,7 +29,14 @@ from __future__ import annotations
 import math
 from importlib.resources import files
 
-from ._common import check_dataset_output, check_output_dir, check_output_file, nonnegative_int, positive_int
+from ._common import (
+    check_dataset_output,
+    check_output_dir,
+    check_output_file,
+    check_plot_output,
+    nonnegative_int,
+    positive_int,
+)
 
 #: The example path files shipped with the package (``impactosc/cli/paths/``).
 EXAMPLES = ("two-guides", "four-guides")
@@ -65,6 +72,9 @@ def add_parser(sub) -> None:
     sw.add_argument("--critical-clearance", type=nonnegative_int, metavar="GUIDE",
                     help="the guide's critical clearance (steady state, its flanges taken away); over --grid a chart")
     sw.add_argument("--out", metavar="FILE.nc|FILE.csv", help="write the Dataset of --grid (netCDF or CSV)")
+    sw.add_argument("--plot", metavar="PNG", help="a figure of --grid: per guide, the mean flange force (a sweep) or "
+                                                  "the critical clearance (a chart) against the first parameter, a "
+                                                  "line per value of the second")
     sw.add_argument("--store", metavar="DIR", help="resumable per-point store of a --grid sweep")
     sw.add_argument("--serial", action="store_true", help="run the points in this process")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -131,13 +141,16 @@ def run(args) -> int:
     path, data = TapePath.read_file(args.file)
     settings = read_settings(data, source, args)
     grid = _parse_grid(args.grid)
-    for option in ("out", "store"):
+    for option in ("out", "store", "plot"):
         if getattr(args, option) and not grid:
             raise ValueError(f"--{option} is for a --grid sweep or chart; a single run writes --motion and --events")
     if grid and (settings["motion"] or settings["events"]):
         raise ValueError("--motion and --events are for a single run, not a --grid sweep (use --out)")
     if args.out:
         check_dataset_output("--out", args.out)
+    if len(grid) > 2 and args.plot:
+        raise ValueError(f"--plot draws one or two --grid parameters, got {len(grid)}")
+    check_plot_output("--plot", args.plot)
     if args.store:
         check_output_dir("--store", args.store)
     for key in ("motion", "events"):
@@ -249,7 +262,36 @@ def _sweep(path, args, settings, grid) -> int:
         print(table.to_string(index=False))
     if args.out:
         _write_out(ds, args.out)
+    if args.plot:
+        _plot(ds.mean_flange_force, list(grid), args.plot, "mean flange force [N]")
     return 0 if failed == 0 else 1
+
+
+def _plot(var, dims: list, file: str, ylabel: str, title: str = "") -> None:
+    """``var`` against the first grid dimension, a line per value of the second (and per guide)."""
+    from .._util.optional import require_matplotlib
+
+    plt = require_matplotlib()
+    ds = var.to_dataset()
+    x_dim = dims[0]
+    panels = list(var["guide"].values) if "guide" in var.dims else [None]
+    fig, axes = plt.subplots(1, len(panels), figsize=(min(4.5 * len(panels), 9.0), 3.8), squeeze=False,
+                             constrained_layout=True)
+    for ax, guide in zip(axes[0], panels, strict=True):
+        v = var if guide is None else var.sel(guide=guide)
+        for k, value in enumerate(ds[dims[1]].values if len(dims) > 1 else [None]):
+            y = v if value is None else v.sel({dims[1]: value})
+            label = None if value is None else f"{dims[1]} = {value:g} {ds[dims[1]].attrs.get('units', '')}"
+            ax.plot(ds[x_dim].values, y.values, "o-", ms=3, color=f"C{k % 10}", label=label)
+        ax.set_xlabel(f"{x_dim} [{ds[x_dim].attrs.get('units', '')}]")
+        ax.set_title(f"guide {guide}" if guide is not None else title, fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel(ylabel)
+    if len(dims) > 1:
+        axes[0][-1].legend(fontsize=7)
+    fig.savefig(file, dpi=100)
+    plt.close(fig)
+    print(f"plot written to {file}")
 
 
 def _contact(path, args, settings, grid) -> int:
@@ -279,5 +321,10 @@ def _contact(path, args, settings, grid) -> int:
     print(table.to_string(index=False))
     if args.out:
         _write_out(ds, args.out)
+    if args.plot:
+        um = ds.critical_clearance * 1e6
+        um.attrs = {**ds.critical_clearance.attrs, "units": "um"}
+        _plot(um, list(grid), args.plot, f"guide {g} critical clearance [um]",
+              f"contact at guide {g} starts below these clearances")
     return 0 if failed == 0 else 1
 

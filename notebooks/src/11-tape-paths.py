@@ -99,7 +99,7 @@ for i in range(path.n):
 # Without friction the tension does not enter at all (eq. 4's span stiffness does not
 # depend on it), and the speed only through the tiny dynamic part of the response.
 
-# %%
+# %% tags=["gallery-chart"]
 diameters = np.linspace(0.045, 0.095, 3 if QUICK else 7)
 clearances0 = np.array([60e-6, 120e-6, 1e-3]) if QUICK else np.geomspace(40e-6, 1e-3, 7)
 chart = critical_clearance_chart(path, 1, {"pack_diameter": diameters, "guide0_clearance": clearances0},
@@ -139,7 +139,7 @@ for v in boundary.speed.values:
 # (`impactosc.signal.analyze`: high-pass at 1 kHz, rms envelope, spectrogram, 1-2 kHz band
 # power) on the head's lateral motion, with guide 2's contact starts as the dashed lines.
 
-# %%
+# %% tags=["gallery"]
 head = 0.125
 phase = math.pi / 2 - 0.3  # the reel's angle at t = 0: the run-out on its way down, every guide clear
 clear = np.array([four.guide_drive(i).clearance for i in range(four.n)])
