@@ -28,11 +28,14 @@ from ._path_grid import assemble_paths, plan_paths, run_paths
 from ._point import STATUS_EXCEPTION
 
 __all__ = ["steady_deflection", "critical_clearance", "critical_clearance_chart", "contact_boundary",
-           "SETTLE_DECADES"]
+           "SETTLE_DECADES", "MAX_SETTLE_SECONDS"]
 
 #: The transient is simulated out over the time its slowest mode takes to decay by
 #: ``10**SETTLE_DECADES`` (modal damping: ``exp(-zeta w_min t)``), rounded up to whole reel turns.
 SETTLE_DECADES = 14.0
+#: Default limit in seconds of tape motion on the settle time: a lightly damped chain whose
+#: transient outlasts it is refused by name rather than simulated for hours.
+MAX_SETTLE_SECONDS = 2.0
 
 CONTACT_RESULTS = {
     "critical_clearance": ("m", "critical clearance: the largest at which the tape touches the guide's flanges"),
@@ -44,7 +47,7 @@ CONTACT_RESULTS = {
 }
 
 
-def _settle_seconds(path: TapePath) -> float:
+def _settle_seconds(path: TapePath, max_settle: float) -> float:
     """Seconds for the slowest mode's transient to fall by ``10**SETTLE_DECADES``, in whole reel turns."""
     zeta = path.drive.damping_ratio
     if not zeta > 0.0:
@@ -53,12 +56,16 @@ def _settle_seconds(path: TapePath) -> float:
     M, K = np.diag(path.mass_matrix), path.stiffness_matrix
     w_min = math.sqrt(max(float(np.linalg.eigvalsh(K / np.sqrt(np.outer(M, M)))[0]), 0.0))
     turn = 2.0 * math.pi / path.drive.omega_r
-    seconds = SETTLE_DECADES * math.log(10.0) / (zeta * w_min)
-    return math.ceil(seconds / turn) * turn
+    seconds = math.ceil(SETTLE_DECADES * math.log(10.0) / (zeta * w_min) / turn) * turn
+    if seconds > max_settle:
+        raise ValueError(f"path.drive.damping_ratio = {zeta!r}: the transient takes {seconds:.4g} s of tape motion "
+                         f"to die out, more than max_settle = {max_settle!r} s; raise the damping or max_settle")
+    return seconds
 
 
 def steady_deflection(path: TapePath, guide: int, *, phase: float = 0.0, turns: int = 1, samples: int = 512,
-                      max_events: int = DEFAULT_MAX_EVENTS) -> dict[str, Any]:
+                      max_events: int = DEFAULT_MAX_EVENTS, max_settle: float = MAX_SETTLE_SECONDS
+                      ) -> dict[str, Any]:
     """Steady-state extremes of the lateral deflection at a guide whose flanges are taken away (SI units).
 
     The path (every other guide with its flanges and friction) runs from rest for the settle
@@ -78,6 +85,9 @@ def steady_deflection(path: TapePath, guide: int, *, phase: float = 0.0, turns: 
         Reel turns measured, samples per turn (>= 16).
     max_events : int
         Event limit of the run.
+    max_settle : float
+        Longest settle time in seconds of tape motion (> 0): a chain damped so lightly that
+        its transient outlasts it raises a ``ValueError`` (naming ``damping_ratio``).
 
     Returns
     -------
@@ -95,7 +105,7 @@ def steady_deflection(path: TapePath, guide: int, *, phase: float = 0.0, turns: 
     g = path.check_guide(guide)
     turns = _v.integer("turns", turns)
     samples = _v.integer("samples", samples, minimum=16)
-    settle = _settle_seconds(path)
+    settle = _settle_seconds(path, _v.positive("max_settle", max_settle))
     turn = 2.0 * math.pi / path.drive.omega_r
     system = path.mechanical_system(phase, leave_out_flanges=(g,))
     t0, t1 = path.seconds_to_time(settle), path.seconds_to_time(settle + turns * turn)
