@@ -71,7 +71,9 @@ def steady_deflection(path: TapePath, guide: int, *, phase: float = 0.0, turns: 
     The path (every other guide with its flanges and friction) runs from rest for the settle
     time (the slowest mode's transient down by ``10**SETTLE_DECADES``, in whole turns of the
     reel), then ``turns`` whole turns are sampled at ``samples`` points per turn and every
-    extreme is polished by a bounded scalar search on the closed form.
+    extreme is polished by a bounded scalar search on the closed form. A roller's run-out turns
+    at its own frequency: the motion is then not periodic in the reel's turn, and the
+    extremes of the measured turns approach the true ones as ``turns`` grows.
 
     Parameters
     ----------
