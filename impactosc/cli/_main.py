@@ -1,4 +1,4 @@
-"""Command line: ``impactosc demo | simulate | sweep | bifurcation | orbit | continue | onset | chart | paper``.
+"""Command line: ``impactosc demo | simulate | sweep | path | bifurcation | orbit | continue | onset | chart | paper``.
 
 Also ``python -m impactosc``. Errors are reported as one line (``impactosc: error: ...``)
 with exit status 2; output paths (and matplotlib, for a figure) are checked before anything
@@ -19,13 +19,13 @@ from __future__ import annotations
 import os
 import sys
 
-from . import _bifurcation, _chart, _continue, _demo, _onset, _orbit, _paper, _simulate, _sweep
+from . import _bifurcation, _chart, _continue, _demo, _onset, _orbit, _paper, _path, _simulate, _sweep
 from ._common import Parser, check_output_dir, check_output_file
 
 __all__ = ["main", "build_parser", "SUBCOMMANDS", "check_output_file", "check_output_dir"]
 
 #: The subcommand modules, in the order of ``impactosc --help``.
-SUBCOMMANDS = (_demo, _simulate, _sweep, _bifurcation, _orbit, _continue, _onset, _chart, _paper)
+SUBCOMMANDS = (_demo, _simulate, _sweep, _path, _bifurcation, _orbit, _continue, _onset, _chart, _paper)
 
 
 def build_parser() -> Parser:

@@ -29,96 +29,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._util import validation as _v
+from ._guide import GUIDE_FIELDS, Guide, guide_tuple
 from ._mechanical import Contact, Friction, MechanicalSystem
 from ._tape import TapeDrive
+from ._tape_path_file import parse_path, path_dict, read_path_file, set_parameter
 
 __all__ = ["Guide", "TapePath", "GUIDE_FIELDS"]
-
-#: The :class:`TapeDrive` fields a :class:`Guide` may set for itself (``None``: the path's drive's value).
-GUIDE_FIELDS = ("clearance", "guide_offset", "flange_sides", "flange", "stiffness_ratio", "flange_stiffness",
-                "restitution", "wrap_angle", "friction", "static_friction")
-
-
-@dataclass(frozen=True, slots=True)
-class Guide:
-    """One guide or roller of a :class:`TapePath`: where it is, its flanges, wrap and friction.
-
-    Every field but ``position`` and the roller run-out defaults to ``None``, meaning the value
-    of the path's :class:`TapeDrive` (same name, same units, same rules: the guide's fields are
-    validated by building a :class:`TapeDrive` with them).
-
-    Parameters
-    ----------
-    position : float
-        Distance in m along the tape from where it leaves the supply pack (> 0; the guides of a
-        path are in increasing order).
-    clearance, guide_offset, flange_sides, flange, stiffness_ratio, flange_stiffness, restitution, wrap_angle, \
-friction, static_friction
-        As in :class:`TapeDrive` (clearance in m, offset in m towards the upper flange, ``"both"``,
-        ``"upper"`` or ``"lower"``, ``"spring"`` or ``"rigid"``, ``k0`` in N/m, wrap angle in degrees,
-        friction coefficients); ``None``: the drive's. The spring flange's ``k0`` defaults to
-        ``stiffness_ratio`` times the guide's own lateral stiffness (the diagonal entry of the
-        chain's stiffness matrix, ``k`` of eq. 4 for a single guide).
-    roller_runout : float
-        Axial run-out amplitude in m of a rotating roller's flanges (>= 0; default 0: a fixed guide).
-    roller_diameter : float or None
-        Roller diameter in m (> 0), required with a run-out: the roller turns at ``2 V / d``
-        (eq. 1's relation for a surface moving at the tape speed).
-    roller_phase : float
-        The roller's angle at ``t = 0`` in radians.
-
-    Examples
-    --------
-    >>> from impactosc.model import Guide
-    >>> Guide(0.03, clearance=50e-6, wrap_angle=90.0).clearance
-    5e-05
-    """
-
-    position: float
-    clearance: float | None = None
-    guide_offset: float | None = None
-    flange_sides: str | None = None
-    flange: str | None = None
-    stiffness_ratio: float | None = None
-    flange_stiffness: float | None = None
-    restitution: float | None = None
-    wrap_angle: float | None = None
-    friction: float | None = None
-    static_friction: float | None = None
-    roller_runout: float = 0.0
-    roller_diameter: float | None = None
-    roller_phase: float = 0.0
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "position", _v.positive("Guide.position", self.position))
-        object.__setattr__(self, "roller_runout", _v.nonnegative("Guide.roller_runout", self.roller_runout))
-        object.__setattr__(self, "roller_phase", _v.real("Guide.roller_phase", self.roller_phase))
-        if self.roller_diameter is not None:
-            object.__setattr__(self, "roller_diameter", _v.positive("Guide.roller_diameter", self.roller_diameter))
-        elif self.roller_runout > 0.0:
-            raise ValueError(f"Guide.roller_diameter is required with Guide.roller_runout > 0 (the roller turns at "
-                             f"2 V / d), got roller_runout={self.roller_runout!r} and roller_diameter=None")
-
-    def overrides(self) -> dict:
-        """The :class:`TapeDrive` fields this guide sets (those not ``None``)."""
-        return {name: getattr(self, name) for name in GUIDE_FIELDS if getattr(self, name) is not None}
-
-
-def _guide_tuple(guides) -> tuple[Guide, ...]:
-    if isinstance(guides, Guide):
-        guides = (guides,)
-    if isinstance(guides, str | bytes) or not hasattr(guides, "__iter__"):
-        raise TypeError(f"guides must be a sequence of Guide, got {guides!r}")
-    out = tuple(guides)
-    if not out:
-        raise ValueError("guides must hold at least one Guide, got an empty sequence")
-    for i, g in enumerate(out):
-        if not isinstance(g, Guide):
-            raise TypeError(f"guides[{i}] must be a Guide, got {g!r} of type {type(g).__name__}")
-        if i and not g.position > out[i - 1].position:
-            raise ValueError(f"guides[{i}].position must be > guides[{i - 1}].position = {out[i - 1].position!r} m "
-                             f"(guides in order along the path), got {g.position!r}")
-    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -180,6 +96,18 @@ class TapePath:
     >>> system.n, len(system.contacts), len(system.friction)
     (3, 6, 3)
     >>> t_end = path.seconds_to_time(1e-3)   # nondimensional time of 1 ms
+
+    A path from a path file, run for a millisecond, and where contact starts at its second
+    guide (the tools of :mod:`impactosc.sweeps`; ``impactosc path FILE`` on the command line):
+
+    >>> from importlib.resources import files
+    >>> from impactosc.sweeps import critical_clearance, simulate_path
+    >>> two = TapePath.from_file(files("impactosc.cli") / "paths" / "two-guides.toml")
+    >>> run = simulate_path(two, 1e-3)
+    >>> run.mean_flange_force().shape, run.status        # N per guide
+    ((2,), 0)
+    >>> round(critical_clearance(two, 1) * 1e6, 1)       # um: its 40 um clearance is touched
+    52.3
     """
 
     drive: TapeDrive
@@ -189,7 +117,7 @@ class TapePath:
     def __post_init__(self) -> None:
         if not isinstance(self.drive, TapeDrive):
             raise TypeError(f"drive must be a TapeDrive, got {self.drive!r} of type {type(self.drive).__name__}")
-        object.__setattr__(self, "guides", _guide_tuple(self.guides))
+        object.__setattr__(self, "guides", guide_tuple(self.guides))
         if self.end_span is not None:
             object.__setattr__(self, "end_span", _v.positive("end_span", self.end_span))
         for i in range(len(self.guides)):
@@ -211,6 +139,83 @@ class TapePath:
         0.01
         """
         return cls(drive, (Guide(drive.free_length),))
+
+    @classmethod
+    def from_dict(cls, data, *, source: str = "path") -> TapePath:
+        """A path from its dict form (a path file's tables: ``drive``, ``guides``, ``end_span``).
+
+        The layout is that of a path file (``impactosc path --example two-guides`` prints one): a
+        ``drive`` table of :class:`TapeDrive` fields, a list ``guides`` of tables of
+        :class:`Guide` fields (``position`` required), an optional ``end_span`` and ``format``.
+        Errors start with ``source`` and name the key (``guides[1].clearance``...).
+
+        Examples
+        --------
+        >>> from impactosc.model import TapePath
+        >>> path = TapePath.from_dict({"drive": {"clearance": 50e-6, "friction": 0.0},
+        ...                            "guides": [{"position": 0.02}, {"position": 0.05, "clearance": 30e-6}],
+        ...                            "end_span": 0.03})
+        >>> path.n, path.guide_drive(1).clearance
+        (2, 3e-05)
+        >>> TapePath.from_dict(path.to_dict()) == path
+        True
+        """
+        drive, guides, end_span = parse_path(data, source=source)
+        try:
+            return cls(drive, guides, end_span=end_span)
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"{source}: {exc}") from None
+
+    @classmethod
+    def from_file(cls, file) -> TapePath:
+        """A path from a path file (``.toml`` or ``.json``; the layout of :meth:`from_dict`).
+
+        A file's ``run`` and ``output`` tables (read by ``impactosc path``) are allowed and not
+        read here (:meth:`read_file` returns them). Errors name the file and the key.
+
+        Examples
+        --------
+        >>> from importlib.resources import files
+        >>> from impactosc.model import TapePath
+        >>> path = TapePath.from_file(files("impactosc.cli") / "paths" / "four-guides.toml")
+        >>> path.n
+        4
+        """
+        return cls.read_file(file)[0]
+
+    @classmethod
+    def read_file(cls, file) -> tuple[TapePath, dict]:
+        """A path file's path and all its tables (the ``run`` and ``output`` tables included, unchecked)."""
+        source = f"path file {str(file)!r}"
+        data = read_path_file(file)
+        drive, guides, end_span = parse_path(data, source=source, extra=("run", "output"))
+        try:
+            return cls(drive, guides, end_span=end_span), data
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"{source}: {exc}") from None
+
+    def to_dict(self) -> dict:
+        """The dict form of :meth:`from_dict` (every drive field; each guide's own fields), TOML/JSON-ready."""
+        return path_dict(self.drive, self.guides, self.end_span)
+
+    def with_parameter(self, key: str, value) -> TapePath:
+        """A copy with one SI parameter set, by its sweep name.
+
+        ``key``: a numeric :class:`TapeDrive` field (``"speed"``, ``"tension"``,
+        ``"pack_diameter"``, ``"clearance"`` -- the drive's, so of every guide that does not set
+        its own), ``"end_span"``, or ``"guide<i>_<field>"`` for guide ``i``'s own field
+        (``"guide1_clearance"``, ``"guide0_guide_offset"``, ``"guide2_position"``...).
+
+        Examples
+        --------
+        >>> from impactosc.model import Guide, TapeDrive, TapePath
+        >>> path = TapePath(TapeDrive(), [Guide(0.02), Guide(0.05)])
+        >>> path.with_parameter("guide1_clearance", 40e-6).guide_drive(1).clearance
+        4e-05
+        >>> path.with_parameter("speed", 8.0).drive.speed
+        8.0
+        """
+        return TapePath.from_dict(set_parameter(self.to_dict(), key, value), source=f"{key} = {value!r}")
 
     def replace(self, **changes) -> TapePath:
         """A copy with some fields changed, validated again (``dataclasses.replace``)."""
@@ -425,7 +430,7 @@ class TapePath:
             friction.append(Friction(i, gd.friction_force / fs, mus * gd.normal_force / fs))
         return contacts, friction
 
-    def mechanical_system(self, phase: float = 0.0) -> MechanicalSystem:
+    def mechanical_system(self, phase: float = 0.0, *, leave_out_flanges=()) -> MechanicalSystem:
         """The chain as a nondimensional :class:`MechanicalSystem` (scales: :attr:`length_scale`, ...).
 
         ``M``, ``C``, ``K`` over :attr:`mass_scale`, ``mass_scale * omega_scale`` and
@@ -437,6 +442,10 @@ class TapePath:
         ----------
         phase : float
             The supply reel's angle at ``t = 0`` in radians (as :meth:`TapeDrive.oscillator`).
+        leave_out_flanges : sequence of int
+            Guides whose flanges are taken away (their friction stays): the motion a guide's
+            flanges would limit, as where contact starts is found. :meth:`contact_guides`
+            lists the contacts of the full path only.
 
         Raises
         ------
@@ -460,9 +469,10 @@ class TapePath:
         C = c_nd * (ms * self.omega_scale)
         contacts: list[Contact] = []
         friction: list[Friction] = []
+        left_out = {self.check_guide(i, "leave_out_flanges") for i in leave_out_flanges}
         for i in range(self.n):
             c, f = self._guide_laws(i, float(K[i, i]))
-            contacts += c
+            contacts += [] if i in left_out else c
             friction += f
         try:
             return MechanicalSystem(M=M / ms, C=c_nd, K=K / ks,
@@ -471,6 +481,13 @@ class TapePath:
         except ValueError as exc:
             raise ValueError(f"TapePath: {exc} (contacts 2i, 2i+1 and friction on coordinate i belong to "
                              "guides[i])") from None
+
+    def check_guide(self, i, name: str = "guide") -> int:
+        """``i`` as the index of one of the path's guides; a ``TypeError``/``ValueError`` naming ``name``."""
+        g = _v.integer(name, i, minimum=0)
+        if g >= self.n:
+            raise ValueError(f"{name} must name guides 0 to {self.n - 1} (the path's guides), got {i!r}")
+        return g
 
     def contact_guides(self) -> list[tuple[int, int]]:
         """``(guide, side)`` of every contact of :meth:`mechanical_system`, in order (side +1 upper, -1 lower)."""
