@@ -26,6 +26,7 @@ finds a fixed point of ``P`` by Newton's method with the Floquet multipliers.
 from __future__ import annotations
 
 import math
+import re
 import threading
 from dataclasses import dataclass
 
@@ -56,6 +57,14 @@ class HybridMapValue:
     signature: tuple  #: ``(guard, mode before, mode after)`` of every crossing, in order
     failure: str = ""  #: why the run failed ("" when it ran)
     singular: str = ""  #: why the map is not differentiable here ("" when it is)
+    #: ``(guard, t, h)`` at every extremum of a guard's value ``h`` on the side it fires from (maxima of a
+    #: rising guard, minima of a falling one) and at the ends of every piece, in the modes where a guard of
+    #: the same expression is armed (the crossings of that expression left out, where ``h`` is 0): the
+    #: largest ``d h`` among them is how near the orbit comes to firing the guard (a grazing when it reaches
+    #: 0). Empty when singular.
+    extrema: tuple = ()
+    #: ``(guard, t, n . f- + h_t)`` of every crossing: the rate at which the guard's value passes zero.
+    speeds: tuple = ()
 
     @property
     def ok(self) -> bool:
@@ -80,13 +89,54 @@ class _Tangent:
         args = list(num.states) + [hy.par[k] for k in range(P)]
         vsys = hy.var_ode_sys(list(zip(num.states, rates, strict=True)), args, order=1)
         # pars left out: heyoka sizes them to the highest index the expressions use
-        self.ta = hy.taylor_adaptive(vsys, [0.0] * n_all, tol=tol, compact_mode=True)
+        self.ta = hy.taylor_adaptive(vsys, [0.0] * n_all, tol=tol, compact_mode=True,
+                                     nt_events=self._extremum_events(system, num, ind))
         self.n_all, self.P, self.M = n_all, P, M
         self.width = n_all + P
         start = np.zeros((n_all, self.width))
         start[:, :n_all] = np.eye(n_all)
         self.start = start.ravel()  # dy/dy = I, dy/dp = 0 at the piece start
         self.lock = threading.Lock()
+
+    def _extremum_events(self, system: HybridSystem, num, ind) -> list:
+        """One non-terminal event per guard expression: its Lie derivative where a guard of it is armed.
+
+        The expression is ``sum_m [mode == m] h'_m + (1 - sum_m [mode == m])`` over those modes
+        (the constant 1, without a root, elsewhere); each root is an extremum of ``h``, kept in
+        :attr:`found` as ``(expression index, t, sign of h'' , state)``.
+        """
+        import heyoka as hy
+
+        #: The distinct guard expressions, and for each guard the index of its own.
+        self.expressions: list = []
+        self.expression_of: list[int] = []
+        for h in num.guards:
+            if h not in self.expressions:
+                self.expressions.append(h)
+            self.expression_of.append(self.expressions.index(h))
+        self.found: list = []
+        events = []
+        #: For each expression, the modes where a guard of it is armed.
+        self.modes_of: list[set] = [set() for _ in self.expressions]
+        for k in range(len(self.expressions)):
+            lie = {}
+            for g, modes in enumerate(num.armed):
+                if self.expression_of[g] == k:
+                    lie.update({m: num.lie[(m, g)] for m in modes})
+                    self.modes_of[k].update(modes)
+            terms = [(m, e) for m, e in sorted(lie.items())
+                     if hy.get_variables(e) or "t" in re.findall(r"\w+", str(e))]
+            if not terms:
+                continue  # a constant rate everywhere it is armed: no extremum
+            gate = hy.sum([ind[m] for m, _ in terms]) if len(terms) > 1 else ind[terms[0][0]]
+            expr = hy.sum([ind[m] * e for m, e in terms] + [1.0 - gate])
+
+            def record(ta, t, d_sgn, k=k):
+                ta.update_d_output(t)
+                self.found.append((k, t, int(d_sgn), ta.d_output[:self.n_all].copy()))
+
+            events.append(hy.nt_event(expr, record))
+        return events
 
     def piece(self, params, mode: int, t0: float, y0, t1: float) -> np.ndarray:
         """``[dy(t1)/dy(t0) | dy(t1)/dp]`` of the piece in ``mode`` (n_all x (n_all + P))."""
@@ -235,13 +285,13 @@ class HybridMap:
             return HybridMapValue(z, params, image, nan_m, nan_p, signature, "",
                                   f"guard {e.guard!r} grazes at t={e.t!r} (its value has an extremum on zero)")
         try:
-            J = self._sensitivity(sys_p, sol, p)
+            J, extrema, speeds = self._sensitivity(sys_p, sol, p)
         except ZeroDivisionError as exc:
             return HybridMapValue(z, params, image, nan_m, nan_p, signature, "", str(exc))
         n_all = J.shape[0]
         dp = J[:n, [n_all + c for c in self.columns]].copy()
         if self.section is not None:  # the map ends on the section: no end time to move
-            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature)
+            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, extrema=extrema, speeds=speeds)
         # the map ends at t0 + iterates T(p): a parameter that moves T moves the end
         f_end = np.array(rules(system).field[sys_p.mode_index(sol.mode_final)](self.t0 + span,
                                                                                 sol.state_final.tolist(), p))
@@ -249,10 +299,15 @@ class HybridMap:
             dT = self.iterates * period_and_rates[1 + c]
             if dT != 0.0:
                 dp[:, j] += f_end[:n] * dT
-        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature)
+        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, extrema=extrema, speeds=speeds)
 
-    def _sensitivity(self, system: HybridSystem, sol, p) -> np.ndarray:
-        """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn."""
+    def _sensitivity(self, system: HybridSystem, sol, p) -> tuple[np.ndarray, tuple, tuple]:
+        """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn; the guards' extrema and speeds.
+
+        The extrema and the crossing speeds are those of :class:`HybridMapValue` (``extrema``,
+        ``speeds``), seen on the way: the variational integrator has each guard expression's
+        Lie derivative as a non-terminal event.
+        """
         tangent = _tangent(self.system, self.tol)
         rule = rules(self.system)
         n, n_all, P = system.dimension, tangent.n_all, tangent.P
@@ -261,23 +316,30 @@ class HybridMap:
         t, mode_name, y = sol.pieces[0]
         mode = system.mode_index(mode_name)
         last = len(sol.events) - 1
+        speeds = []
         with tangent.lock:
+            tangent.found = []
             for i, e in enumerate(sol.events):
                 on_section = self.section is not None and i == last
                 if e.kind != "crossing" and not on_section:
                     continue
                 J = _compose(tangent.piece(p, mode, t, y, e.t), J, n_all)
-                J, dtau, f_plus = self._saltation(rule, system, e, p, J, n, n_all, P, reset=e.kind == "crossing")
+                J, dtau, f_plus, speed = self._saltation(rule, system, e, p, J, n, n_all, P,
+                                                         reset=e.kind == "crossing")
+                if e.kind == "crossing":
+                    speeds.append((e.guard, e.t, speed))
                 if on_section:
                     # the map's value is the state on the section, at the perturbed return time
                     J = J - np.outer(f_plus, dtau)
                 t, mode, y = e.t, system.mode_index(e.mode_after), e.state_after
             J = _compose(tangent.piece(p, mode, t, y, sol.t_final), J, n_all)
-        return J
+            found, tangent.found = tangent.found, []
+        return J, _guard_extrema(system, rule, tangent, found, sol, p), tuple(speeds)
 
     @staticmethod
     def _saltation(rule, system, e, p, J, n, n_all, P, reset: bool = True) -> tuple:
-        """``(J+, dtau, f+)``: the sensitivity after the event, ``-d(event time)/d(z, p)`` and the field after.
+        """``(J+, dtau, f+, speed)``: the sensitivity after the event, ``-d(event time)/d(z, p)``, the field after
+        and the guard's rate ``n . f- + h_t`` at the crossing.
 
         ``reset=False`` (a marker guard): no transition, ``J+ = J``.
         """
@@ -304,11 +366,35 @@ class HybridMap:
         crossing[n_all:] += h_p
         dtau = crossing / speed
         if not reset:
-            return J, dtau, f_minus
+            return J, dtau, f_minus, speed
         J_new = R_y @ J
         J_new[:, n_all:] += R_p
         J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
-        return J_new, dtau, f_plus
+        return J_new, dtau, f_plus, speed
+
+
+def _guard_extrema(system: HybridSystem, rule, tangent: _Tangent, found, sol, p) -> tuple:
+    """``HybridMapValue.extrema`` of a run: its extremum events ``(expression, t, sign of h'', state)`` and
+    the ends of its pieces."""
+    out = []
+    for k, t, curvature, y in found:
+        for g, guard in enumerate(system.guards):
+            # a rising guard is touched from below at a maximum of h (h'' < 0), a falling one at a minimum
+            if tangent.expression_of[g] == k and guard.direction != 0 and curvature == -guard.direction:
+                out.append((guard.name, float(t), float(rule.guard[g](t, list(y), p)[0])))
+    # the ends of the pieces: an extremum where another guard switches the mode (a velocity reversal
+    # between two slip modes) lies there, not inside a piece
+    t0, mode0, y0 = sol.pieces[0]
+    ends = [(t0, system.mode_index(mode0), y0, -1)]
+    ends += [(e.t, system.mode_index(m), state, system.guard_names.index(e.guard)) for e in sol.events
+             if e.kind == "crossing" for m, state in ((e.mode_before, e.state_before), (e.mode_after, e.state_after))]
+    ends.append((sol.t_final, system.mode_index(sol.mode_final), sol.state_final, -1))
+    for t, mode, y, by in ends:
+        for g, guard in enumerate(system.guards):
+            k = tangent.expression_of[g]
+            if guard.direction != 0 and mode in tangent.modes_of[k] and (by < 0 or tangent.expression_of[by] != k):
+                out.append((guard.name, float(t), float(rule.guard[g](t, list(y), p)[0])))
+    return tuple(out)
 
 
 def _compose(piece: np.ndarray, J: np.ndarray, n_all: int) -> np.ndarray:

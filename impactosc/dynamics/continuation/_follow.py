@@ -19,15 +19,18 @@ by mapping the section state across the impact's reset.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from ._arclength import Corrected, Settings, correct, illinois, unscaled
+from ._arclength import Corrected, Settings, correct, illinois, parameter
+from ._branch import signature_text
 from ._grazing import approaching
 from ._nodes import Found, Node, make_node
 from ._nonsmooth import across_section, regular_grazing, try_crossing
-from ._points import MARGIN_TESTS, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
+from ._points import GUARD, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
 from ._problem import UNSUPPORTED, MapProblem
+from ._smooth import vetted
 
 __all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
 
@@ -52,85 +55,160 @@ def follow(problem: MapProblem, start: Node, direction: int, limits, settings: S
     message)``: the accepted points after ``start``, the located special points (``Found``,
     ``index`` counted in ``nodes`` with ``start`` as -1).
     """
-    bounds = [limits] if np.ndim(limits) == 1 else list(limits)
-    nodes: list[Node] = []
-    found: list[Found] = []
-    t = direction * start.t
-    # every later node's tangent points along the travel; so must the start's, or a fold in the
-    # first backward step would read as a turn that is none (and the reverse)
-    node = start if direction > 0 else Node(start.u, t, start.corrected, start.info, start.arclength)
-    h = settings.step
-    jumped_last = False
-    h_good = h  # the last step that succeeded: the scale of a jump across a grazing
-    previous = None  # the point before ``node`` (where the branch came from)
-    tried: dict = {"crossing": -1, "section": -1, "failed": -1}  # the point count when each was last tried
-    while True:
-        if len(nodes) >= max_points:
-            return nodes, found, 1, f"stopped after max_points = {max_points} points"
-        side = 0 if extra is not None or tried["crossing"] == len(nodes) else approaching(problem, previous, node, h)
-        moved = try_crossing(problem, node, side, h, settings, bounds[0], direction, len(nodes) - 1,
-                             tried) if side else None
-        tried["crossing"] = len(nodes) if side else tried["crossing"]
-        if moved is None:
-            u_pred, constraint, at_limit = _predict(problem, node.u, t, h, bounds)
-            result = correct(problem, u_pred, constraint, settings, extra=extra, max_distance=2.0 * h + 1e-9)
-            if verify is not None and isinstance(result, Corrected):
-                rejected = verify(result)
-                result = f"the point was not verified: {rejected}" if rejected else result
-            if isinstance(result, str) and UNSUPPORTED in result:
-                return nodes, found, -1, f"the branch stops where its backend cannot go on: {result}"
-            turn = 1.0
-            if isinstance(result, Corrected):
-                new = _advance(problem, node, result, t, direction, extra)
-                turn = float(np.dot(new.t, t))
-            failed = not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None)
-            if failed and extra is None:
-                moved = _rescue(problem, previous, node, t, h, h_good, settings, bounds[0], direction, len(nodes),
-                                tried)
-        if moved is not None:
-            new, passed = moved
-            found.append(passed)
-            nodes.append(new)
-            previous, node, t, h = node, new, new.t, h_good
-            jumped_last = False
-            continue
-        if failed:
-            why = result if not isinstance(result, Corrected) else (
-                f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, turn)))):.0f} degrees")
-            h *= 0.5
-            if h < settings.min_step:
-                jumped = None
-                if node.info.nearest_grazing() < GRAZING_NEAR and not jumped_last:
-                    jumped, at_limit, h = _jump(problem, node, t, h_good, bounds, settings, extra)
-                if jumped is None:
-                    status, message = _failed_end(node, why, settings, tried.get("crossing_failure", ""))
-                    if status == 2:
-                        found.append(_grazing_end(problem, nodes, start, node))
-                    return nodes, found, status, message
-                result = jumped
-                new = _advance(problem, node, result, t, direction, extra)
-                jumped_last = True
-            else:
+    return _Walk(problem, start, direction, limits, settings, max_points, extra, verify).run()
+
+
+class _Walk:
+    """One direction of a branch: the accepted points, the current step and what was tried where."""
+
+    def __init__(self, problem, start: Node, direction: int, limits, settings: Settings, max_points: int, extra,
+                 verify):
+        self.problem, self.direction, self.settings = problem, direction, settings
+        self.max_points, self.extra, self.verify = max_points, extra, verify
+        self.bounds = [limits] if np.ndim(limits) == 1 else list(limits)
+        self.start = start
+        self.nodes: list[Node] = []
+        self.found: list[Found] = []
+        self.t = direction * start.t
+        # every later node's tangent points along the travel; so must the start's, or a fold in the
+        # first backward step would read as a turn that is none (and the reverse)
+        self.node = start if direction > 0 else Node(start.u, self.t, start.corrected, start.info, start.arclength)
+        self.previous: Node | None = None  # the point before ``node`` (where the branch came from)
+        self.h = settings.step
+        self.h_good = self.h  # the last step that succeeded: the scale of a jump across a grazing
+        self.jumped_last = False
+        self.tried: dict = {"crossing": -1, "section": -1, "failed": -1}  # point count when each was last tried
+
+    def run(self):
+        while True:
+            if len(self.nodes) >= self.max_points:
+                return self.nodes, self.found, 1, f"stopped after max_points = {self.max_points} points"
+            moved = self._cross_ahead()
+            attempt = None
+            if moved is None:
+                attempt = self._step()
+                if isinstance(attempt, tuple) and attempt and attempt[0] == "end":
+                    return attempt[1]
+                if attempt.failed and self.extra is None:
+                    moved = self._rescue()
+            if moved is not None:
+                self._moved(*moved)
                 continue
-        else:
-            jumped_last = False
-            h_good = h
+            if attempt.failed:
+                outcome = self._after_failure(attempt)
+                if outcome is None:
+                    continue  # the step was halved: try again
+                if outcome[0] == "end":
+                    return outcome[1]
+                attempt = outcome[1]
+            else:
+                self.jumped_last = False
+                self.h_good = self.h
+            end = self._accept(attempt)
+            if end is not None:
+                return end
+
+    # -- one step ----------------------------------------------------------------------
+    def _cross_ahead(self):
+        """Across a grazing the branch reaches within its next step (the built-in family's), or None."""
+        problem, count = self.problem, len(self.nodes)
+        if not problem.nonsmooth_steps or self.extra is not None or self.tried["crossing"] == count:
+            return None
+        side = approaching(problem, self.previous, self.node, self.h)
+        if not side:
+            return None
+        self.tried["crossing"] = count
+        return try_crossing(problem, self.node, side, self.h, self.settings, self.bounds[0], self.direction,
+                            count - 1, self.tried)
+
+    def _step(self):
+        """A predicted and corrected point: an :class:`_Attempt`, or ``("end", result)`` where the backend stops."""
+        problem, settings = self.problem, self.settings
+        u_pred, constraint, at_limit = _predict(problem, self.node.u, self.t, self.h, self.bounds)
+        result = correct(problem, u_pred, constraint, settings, extra=self.extra, max_distance=2.0 * self.h + 1e-9)
+        if self.verify is not None and isinstance(result, Corrected):
+            rejected = self.verify(result)
+            result = f"the point was not verified: {rejected}" if rejected else result
+        if isinstance(result, str) and UNSUPPORTED in result:
+            return ("end", (self.nodes, self.found, -1, f"the branch stops where its backend cannot go on: {result}"))
+        new, turn = None, 1.0
+        if isinstance(result, Corrected):
+            new = _advance(problem, self.node, result, self.t, self.direction, self.extra)
+            turn = float(np.dot(new.t, self.t))
+        failed = not isinstance(result, Corrected) or (turn < MAX_TURN and at_limit is None)
+        return _Attempt(new, result, at_limit, failed, turn)
+
+    def _rescue(self):
+        """After a failed step: across an impact on the section, or across a grazing (each once per point), or None."""
+        if not self.problem.nonsmooth_steps:
+            return None
+        return _rescue(self.problem, self.previous, self.node, self.t, self.h, self.h_good, self.settings,
+                       self.bounds[0], self.direction, len(self.nodes), self.tried)
+
+    def _moved(self, new: Node, passed: Found) -> None:
+        """A nonsmooth step was taken: ``new`` beyond the special point ``passed``."""
+        self.found.append(passed)
+        self.nodes.append(new)
+        self.previous, self.node, self.t, self.h = self.node, new, new.t, self.h_good
+        self.jumped_last = False
+
+    def _after_failure(self, attempt: _Attempt):
+        """The step is halved; below ``min_step``, a jump across a grazing or the end of the branch.
+
+        Returns None (try again with the halved step), ``("end", result)`` or ``("jumped", attempt)``.
+        """
+        problem, settings, node = self.problem, self.settings, self.node
+        result = attempt.result
+        why = result if not isinstance(result, Corrected) else (
+            f"the tangent turned by {math.degrees(math.acos(max(-1.0, min(1.0, attempt.turn)))):.0f} degrees")
+        self.h *= 0.5
+        if self.h >= settings.min_step:
+            return None
+        jumped, at_limit = None, None
+        if node.info.nearest_grazing() < GRAZING_NEAR and not self.jumped_last:
+            jumped, at_limit, self.h = _jump(problem, node, self.t, self.h_good, self.bounds, settings, self.extra)
+        if jumped is None:
+            status, message = _failed_end(problem, node, why, settings, self.tried.get("crossing_failure", ""))
+            if status == 2:
+                self.found.append(_grazing_end(problem, self.nodes, self.start, node))
+            return "end", (self.nodes, self.found, status, message)
+        self.jumped_last = True
+        new = _advance(problem, node, jumped, self.t, self.direction, self.extra)
+        return "jumped", _Attempt(new, jumped, at_limit, False, 1.0)
+
+    def _accept(self, attempt: _Attempt):
+        """Accept ``attempt.new``: special points since the last point, limits, the next step's size; an end or None."""
+        settings, new = self.settings, attempt.new
+        assert new is not None  # an attempt that did not fail has its point
         if settings.locate:
-            found += locate_between(problem, node, new, t, settings, index=len(nodes) - 1)
-        nodes.append(new)
+            self.found += locate_between(self.problem, self.node, new, self.t, settings, index=len(self.nodes) - 1)
+        self.nodes.append(new)
         if settings.on_point is not None:
             settings.on_point(new)
-        stop = [f for f in found if f.kind in settings.stop_at]
+        stop = [f for f in self.found if f.kind in settings.stop_at]
         if stop:
-            return nodes, found, 0, f"stopped at the first {stop[0].kind} point, as asked (stop_at)"
-        if at_limit is not None:
-            return nodes, found, 0, f"reached the limit {at_limit[0]} = {at_limit[1]!r}"
-        iterations = result.iterations if isinstance(result, Corrected) else 3
+            return self.nodes, self.found, 0, f"stopped at the first {stop[0].kind} point, as asked (stop_at)"
+        if attempt.at_limit is not None:
+            name, limit = attempt.at_limit
+            return self.nodes, self.found, 0, f"reached the limit {name} = {limit!r}"
+        iterations = attempt.result.iterations if isinstance(attempt.result, Corrected) else 3
         if iterations <= 2:
-            h = min(h * 1.5, settings.max_step)
+            self.h = min(self.h * 1.5, settings.max_step)
         elif iterations >= 5:
-            h = max(h * 0.6, settings.min_step)
-        previous, node, t = node, new, new.t
+            self.h = max(self.h * 0.6, settings.min_step)
+        self.previous, self.node, self.t = self.node, new, new.t
+        return None
+
+
+@dataclass(eq=False)
+class _Attempt:
+    """One predicted-corrected step: the new point (None if the corrector failed), why, and where it ended."""
+
+    new: Node | None
+    result: Corrected | str
+    at_limit: tuple | None  #: ``(name, limit)`` when the step was cut at a parameter limit
+    failed: bool
+    turn: float  #: cosine of the tangent's turn
 
 
 def _rescue(problem, previous, node: Node, t, h: float, h_good: float, settings: Settings, bounds, direction: int,
@@ -157,21 +235,27 @@ def _advance(problem, node: Node, result: Corrected, t, direction: int, extra) -
 def _predict(problem: MapProblem, u, t, h: float, bounds):
     """The predicted point, its constraint row, and ``(name, limit)`` when it lies beyond a limit."""
     u_pred = u + h * t
+    d = problem.dimension
     for j, (lo, hi) in enumerate(bounds):
-        value = u_pred[2 + j] * problem.scales[j]
+        value = u_pred[d + j] * problem.scales[j]
         if value > hi or value < lo:
             limit = hi if value > hi else lo
             u_pred = u_pred.copy()
-            u_pred[2 + j] = limit / problem.scales[j]
+            u_pred[d + j] = limit / problem.scales[j]
             constraint = np.zeros_like(u_pred)
-            constraint[2 + j] = 1.0
+            constraint[d + j] = 1.0
             return u_pred, constraint, (problem.names[j], limit)
     return u_pred, t, None
 
 
-def _failed_end(node: Node, why: str, settings: Settings, crossing: str = ""):
+def _failed_end(problem, node: Node, why: str, settings: Settings, crossing: str = ""):
     near = node.info.nearest_grazing()
     if near < GRAZING_NEAR:
+        if not problem.nonsmooth_steps:
+            guard = _nearest_margin(node.info).removeprefix(GUARD)
+            return 2, (f"the branch ends at a grazing of the guard {guard!r} (its last point is {near:.3g} from "
+                       "touching it, in distance or crossing speed) and does not cross it: continuation crosses the "
+                       f"grazings of the built-in family only; no orbit was corrected past it ({why})")
         tried = (f"; {crossing} (a discontinuous grazing with no family on the other side, or one this crossing "
                  "cannot reach)") if crossing else ""
         return 2, (f"the branch ends at a grazing (its last point is {near:.3g} from touching a flange, in distance "
@@ -189,23 +273,30 @@ def _grazing_end(problem, nodes, start: Node, node: Node) -> Found:
     """
     before = nodes[-2] if len(nodes) >= 2 else start
     g0, g1 = before.info.nearest_grazing(), node.info.nearest_grazing()
-    p0, p1 = before.u[2] * problem.scales[0], node.u[2] * problem.scales[0]
+    p0, p1 = parameter(problem, before.u), parameter(problem, node.u)
     value = p1
     if g1 < g0 and p1 != p0:
         value = p1 - g1 * (p1 - p0) / (g1 - g0)
-    found = Found("grazing", node, node.info.signature, node.info.signature, abs(value - p1),
-                  f"the branch ends at a grazing: its last point is {g1:.3g} from touching a flange (in distance or "
-                  "entry speed); the parameter is extrapolated (a secant through the last two points) to where that "
-                  "vanishes", len(nodes) - 1,
-                  {"test": "end", "value": value, "margin": _nearest_side(node.info)})
-    return found
+    margin = _nearest_margin(node.info)
+    extra = {"test": "end", "value": value, "margin": margin}
+    what = "a flange"
+    if margin.startswith(GUARD):
+        extra["guard"] = margin.removeprefix(GUARD)
+        what = f"the guard {extra['guard']!r}"
+    return Found("grazing", node, node.info.signature, node.info.signature, abs(value - p1),
+                 f"the branch ends at a grazing: its last point is {g1:.3g} from touching {what} (in distance or "
+                 "entry speed); the parameter is extrapolated (a secant through the last two points) to where that "
+                 "vanishes", len(nodes) - 1, extra)
 
 
-def _nearest_side(info: PointInfo) -> str:
-    """``"upper_margin"`` or ``"lower_margin"``: the flange the orbit is nearest to touching."""
-    near = {side: min(abs(info.upper_margin if side > 0 else info.lower_margin), info.approach[side],
-                      info.slowest_entry[side]) for side in (1, -1)}
-    return "upper_margin" if near[1] <= near[-1] else "lower_margin"
+def _nearest_margin(info: PointInfo) -> str:
+    """The name of the margin nearest zero: the flange (``"upper_margin"``, ``"lower_margin"``) or guard."""
+    if info.approach:
+        near = {side: min(abs(info.upper_margin if side > 0 else info.lower_margin), info.approach[side],
+                          info.slowest_entry[side]) for side in (1, -1)}
+        return "upper_margin" if near[1] <= near[-1] else "lower_margin"
+    finite = {name: abs(m) for name, m in info.margins.items() if math.isfinite(m)}
+    return min(finite, key=finite.__getitem__) if finite else ""
 
 
 def _jump(problem, node: Node, t, h: float, bounds, settings: Settings, extra):
@@ -228,69 +319,49 @@ def _corrected_at(problem, a: Node, t, sigma: float, settings: Settings):
     return result if isinstance(result, Corrected) else None
 
 
-def _test_value(info: PointInfo, name: str) -> float:
-    if name in SMOOTH_TESTS:
-        return float(info.tests[name])
-    return float(getattr(info, name))
-
-
 def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int) -> list[Found]:
     """Every special point between the accepted points ``a`` and ``b`` (``b`` follows ``a`` along ``t``)."""
     out: list[Found] = []
     h = float(np.dot(b.u - a.u, t))
-    same = a.info.signature == b.info.signature
-    for name, kind in MARGIN_TESTS:
+    d = problem.dimension
+    for name, kind in problem.margin_tests:
         if kind not in settings.locate:
             continue
-        va, vb = _test_value(a.info, name), _test_value(b.info, name)
+        va, vb = a.info.test_value(name), b.info.test_value(name)
         if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
-            regular = regular_grazing(problem, a, b, name, settings, index) if kind == "grazing" else None
+            regular = None
+            if kind == "grazing" and problem.nonsmooth_steps:
+                regular = regular_grazing(problem, a, b, name, settings, index)
             out.append(regular or _illinois(problem, a, t, h, name, kind, va, vb, settings, index))
             out[-1].after = b.info.signature
-    if same:
+    if a.info.signature == b.info.signature:
         for kind in SMOOTH_TESTS:
             label = kind
-            if kind == "fold" and a.t[2] * b.t[2] > 0.0:
+            if kind == "fold" and a.t[d] * b.t[d] > 0.0:
                 # a multiplier through +1 while the parameter keeps its direction: no fold but a branch
                 # point (in the symmetric guide, typically a symmetry-breaking pitchfork)
                 label = "branch_point"
             if label not in settings.locate:
                 continue
-            va, vb = _test_value(a.info, kind), _test_value(b.info, kind)
+            va, vb = a.info.test_value(kind), b.info.test_value(kind)
             if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
-                out.append(_smooth_or_jump(_illinois(problem, a, t, h, kind, label, va, vb, settings, index), kind))
+                found = _illinois(problem, a, t, h, kind, label, va, vb, settings, index)
+                out.append(vetted(problem, found, a, b, settings))
     elif (not any(f.kind in ("grazing", "stick_onset") for f in out)
-          and _signature_kind(a.info.signature, b.info.signature) in settings.locate):
+          and _signature_kind(problem, a.info.signature, b.info.signature) in settings.locate):
         out.append(_bisect_signature(problem, a, b, t, h, settings, index))
     return out
-
-
-#: A located fold / PD / NS point whose critical multiplier is farther than this from +1 / -1 / the unit
-#: circle is a jump of the multipliers across it (a nonsmooth point), not a smooth crossing.
-SMOOTH_CROSSING = 1e-6
-
-
-def _smooth_or_jump(found: Found, test: str) -> Found:
-    """``found`` relabelled a border when its multipliers jump across the critical value instead of crossing it."""
-    mus = found.node.info.multipliers
-    if test == "neimark_sacker":
-        miss = float(np.min(np.abs(np.abs(mus) - 1.0)))
-    else:
-        miss = float(np.min(np.abs(mus - (1.0 if test == "fold" else -1.0))))
-    p = abs(found.node.u[2])
-    if miss <= SMOOTH_CROSSING or found.accuracy > 1e-9 * max(1.0, p):
-        return found  # a smooth crossing, or located too coarsely (locate_tol) to tell a jump from it
-    critical = {"fold": "+1", "period_doubling": "-1"}.get(test, "the unit circle")
-    found.kind = "border"
-    found.message = (f"the multipliers jump across {critical} "
-                     f"here (the nearest is {miss:.2g} from it at the located point) though the event signature "
-                     "stays the same: the map is not smooth here (e.g. just past a grazing), no smooth bifurcation")
-    return found
 
 
 def _illinois(problem, a: Node, t, h: float, name: str, kind: str, va: float, vb: float, settings, index) -> Found:
     lo, hi, flo, fhi = 0.0, h, va, vb
     best, side = None, 0
+    d = problem.dimension
+    clear = [(0.0, va, a)] if va > 0.0 else []  # (arclength, margin, node) where a guard's margin is positive
+    converged = False
+    # the corrected points at the bracket's ends: where the branch is steep in the state, or turns at the
+    # point (a nonsmooth fold), neither the arclength nor the parameter says how far apart they lie
+    u_lo, u_hi = a.u, a.u + h * t
     for _ in range(80):
         s = hi - fhi * (hi - lo) / (fhi - flo)
         if not lo < s < hi:
@@ -302,16 +373,45 @@ def _illinois(problem, a: Node, t, h: float, name: str, kind: str, va: float, vb
             if c is None:
                 break
         node = Node(c.u, t, c, point_info(problem, c.ev), a.arclength)
-        f = _test_value(node.info, name)
+        f = node.info.test_value(name)
         best = node
         if not math.isfinite(f):
             break
+        if f > 0.0:
+            clear.append((s, f, node))
+        old_hi = hi
         lo, flo, hi, fhi, side = illinois(lo, flo, hi, fhi, s, f, side)
-        value = abs(c.u[2] * problem.scales[0])
-        width = abs(hi - lo) * abs(t[2]) * problem.scales[0]
-        if f == 0.0 or abs(hi - lo) <= settings.locate_tol or width <= settings.locate_tol * max(1.0, value):
+        u_lo, u_hi = (u_hi if lo == old_hi else u_lo), c.u
+        width = float(np.linalg.norm(u_hi - u_lo))
+        if f == 0.0 or abs(hi - lo) <= settings.locate_tol or width <= settings.locate_tol * max(1.0, abs(c.u[d])):
+            converged = True
             break
-    return _found(problem, kind, best or a, a, abs(hi - lo), index, name)
+    found = _found(problem, kind, best or a, a, float(np.linalg.norm(u_hi - u_lo)), index, name)
+    if not converged and name.startswith(GUARD) and len(clear) >= 2:
+        _extrapolate_clear_side(problem, found, clear)
+    return found
+
+
+def _extrapolate_clear_side(problem, found: Found, clear) -> None:
+    """A user system's grazing located by a secant through the two points nearest it on the side clear of the guard.
+
+    Within about ``graze_tol`` of a grazing the map reports the touch and has no derivative, so
+    the corrector cannot evaluate the margin there and the bracket stays ~1e-9 wide. On the
+    side where the guard does not fire the margin ``-max h`` is a smooth function of the
+    parameter (the extremum of a smooth orbit): its secant zero from the two nearest points
+    is exact to the square of their distance from it.
+    """
+    (_, f0, far), (_, f1, near) = sorted(clear, key=lambda item: item[1])[:2][::-1]
+    p0, p1 = parameter(problem, far.u), parameter(problem, near.u)
+    if f0 == f1 or p0 == p1:
+        return
+    value = p1 - f1 * (p1 - p0) / (f1 - f0)
+    found.node = near
+    found.extra = {**found.extra, "value": value}
+    found.accuracy = abs(value - p1)
+    found.message += ("; the map reports the touch within ~1e-10 of it, so the parameter is the zero of the margin on "
+                      "the clear side, by a secant in the parameter through its two nearest points (accuracy: the "
+                      "distance to the nearer)")
 
 
 def _bisect_signature(problem, a: Node, b: Node, t, h: float, settings, index) -> Found:
@@ -332,7 +432,7 @@ def _bisect_signature(problem, a: Node, b: Node, t, h: float, settings, index) -
         else:
             hi, best = s, node
     before, after = a.info.signature, b.info.signature
-    kind = _signature_kind(before, after)
+    kind = _signature_kind(problem, before, after)
     found = _found(problem, kind, best, a, abs(hi - lo), index, "signature")
     found.after = after
     if failed:
@@ -341,8 +441,10 @@ def _bisect_signature(problem, a: Node, b: Node, t, h: float, settings, index) -
     return found
 
 
-def _signature_kind(before, after) -> str:
+def _signature_kind(problem, before, after) -> str:
     """What a change of the event signature is: a contact appearing or vanishing, a stick, or another border."""
+    if not isinstance(problem, MapProblem):
+        return problem.signature_kind(before, after)
     if contact_counts(before) != contact_counts(after):
         return "grazing"
     if stick_counts(before) != stick_counts(after):
@@ -351,12 +453,17 @@ def _signature_kind(before, after) -> str:
 
 
 def _found(problem, kind: str, node: Node, a: Node, width: float, index: int, test: str) -> Found:
-    _, params = unscaled(problem, node.u)
     before, after = a.info.signature, node.info.signature
     message = _describe(kind, test, node, before, after)
     extra = {"test": test}
     if kind == "stick_onset":
         extra["bifurcation"] = "crossing-sliding" if test == "stick_margin" else "sliding"
+    if test.startswith(GUARD):
+        extra["guard"] = test.removeprefix(GUARD)
+    elif test == "signature" and not isinstance(problem, MapProblem):
+        changed = problem.changed_guards(before, after)
+        if changed:
+            extra["guard"] = changed
     return Found(kind, node, before, after, width * problem.scales[0], message, index, extra)
 
 
@@ -370,7 +477,11 @@ def _describe(kind: str, test: str, node: Node, before, after) -> str:
     if kind == "period_doubling":
         return "a multiplier passes through -1 (a period-2n branch bifurcates)"
     if kind == "neimark_sacker":
-        return f"a complex pair crosses the unit circle (|mu| = {abs(mus[0]):.6g}): a torus"
+        pair = [m for m in mus if m.imag > 0.0]
+        return f"a complex pair crosses the unit circle (|mu| = {abs(pair[0] if pair else mus[0]):.6g}): a torus"
+    if kind == "grazing" and test.startswith(GUARD):
+        return (f"the orbit touches the guard {test.removeprefix(GUARD)!r} tangentially (its value has an extremum "
+                "on zero: a crossing of it appears or vanishes)")
     if kind == "grazing" and test == "signature":
         return (f"the orbit touches a flange tangentially: its contacts change from {_contacts(before)} to "
                 f"{_contacts(after)}")
@@ -388,8 +499,7 @@ def _describe(kind: str, test: str, node: Node, before, after) -> str:
 
 
 def _text(sig) -> str:
-    side = {1: "upper ", -1: "lower ", 0: ""}
-    return ", ".join(f"{count} {side[s]}{kind}" for (kind, s), count in sig) or "no events"
+    return signature_text(sig)
 
 
 def _contacts(sig) -> str:
