@@ -260,16 +260,19 @@ class HybridMap:
             return HybridMapValue(z, params, None, nan_m, nan_p, (), f"z must be {n} finite numbers, got {z}")
         sys_p = system.with_parameters(**dict(zip(self.names, params, strict=True)))
         p = sys_p.parameter_values
-        if self.section is None:
-            period_and_rates = self._period(0.0, [0.0] * len(numeric(system).states), p)
-            span = self.iterates * period_and_rates[0]
-            if not (math.isfinite(span) and span > 0.0):
-                return HybridMapValue(z, params, None, nan_m, nan_p, (), f"the period is {period_and_rates[0]!r}")
-            sol = simulate_system(sys_p, self.t0 + span, z, backend="heyoka", mode=self.mode, t0=self.t0,
-                                  tol=self.tol)
-        else:
-            sol = simulate_system(sys_p, self.t0 + self.max_time, z, backend="heyoka", mode=self.mode, t0=self.t0,
-                                  tol=self.tol, until=(self.section, self.iterates))
+        try:
+            if self.section is None:
+                period_and_rates = self._period(0.0, [0.0] * len(numeric(system).states), p)
+                span = self.iterates * period_and_rates[0]
+                if not (math.isfinite(span) and span > 0.0):
+                    return HybridMapValue(z, params, None, nan_m, nan_p, (), f"the period is {period_and_rates[0]!r}")
+                sol = simulate_system(sys_p, self.t0 + span, z, backend="heyoka", mode=self.mode, t0=self.t0,
+                                      tol=self.tol)
+            else:
+                sol = simulate_system(sys_p, self.t0 + self.max_time, z, backend="heyoka", mode=self.mode,
+                                      t0=self.t0, tol=self.tol, until=(self.section, self.iterates))
+        except ValueError as exc:  # a state no mode admits (beyond a rigid stop, say): no value, and why
+            return HybridMapValue(z, params, None, nan_m, nan_p, (), str(exc))
         signature = tuple((e.guard, e.mode_before, e.mode_after) for e in sol.events if e.kind == "crossing")
         if sol.status != 0:
             return HybridMapValue(z, params, None, nan_m, nan_p, signature, sol.message)

@@ -81,15 +81,22 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
         * a :class:`SpecialPoint` of a branch with ``parameter`` a pair of names: the
           boundary of that point in two parameters (grazing, stick onset, fold, period
           doubling); with ``parameter`` one name and the point a period doubling: the
-          period-``2n`` branch that bifurcates there (branch switching).
+          period-``2n`` branch that bifurcates there (branch switching);
+        * a user system's orbit: a converged :class:`~impactosc.dynamics.HybridOrbit` (from
+          :func:`~impactosc.dynamics.periodic_orbit_of`) or a guess of its state on the section,
+          with ``base`` its :class:`~impactosc.dynamics.HybridMap` (or the
+          :class:`~impactosc.HybridSystem`: the map of one forcing period from ``t = 0``); or
+          a point of a user system's branch.
     parameter : str or (str, str)
-        The free parameter: a field of the model (:func:`parameter_names`); two for a boundary.
+        The free parameter: a field of the model (:func:`parameter_names`), or a parameter of
+        the user system; two for a boundary (the built-in family only).
     limits : (float, float) or dict
         ``(lo, hi)`` of the (first) parameter; for a boundary, a dict of ``name: (lo, hi)``
         (either parameter; at least one). The branch ends on a limit.
-    base : Oscillator or TapeDrive, optional
+    base : Oscillator, TapeDrive, HybridMap or HybridSystem, optional
         The model whose fields are the parameters. Default: the orbit's oscillator. Give a
         :class:`TapeDrive` to continue in its SI fields (its :meth:`~TapeDrive.oscillator` must be the orbit's).
+        For a user system, its map (required with a :class:`HybridOrbit`, which does not carry it).
     backend : {"exact", "heyoka", "scipy"}, optional
         Default ``"exact"`` where it runs the member, else ``"heyoka"``.
     direction : {"both", "forward", "backward"}
@@ -154,6 +161,26 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     A parameter that starts at 0 (the damping), restarted from the last point of a branch:
 
     >>> tail = dy.continuation(br.points[-1], "zeta", (0.0, 0.2))            # doctest: +SKIP
+
+    A user's own system goes through the same loop: the stop above written as a
+    :class:`~impactosc.HybridSystem`, its impacting orbit at ``F = 0.5`` followed in ``F``
+    up to its period doubling (``F = 0.5182098666`` in closed form at ``Omega = 0.8``).
+    Special points of a user system are the same kinds; a grazing is labelled with its
+    guard (:attr:`SpecialPoint.guard`), and a branch that reaches one it cannot step past
+    (an impact's square-root map) ends there with status 2:
+
+    >>> import math, heyoka as hy
+    >>> from impactosc import Guard, HybridMode, HybridSystem, symbols
+    >>> x, v, F, W = symbols("x v F W")
+    >>> wall = HybridSystem("x v", {"F": 0.5, "W": 0.8},
+    ...                     [HybridMode("free", {x: v, v: F * hy.cos(W * hy.time) - x - 0.1 * v})],
+    ...                     [Guard("impact", x - 1, 1, armed="free", to="free", reset={v: -0.8 * v})],
+    ...                     period=2 * math.pi / W)
+    >>> hmap = dy.HybridMap(wall)
+    >>> orbit = dy.periodic_orbit_of(hmap, [0.96, 0.45])
+    >>> up = dy.continuation(orbit, "F", (0.45, 0.6), base=hmap, direction="forward", progress=False)
+    >>> [(s.label, round(s.parameter, 9)) for s in up.special]
+    [('PD1', 0.518209867)]
 
     References
     ----------

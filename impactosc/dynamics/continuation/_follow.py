@@ -345,8 +345,10 @@ def locate_between(problem, a: Node, b: Node, t, settings: Settings, index: int)
                 continue
             va, vb = a.info.test_value(kind), b.info.test_value(kind)
             if math.isfinite(va) and math.isfinite(vb) and va * vb < 0.0:
-                found = _illinois(problem, a, t, h, kind, label, va, vb, settings, index)
-                out.append(vetted(problem, found, a, b, settings))
+                checked = vetted(problem, _illinois(problem, a, t, h, kind, label, va, vb, settings, index), a, b,
+                                 settings)
+                if checked is not None:
+                    out.append(checked)
     elif (not any(f.kind in ("grazing", "stick_onset") for f in out)
           and _signature_kind(problem, a.info.signature, b.info.signature) in settings.locate):
         out.append(_bisect_signature(problem, a, b, t, h, settings, index))

@@ -104,17 +104,24 @@ def point_info(problem, ev) -> PointInfo:
 def smooth_tests(monodromy) -> tuple[np.ndarray, dict]:
     """``(multipliers, tests)`` of a monodromy matrix of any size (module docstring).
 
-    ``det(M - I)`` and ``det(M + I)`` change sign where a real multiplier passes +1 or -1; the
-    Neimark-Sacker test is ``prod (|mu|^2 - 1)`` over the complex pairs (``det M - 1`` for a
-    2 x 2 matrix with a complex pair), NaN without one.
+    ``det(M - I)`` and ``det(M + I)`` change sign where a real multiplier passes +1 or -1. The
+    Neimark-Sacker test is ``det M - 1`` while a 2 x 2 matrix has a complex pair (NaN without
+    one, as for the built-in family); for a larger matrix it is the bialternate product
+    ``prod_{i<j} (mu_i mu_j - 1)`` (Kuznetsov 2004, sec. 10.2), continuous where a pair turns
+    real, which vanishes where a complex pair crosses the unit circle and at a neutral saddle
+    (two real multipliers with product 1), which the locator leaves out.
     """
     M = np.asarray(monodromy, dtype=float)
     mus = np.linalg.eigvals(M)
     mus = mus[np.argsort(-np.abs(mus), kind="stable")]
-    eye = np.eye(M.shape[0])
-    pairs = [abs(m) ** 2 - 1.0 for m in mus if m.imag > 0.0]
+    n = M.shape[0]
+    eye = np.eye(n)
+    if n == 2:
+        ns = float(np.linalg.det(M)) - 1.0 if abs(mus[0].imag) > 0.0 else math.nan
+    else:
+        ns = float(np.real(np.prod([mus[i] * mus[j] - 1.0 for i in range(n) for j in range(i + 1, n)])))
     tests = {"fold": float(np.linalg.det(M - eye)), "period_doubling": float(np.linalg.det(M + eye)),
-             "neimark_sacker": float(np.prod(pairs)) if pairs else math.nan}
+             "neimark_sacker": ns}
     return mus, tests
 
 

@@ -33,17 +33,21 @@ SMOOTH_TEST_OF = {"fold": "fold", "branch_point": "fold", "period_doubling": "pe
 NARROW = 1e-9
 
 
-def vetted(problem, f: Found, a: Node, b: Node, settings: Settings) -> Found:
+def vetted(problem, f: Found, a: Node, b: Node, settings: Settings) -> Found | None:
     """``f``, located by Illinois between ``a`` and ``b``, where its test function vanishes (module docstring).
 
     Returns ``f`` as it is when its critical multiplier lies within :data:`LOCATED` of its
-    critical value; else ``f`` moved to the zero located in the parameter (its ``extra["test"]``
-    says so); else relabelled a border (the multipliers jump across the critical value within
-    a narrow bracket: the map is not smooth there) or marked "not located".
+    critical value; None at a neutral saddle (the Neimark-Sacker test of more than two
+    multipliers vanishes there too: no bifurcation); else ``f`` moved to the zero located in
+    the parameter (its ``extra["test"]`` says so); else relabelled a border (the multipliers
+    jump across the critical value within a narrow bracket: the map is not smooth there) or
+    marked "not located".
     """
     test = SMOOTH_TEST_OF[f.kind]
     if critical_miss(f.node.info.multipliers, test) <= LOCATED:
         return f
+    if test == "neimark_sacker" and neutral_saddle(f.node.info.multipliers):
+        return None
     va, vb = (float(n.info.tests[test]) for n in (a, b))
     pa, pb = parameter(problem, a.u), parameter(problem, b.u)
     again = None
@@ -87,6 +91,13 @@ def _not_located(problem, f: Found, again, test: str, bracket) -> Found:
                  f"test value {float(f.node.info.tests[test]):.3g} and multipliers "
                  f"{np.round(f.node.info.multipliers, 6)})")
     return f
+
+
+def neutral_saddle(mus) -> bool:
+    """Two real multipliers whose product is 1 (to :data:`LOCATED`): where the bialternate test vanishes, no torus."""
+    mus = np.asarray(mus, dtype=complex)
+    real = [m.real for m in mus if m.imag == 0.0]
+    return any(abs(a * b - 1.0) <= LOCATED for i, a in enumerate(real) for b in real[i + 1:])
 
 
 def critical_miss(mus, test: str) -> float:
