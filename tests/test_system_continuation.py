@@ -80,6 +80,24 @@ def test_eq3_in_Omega_grazes_where_the_closed_form_and_the_builtin_do():
         assert abs(g.parameter - first.parameter) < 1e-10
 
 
+def test_eq3_with_friction_finds_the_builtin_stick_onsets():
+    """Sliding bifurcations of a slowly forced Coulomb oscillator: sticks per period change twice in 0.2-0.8.
+
+    The user system's are located by bisection on the event signature (a stick-mode entry
+    appearing), which the engine's stick test stops short of the built-in's 1e-10: right at
+    the onset the slip-or-stick decision fails in the user-system loop (no admissible mode,
+    or a lost root), so the bracket ends ~1e-5 wide; the located point lies within it.
+    """
+    builtin, user = _pair(io.Oscillator(0.5, 0.3, 0.05, 1e2, zeta=0.05), "F", (0.2, 0.8))
+    ref = [s.parameter for s in builtin.find("stick_onset")]
+    found = user.find("stick_onset")
+    assert len(ref) == 2 and len(found) == 2, user.summary()
+    for s, r in zip(found, ref, strict=True):
+        assert s.accuracy < 1e-4
+        assert abs(s.parameter - r) <= 2 * s.accuracy
+        assert "stick mode" in s.message
+
+
 # -- the rigid one-sided stop (COCO's impact demo): eq. 3 as a user system against closed forms -------------
 W, ZETA, E = 0.8, 0.05, 0.8
 
@@ -94,7 +112,7 @@ def stop_start():
     return hmap, start
 
 
-def test_the_rigid_stop_period_doubles_where_the_closed_form_does(stop_start):
+def test_the_rigid_stop_period_doubles_where_the_closed_form_and_the_builtin_do(stop_start):
     hmap, start = stop_start
     branch = dy.continuation(start, "F", (0.45, 0.6), base=hmap, direction="forward", progress=False)
     pd = branch.find("period_doubling")
@@ -103,6 +121,10 @@ def test_the_rigid_stop_period_doubles_where_the_closed_form_does(stop_start):
     assert ref is not None
     assert abs(pd[0].parameter - ref) < 1e-10
     assert np.min(np.abs(pd[0].multipliers + 1.0)) < 1e-6
+    osc = io.Oscillator(0.5, W, 0.0, None, zeta=ZETA, flange="rigid", restitution=E, gap_lower=None)
+    orbit = dy.periodic_orbit(osc, guess=tuple(start.z), backend="exact")
+    builtin = dy.continuation(orbit, "F", (0.45, 0.6), direction="forward", progress=False)
+    assert abs(builtin.find("period_doubling")[0].parameter - pd[0].parameter) < 1e-10
 
 
 def test_a_rigid_grazing_ends_the_user_branch_labelled_with_its_guard(stop_start):

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ...model.hybrid._definition import HybridSystem
+from ._table import signature_text, touched_flanges
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 
@@ -378,48 +379,9 @@ class Branch:
         ``label_flange``. The special points are also in the attribute ``special`` (one line
         each). A branch without points gives a Dataset of length 0.
         """
-        import xarray as xr
+        from ._table import dataset
 
-        idx = np.arange(len(self.points))
-        width = len(self.points[0].multipliers) if self.points else 2
-        mus = np.array([p.multipliers for p in self.points], dtype=complex).reshape(len(idx), width)
-        data = {name: ("point", self.values(name)) for name in self.names}
-        data.update({
-            "x": ("point", self.x), "v": ("point", self.v),
-            "period": ("point", np.array([p.period for p in self.points], dtype=float)),
-            "multiplier_real": (("point", "k"), mus.real), "multiplier_imag": (("point", "k"), mus.imag),
-            "multiplier_abs": (("point", "k"), np.abs(mus)),
-            "stability": ("point", np.array([p.stability for p in self.points], dtype=str)),
-            "stable": ("point", self.stable),
-            "signature": ("point", np.array([p.signature_text() for p in self.points], dtype=str)),
-            "norm": ("point", np.array([p.norm for p in self.points], dtype=float)),
-            "flange": ("point", np.array([touched_flanges(p.signature) or "none" for p in self.points], dtype=str)),
-            "upper_margin": ("point", np.array([p.upper_margin for p in self.points], dtype=float)),
-            "lower_margin": ("point", np.array([p.lower_margin for p in self.points], dtype=float)),
-            "stick_margin": ("point", np.array([p.stick_margin for p in self.points], dtype=float)),
-            "arclength": ("point", np.array([p.arclength for p in self.points], dtype=float)),
-        })
-        if self.is_system:
-            data["state"] = (("point", "component"), np.array([p.z for p in self.points], dtype=float).reshape(
-                len(idx), self.base.dimension))
-        rows = self.table()
-        data["type"] = ("label", np.array([r["type"] for r in rows], dtype=str))
-        data["label_point"] = ("label", np.array([r["point"] for r in rows], dtype=int))
-        for key in (*self.names, "norm"):
-            data[f"label_{key}"] = ("label", np.array([r[key] for r in rows], dtype=float))
-        for key in ("stability", "flange"):
-            data[f"label_{key}"] = ("label", np.array([r[key] for r in rows], dtype=str))
-        coords = {"point": idx, "label": np.array([r["label"] for r in rows], dtype=str)}
-        if self.is_system:
-            coords["component"] = np.array(self.base.states, dtype=str)
-        ds = xr.Dataset(data, coords=coords)
-        ds.attrs.update({"parameters": ", ".join(self.names), "n": self.n, "status": self.status,
-                         "message": self.message, "backend": self.backend,
-                         "special": "; ".join(f"{s.label} {s.kind} at "
-                                              + ", ".join(f"{k}={val:.12g}" for k, val in s.parameters.items())
-                                              for s in self.special),
-                         "model": repr(self.base)})
-        return ds
+        return dataset(self)
 
     def summary(self) -> str:
         """The run's outcome, its special points in words, and the AUTO-style table (:meth:`table`)."""
@@ -504,20 +466,6 @@ class Branch:
 
         ax = plot_bifurcation(diagram, ax=ax) if ax is None else ax
         return self.plot(ax=ax, y="x", **style)
-
-
-def signature_text(signature) -> str:
-    """An event signature in words: ``"2 upper impact"`` (built-in family), ``"1 enter (free+->upper+)"`` (a guard)."""
-    side = {1: "upper ", -1: "lower ", 0: ""}
-    return ", ".join(f"{count} {side[s]}{kind}" if s in side else f"{count} {kind} ({s})"
-                     for (kind, s), count in signature) or "no events"
-
-
-def touched_flanges(signature) -> str:
-    """``"upper"``, ``"lower"``, ``"both"`` or ``""``: the flanges an event signature's contacts touch."""
-    sides = {side for (kind, side), count in signature
-             if count and kind in ("impact", "contact_start", "chatter") and side}
-    return "both" if sides == {1, -1} else "upper" if sides == {1} else "lower" if sides == {-1} else ""
 
 
 def nan_multipliers() -> np.ndarray:

@@ -24,13 +24,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._arclength import Corrected, Settings, correct, illinois, parameter
-from ._branch import signature_text
 from ._grazing import approaching
 from ._nodes import Found, Node, make_node
 from ._nonsmooth import across_section, regular_grazing, try_crossing
 from ._points import GUARD, SMOOTH_TESTS, PointInfo, contact_counts, point_info, stick_counts
 from ._problem import UNSUPPORTED, MapProblem
 from ._smooth import vetted
+from ._table import signature_text
 
 __all__ = ["Node", "Found", "follow", "locate_between", "LABEL_ORDER"]
 
@@ -457,6 +457,9 @@ def _signature_kind(problem, before, after) -> str:
 def _found(problem, kind: str, node: Node, a: Node, width: float, index: int, test: str) -> Found:
     before, after = a.info.signature, node.info.signature
     message = _describe(kind, test, node, before, after)
+    if kind == "stick_onset" and not isinstance(problem, MapProblem):
+        message = (f"the entries into a stick mode change ({problem.stick_entries(before)} to "
+                   f"{problem.stick_entries(after)} a period): a sliding bifurcation (di Bernardo et al. 2008, ch. 8)")
     extra = {"test": test}
     if kind == "stick_onset":
         extra["bifurcation"] = "crossing-sliding" if test == "stick_margin" else "sliding"

@@ -113,8 +113,9 @@ class SystemProblem:
         else:
             mus, tests = smooth_tests(ev.monodromy)
         margins = {name: self._margin(ev, name.removeprefix(GUARD)) for name, _ in self.margin_tests}
-        return PointInfo(mus, stability(mus), False, signature(ev.signature), math.nan, math.nan, math.nan, tests,
-                         ev.signature, ev.singular, margins=margins)
+        times = [t for _, t, _ in ev.speeds] if len(ev.speeds) == len(ev.signature) else None
+        return PointInfo(mus, stability(mus), False, signature(ev.signature, times), math.nan, math.nan, math.nan,
+                         tests, ev.signature, ev.singular, margins=margins)
 
     def _margin(self, ev: HybridMapValue, guard: str) -> float:
         """The signed distance of the orbit from grazing ``guard`` (module docstring); NaN where none is defined."""
@@ -134,6 +135,10 @@ class SystemProblem:
             return "grazing"
         return "border"
 
+    def stick_entries(self, sig) -> int:
+        """How many transitions into a stick mode a signature has."""
+        return _into(sig, self._stick_modes)
+
     @staticmethod
     def changed_guards(before, after) -> str:
         """The guards whose number of crossings differs between two signatures (comma-separated, "" if none)."""
@@ -147,9 +152,23 @@ class SystemProblem:
         return ", ".join(sorted(g for g in set(a) | set(b) if a[g] != b[g]))
 
 
-def signature(crossings) -> tuple:
-    """``((guard, "before->after"), count)`` pairs, sorted: how often each transition occurs in one map period."""
-    counts = Counter((guard, f"{before}->{after}") for guard, before, after in crossings)
+def signature(crossings, times=None) -> tuple:
+    """``((guard, "before->after"), count)`` pairs, sorted: how often each transition occurs in one map period.
+
+    Crossings at one instant (``times``, one per crossing) are one transition, from the mode
+    before the first to the mode after the last, named by the first guard; one that returns to
+    its mode is none. A mode occupied for no time is no part of the orbit: a slip that ends
+    at the very instant of a release (the stick test decided within rounding) would otherwise
+    add or drop a stick-release pair between neighbouring points of a branch.
+    """
+    merged: list[tuple] = []
+    for i, (guard, before, after) in enumerate(crossings):
+        if merged and times is not None and times[i] == times[i - 1]:
+            first, start, _ = merged[-1]
+            merged[-1] = (first, start, after)
+        else:
+            merged.append((guard, before, after))
+    counts = Counter((guard, f"{before}->{after}") for guard, before, after in merged if before != after)
     return tuple(sorted(counts.items()))
 
 
