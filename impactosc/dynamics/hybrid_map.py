@@ -327,10 +327,9 @@ class HybridMap:
                 if e.kind != "crossing" and not on_section:
                     continue
                 J = _compose(tangent.piece(p, mode, t, y, e.t), J, n_all)
-                J, dtau, f_plus, speed = self._saltation(rule, system, e, p, J, n, n_all, P,
-                                                         reset=e.kind == "crossing")
+                J, dtau, f_plus = self._saltation(rule, system, e, p, J, n, n_all, P, reset=e.kind == "crossing")
                 if e.kind == "crossing":
-                    speeds.append((e.guard, e.t, speed))
+                    speeds.append((e.guard, e.t, _crossing_rate(rule, system, e, p)))
                 if on_section:
                     # the map's value is the state on the section, at the perturbed return time
                     J = J - np.outer(f_plus, dtau)
@@ -341,8 +340,7 @@ class HybridMap:
 
     @staticmethod
     def _saltation(rule, system, e, p, J, n, n_all, P, reset: bool = True) -> tuple:
-        """``(J+, dtau, f+, speed)``: the sensitivity after the event, ``-d(event time)/d(z, p)``, the field after
-        and the guard's rate ``n . f- + h_t`` at the crossing.
+        """``(J+, dtau, f+)``: the sensitivity after the event, ``-d(event time)/d(z, p)`` and the field after.
 
         ``reset=False`` (a marker guard): no transition, ``J+ = J``.
         """
@@ -369,11 +367,21 @@ class HybridMap:
         crossing[n_all:] += h_p
         dtau = crossing / speed
         if not reset:
-            return J, dtau, f_minus, speed
+            return J, dtau, f_minus
         J_new = R_y @ J
         J_new[:, n_all:] += R_p
         J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
-        return J_new, dtau, f_plus, speed
+        return J_new, dtau, f_plus
+
+
+def _crossing_rate(rule, system: HybridSystem, e, p) -> float:
+    """``n . f- + h_t``: the rate at which the guard's value passes zero at the crossing ``e``."""
+    g = system.guard_names.index(e.guard)
+    before = list(e.state_before)
+    f_minus = np.array(rule.field[system.mode_index(e.mode_before)](e.t, before, p))
+    dh = np.array(rule.jacobians(g)[0](e.t, before, p))
+    n_all = f_minus.size
+    return float(dh[:n_all] @ f_minus + dh[n_all])
 
 
 def _guard_extrema(system: HybridSystem, rule, tangent: _Tangent, found, sol, p) -> tuple:
