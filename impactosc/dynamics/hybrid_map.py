@@ -28,7 +28,9 @@ from __future__ import annotations
 import math
 import re
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property, partial
+from typing import Any
 
 import numpy as np
 
@@ -57,14 +59,21 @@ class HybridMapValue:
     signature: tuple  #: ``(guard, mode before, mode after)`` of every crossing, in order
     failure: str = ""  #: why the run failed ("" when it ran)
     singular: str = ""  #: why the map is not differentiable here ("" when it is)
-    #: ``(guard, t, h)`` at every extremum of a guard's value ``h`` on the side it fires from (maxima of a
-    #: rising guard, minima of a falling one) and at the ends of every piece, in the modes where a guard of
-    #: the same expression is armed (the crossings of that expression left out, where ``h`` is 0): the
-    #: largest ``d h`` among them is how near the orbit comes to firing the guard (a grazing when it reaches
-    #: 0). Empty when singular.
-    extrema: tuple = ()
     #: ``(guard, t, n . f- + h_t)`` of every crossing: the rate at which the guard's value passes zero.
     speeds: tuple = ()
+    #: What :attr:`extrema` is computed from, on first use (None: no extrema, the map is singular).
+    extrema_of: Any = field(default=None, repr=False)
+
+    @cached_property
+    def extrema(self) -> tuple:
+        """``(guard, t, h)`` at every extremum of a guard's value ``h`` on the side it fires from (maxima
+        of a rising guard, minima of a falling one) and at the ends of every piece, in the modes where a
+        guard of the same expression is armed (the crossings of that expression left out, where ``h`` is 0).
+
+        The largest ``d h`` among a guard's is how near the orbit comes to firing it (a grazing when
+        it reaches 0). Empty when the map is singular. Computed on first use: shooting needs none.
+        """
+        return () if self.extrema_of is None else self.extrema_of()
 
     @property
     def ok(self) -> bool:
@@ -89,13 +98,64 @@ class _Tangent:
         args = list(num.states) + [hy.par[k] for k in range(P)]
         vsys = hy.var_ode_sys(list(zip(num.states, rates, strict=True)), args, order=1)
         # pars left out: heyoka sizes them to the highest index the expressions use
-        self.ta = hy.taylor_adaptive(vsys, [0.0] * n_all, tol=tol, compact_mode=True,
-                                     nt_events=self._extremum_events(system, num, ind))
+        self.ta = hy.taylor_adaptive(vsys, [0.0] * n_all, tol=tol, compact_mode=True)
         self.n_all, self.P, self.M = n_all, P, M
         self.width = n_all + P
         start = np.zeros((n_all, self.width))
         start[:, :n_all] = np.eye(n_all)
         self.start = start.ravel()  # dy/dy = I, dy/dp = 0 at the piece start
+        self.lock = threading.Lock()
+
+    def piece(self, params, mode: int, t0: float, y0, t1: float) -> np.ndarray:
+        """``[dy(t1)/dy(t0) | dy(t1)/dp]`` of the piece in ``mode`` (n_all x (n_all + P))."""
+        if t1 <= t0:
+            out = np.zeros((self.n_all, self.width))
+            out[:, :self.n_all] = np.eye(self.n_all)
+            return out
+        ta = self.ta
+        pars = ta.pars
+        size = len(pars)
+        pars[:] = 0.0
+        used = min(self.P, size)
+        pars[:used] = params[:used]
+        if self.P + mode < size:  # a mode whose field is zero has no indicator in the expressions
+            pars[self.P + mode] = 1.0
+        ta.time = t0
+        ta.state[:self.n_all] = y0
+        ta.state[self.n_all:] = self.start
+        outcome = ta.propagate_until(t1)[0]
+        import heyoka as hy
+
+        if outcome != hy.taylor_outcome.time_limit:
+            raise FloatingPointError(f"the variational equations failed ({outcome!r}) on the piece from t={t0!r}")
+        return np.array(ta.state[self.n_all:]).reshape(self.n_all, self.width)
+
+
+_tangents: dict[tuple[tuple, float], _Tangent] = {}
+
+
+def _tangent(system: HybridSystem, tol: float) -> _Tangent:
+    key = (system.structure, tol)
+    found = _tangents.get(key)
+    if found is None:
+        found = _tangents[key] = _Tangent(system, tol)
+    return found
+
+
+class _Extrema:
+    """The extrema of every guard along a run: its pieces integrated again with the guards' Lie derivatives
+    as non-terminal events (one integrator per system structure, used only when the extrema are asked for)."""
+
+    def __init__(self, system: HybridSystem, tol: float):
+        import heyoka as hy
+
+        num = numeric(system)
+        P, M = num.n_params, len(system.modes)
+        ind = [hy.par[P + m] for m in range(M)]
+        self.n_all, self.P = len(num.states), P
+        rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(self.n_all)]
+        self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * self.n_all, tol=tol,
+                                     compact_mode=True, nt_events=self._extremum_events(system, num, ind))
         self.lock = threading.Lock()
 
     def _extremum_events(self, system: HybridSystem, num, ind) -> list:
@@ -138,39 +198,35 @@ class _Tangent:
             events.append(hy.nt_event(expr, record))
         return events
 
-    def piece(self, params, mode: int, t0: float, y0, t1: float) -> np.ndarray:
-        """``[dy(t1)/dy(t0) | dy(t1)/dp]`` of the piece in ``mode`` (n_all x (n_all + P))."""
-        if t1 <= t0:
-            out = np.zeros((self.n_all, self.width))
-            out[:, :self.n_all] = np.eye(self.n_all)
-            return out
+    def run(self, params, pieces) -> list:
+        """The extremum events ``(expression, t, sign of h'', state)`` of ``pieces`` ``(mode, t0, y0, t1)``."""
         ta = self.ta
-        pars = ta.pars
-        size = len(pars)
-        pars[:] = 0.0
-        used = min(self.P, size)
-        pars[:used] = params[:used]
-        if self.P + mode < size:  # a mode whose field is zero has no indicator in the expressions
-            pars[self.P + mode] = 1.0
-        ta.time = t0
-        ta.state[:self.n_all] = y0
-        ta.state[self.n_all:] = self.start
-        outcome = ta.propagate_until(t1)[0]
-        import heyoka as hy
-
-        if outcome != hy.taylor_outcome.time_limit:
-            raise FloatingPointError(f"the variational equations failed ({outcome!r}) on the piece from t={t0!r}")
-        return np.array(ta.state[self.n_all:]).reshape(self.n_all, self.width)
-
-
-_tangents: dict[tuple[tuple, float], _Tangent] = {}
+        with self.lock:
+            self.found = []
+            for mode, t0, y0, t1 in pieces:
+                if t1 <= t0:
+                    continue
+                pars = ta.pars
+                pars[:] = 0.0
+                used = min(self.P, len(pars))
+                pars[:used] = params[:used]
+                if self.P + mode < len(pars):
+                    pars[self.P + mode] = 1.0
+                ta.time = t0
+                ta.state[:] = y0
+                ta.propagate_until(t1)
+            found, self.found = self.found, []
+        return found
 
 
-def _tangent(system: HybridSystem, tol: float) -> _Tangent:
+_extrema: dict[tuple[tuple, float], _Extrema] = {}
+
+
+def _extrema_integrator(system: HybridSystem, tol: float) -> _Extrema:
     key = (system.structure, tol)
-    found = _tangents.get(key)
+    found = _extrema.get(key)
     if found is None:
-        found = _tangents[key] = _Tangent(system, tol)
+        found = _extrema[key] = _Extrema(system, tol)
     return found
 
 
@@ -288,13 +344,14 @@ class HybridMap:
             return HybridMapValue(z, params, image, nan_m, nan_p, signature, "",
                                   f"guard {e.guard!r} grazes at t={e.t!r} (its value has an extremum on zero)")
         try:
-            J, extrema, speeds = self._sensitivity(sys_p, sol, p)
+            J, extrema_of, speeds = self._sensitivity(sys_p, sol, p)
         except ZeroDivisionError as exc:
             return HybridMapValue(z, params, image, nan_m, nan_p, signature, "", str(exc))
         n_all = J.shape[0]
         dp = J[:n, [n_all + c for c in self.columns]].copy()
         if self.section is not None:  # the map ends on the section: no end time to move
-            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, extrema=extrema, speeds=speeds)
+            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds,
+                                  extrema_of=extrema_of)
         # the map ends at t0 + iterates T(p): a parameter that moves T moves the end
         f_end = np.array(rules(system).field[sys_p.mode_index(sol.mode_final)](self.t0 + span,
                                                                                 sol.state_final.tolist(), p))
@@ -302,10 +359,12 @@ class HybridMap:
             dT = self.iterates * period_and_rates[1 + c]
             if dT != 0.0:
                 dp[:, j] += f_end[:n] * dT
-        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, extrema=extrema, speeds=speeds)
+        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds,
+                                  extrema_of=extrema_of)
 
-    def _sensitivity(self, system: HybridSystem, sol, p) -> tuple[np.ndarray, tuple, tuple]:
-        """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn; the guards' extrema and speeds.
+    def _sensitivity(self, system: HybridSystem, sol, p) -> tuple[np.ndarray, Any, tuple]:
+        """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn; the guards' extrema (a
+        function computing them) and speeds.
 
         The extrema and the crossing speeds are those of :class:`HybridMapValue` (``extrema``,
         ``speeds``), seen on the way: the variational integrator has each guard expression's
@@ -321,7 +380,6 @@ class HybridMap:
         last = len(sol.events) - 1
         speeds = []
         with tangent.lock:
-            tangent.found = []
             for i, e in enumerate(sol.events):
                 on_section = self.section is not None and i == last
                 if e.kind != "crossing" and not on_section:
@@ -335,8 +393,7 @@ class HybridMap:
                     J = J - np.outer(f_plus, dtau)
                 t, mode, y = e.t, system.mode_index(e.mode_after), e.state_after
             J = _compose(tangent.piece(p, mode, t, y, sol.t_final), J, n_all)
-            found, tangent.found = tangent.found, []
-        return J, _guard_extrema(system, rule, tangent, found, sol, p), tuple(speeds)
+        return J, partial(_guard_extrema, system, rule, (self.system, self.tol), sol, p), tuple(speeds)
 
     @staticmethod
     def _saltation(rule, system, e, p, J, n, n_all, P, reset: bool = True) -> tuple:
@@ -384,11 +441,17 @@ def _crossing_rate(rule, system: HybridSystem, e, p) -> float:
     return float(dh[:n_all] @ f_minus + dh[n_all])
 
 
-def _guard_extrema(system: HybridSystem, rule, tangent: _Tangent, found, sol, p) -> tuple:
-    """``HybridMapValue.extrema`` of a run: its extremum events ``(expression, t, sign of h'', state)`` and
-    the ends of its pieces."""
+def _guard_extrema(system: HybridSystem, rule, structure: tuple, sol, p) -> tuple:
+    """``HybridMapValue.extrema`` of a run: the extrema inside its pieces and the values at their ends.
+
+    ``structure`` is ``(system, tol)`` of the map's integrator (built on first use).
+    """
+    tangent = _extrema_integrator(*structure)
+    starts = sol.pieces
+    pieces = [(system.mode_index(mode), t, y, starts[i + 1][0] if i + 1 < len(starts) else sol.t_final)
+              for i, (t, mode, y) in enumerate(starts)]
     out = []
-    for k, t, curvature, y in found:
+    for k, t, curvature, y in tangent.run(p, pieces):
         for g, guard in enumerate(system.guards):
             # a rising guard is touched from below at a maximum of h (h'' < 0), a falling one at a minimum
             if tangent.expression_of[g] == k and guard.direction != 0 and curvature == -guard.direction:
