@@ -190,6 +190,17 @@ def test_two_masses_period_doubling_and_torus_against_periodic_orbit_of(two_mass
     assert abs(ns.parameter - ref_ns) < 1e-10
 
 
+def test_two_masses_switch_onto_the_period_two_branch(two_mass_branch):
+    _, branch = two_mass_branch
+    (pd,) = branch.find("period_doubling")
+    doubled = dy.continuation(pd, "A", (0.45, 0.6), progress=False, max_points=60)
+    assert doubled.n == 2 and doubled.status == 0, doubled.message
+    for p in doubled.points[:: max(1, len(doubled.points) // 4)]:
+        system = two_masses(p.parameter)
+        assert np.linalg.norm(HybridMap(system, 2).evaluate(p.z).residual) < 1e-9  # a fixed point of P^2
+        assert np.linalg.norm(HybridMap(system, 1).evaluate(p.z).residual) > 1e-6  # not of P
+
+
 # -- the result -------------------------------------------------------------------------------------------------
 def test_a_user_branch_is_a_branch(two_mass_branch):
     hmap, branch = two_mass_branch
@@ -206,6 +217,13 @@ def test_a_user_branch_is_a_branch(two_mass_branch):
     restarted = dy.continuation(branch.points[1], "A", (0.45, 0.47), progress=False, direction="backward")
     assert restarted.status == 0 and restarted.points[-1].parameter == pytest.approx(branch.points[1].parameter)
     assert np.allclose(restarted.points[-1].z, branch.points[1].z, atol=1e-9)
+    # a guess of the state and the system itself (its map over one forcing period from t = 0)
+    last = branch.points[-1]
+    again = dy.continuation(last.z + 1e-6, "A", (1.45, 1.5), base=two_masses(1.5), progress=False, max_points=3)
+    first = next(p for p in again.points if p.arclength == 0.0)  # Newton at the system's A first
+    assert first.parameter == 1.5
+    assert np.allclose(first.z, last.z, atol=1e-9)
+    assert all(p.signature == ((("stop", "free->free"), 2),) for p in again.points)  # two impacts a period
 
 
 def test_a_user_branch_is_not_saved_silently(two_mass_branch, tmp_path):

@@ -422,7 +422,7 @@ def _start_node(problem: MapProblem, z0, settings: Settings):
     """The start corrected at its parameter value: a Node, or a string saying why not."""
     u0 = scaled(problem, z0, problem.values())
     constraint = np.zeros_like(u0)
-    constraint[2] = 1.0
+    constraint[problem.dimension] = 1.0
     result = correct(problem, u0, constraint, settings)
     if not isinstance(result, Corrected):
         return f"no periodic orbit was found from the start ({z0[0]!r}, {z0[1]!r}): {result}"

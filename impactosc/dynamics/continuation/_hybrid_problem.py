@@ -155,20 +155,22 @@ class SystemProblem:
 def signature(crossings, times=None) -> tuple:
     """``((guard, "before->after"), count)`` pairs, sorted: how often each transition occurs in one map period.
 
-    Crossings at one instant (``times``, one per crossing) are one transition, from the mode
-    before the first to the mode after the last, named by the first guard; one that returns to
-    its mode is none. A mode occupied for no time is no part of the orbit: a slip that ends
-    at the very instant of a release (the stick test decided within rounding) would otherwise
-    add or drop a stick-release pair between neighbouring points of a branch.
+    Several crossings at one instant (``times``, one per crossing) are one transition, from the
+    mode before the first to the mode after the last, named by the first guard; such a group
+    that returns to its mode is none. A mode occupied for no time is no part of the orbit: a
+    slip that ends at the very instant of a release (the stick test decided within rounding)
+    would otherwise add or drop a stick-release pair between neighbouring points of a branch.
+    A single crossing always counts (an impact's reset keeps the mode).
     """
-    merged: list[tuple] = []
+    merged: list[tuple] = []  # (guard, before, after, crossings in the group)
     for i, (guard, before, after) in enumerate(crossings):
         if merged and times is not None and times[i] == times[i - 1]:
-            first, start, _ = merged[-1]
-            merged[-1] = (first, start, after)
+            first, start, _, size = merged[-1]
+            merged[-1] = (first, start, after, size + 1)
         else:
-            merged.append((guard, before, after))
-    counts = Counter((guard, f"{before}->{after}") for guard, before, after in merged if before != after)
+            merged.append((guard, before, after, 1))
+    counts = Counter((guard, f"{before}->{after}") for guard, before, after, size in merged
+                     if size == 1 or before != after)
     return tuple(sorted(counts.items()))
 
 
