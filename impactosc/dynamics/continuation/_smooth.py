@@ -51,7 +51,8 @@ def vetted(problem, f: Found, a: Node, b: Node, settings: Settings) -> Found | N
     va, vb = (float(n.info.tests[test]) for n in (a, b))
     pa, pb = parameter(problem, a.u), parameter(problem, b.u)
     again = None
-    if all(map(math.isfinite, (va, vb))) and va * vb < 0.0 and pa != pb:
+    # in one parameter only: a boundary's point has more unknowns than a fixed parameter pins
+    if len(problem.names) == 1 and all(map(math.isfinite, (va, vb))) and va * vb < 0.0 and pa != pb:
         again = locate_in_parameter(problem, a, b, test, settings)
     if again is not None and critical_miss(again[0].info.multipliers, test) <= LOCATED:
         f.node, f.accuracy = again
@@ -59,6 +60,8 @@ def vetted(problem, f: Found, a: Node, b: Node, settings: Settings) -> Found | N
         return f
     if f.accuracy <= NARROW * max(1.0, abs(parameter(problem, f.node.u))):
         return _jump(f, test)
+    if len(problem.names) > 1:
+        return f  # on a boundary: located as well as its bracket allows
     return _not_located(problem, f, again, test, (pa, pb, va, vb))
 
 
