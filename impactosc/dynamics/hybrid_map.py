@@ -26,7 +26,6 @@ finds a fixed point of ``P`` by Newton's method with the Floquet multipliers.
 from __future__ import annotations
 
 import math
-import re
 import threading
 from dataclasses import dataclass, field
 from functools import cached_property, partial
@@ -38,6 +37,7 @@ from ..backends._hybrid import simulate_system
 from ..backends._hybrid_heyoka import DEFAULT_TOL
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import gated_sum, numeric, rules
+from ._guard_extrema import crossing_rate, guard_extrema
 
 __all__ = ["HybridMap", "HybridMapValue", "HybridOrbit", "periodic_orbit_of"]
 
@@ -139,94 +139,6 @@ def _tangent(system: HybridSystem, tol: float) -> _Tangent:
     found = _tangents.get(key)
     if found is None:
         found = _tangents[key] = _Tangent(system, tol)
-    return found
-
-
-class _Extrema:
-    """The extrema of every guard along a run: its pieces integrated again with the guards' Lie derivatives
-    as non-terminal events (one integrator per system structure, used only when the extrema are asked for)."""
-
-    def __init__(self, system: HybridSystem, tol: float):
-        import heyoka as hy
-
-        num = numeric(system)
-        P, M = num.n_params, len(system.modes)
-        ind = [hy.par[P + m] for m in range(M)]
-        self.n_all, self.P = len(num.states), P
-        rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(self.n_all)]
-        self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * self.n_all, tol=tol,
-                                     compact_mode=True, nt_events=self._extremum_events(system, num, ind))
-        self.lock = threading.Lock()
-
-    def _extremum_events(self, system: HybridSystem, num, ind) -> list:
-        """One non-terminal event per guard expression: its Lie derivative where a guard of it is armed.
-
-        The expression is ``sum_m [mode == m] h'_m + (1 - sum_m [mode == m])`` over those modes
-        (the constant 1, without a root, elsewhere); each root is an extremum of ``h``, kept in
-        :attr:`found` as ``(expression index, t, sign of h'' , state)``.
-        """
-        import heyoka as hy
-
-        #: The distinct guard expressions, and for each guard the index of its own.
-        self.expressions: list = []
-        self.expression_of: list[int] = []
-        for h in num.guards:
-            if h not in self.expressions:
-                self.expressions.append(h)
-            self.expression_of.append(self.expressions.index(h))
-        self.found: list = []
-        events = []
-        #: For each expression, the modes where a guard of it is armed.
-        self.modes_of: list[set] = [set() for _ in self.expressions]
-        for k in range(len(self.expressions)):
-            lie = {}
-            for g, modes in enumerate(num.armed):
-                if self.expression_of[g] == k:
-                    lie.update({m: num.lie[(m, g)] for m in modes})
-                    self.modes_of[k].update(modes)
-            terms = [(m, e) for m, e in sorted(lie.items())
-                     if hy.get_variables(e) or "t" in re.findall(r"\w+", str(e))]
-            if not terms:
-                continue  # a constant rate everywhere it is armed: no extremum
-            gate = hy.sum([ind[m] for m, _ in terms]) if len(terms) > 1 else ind[terms[0][0]]
-            expr = hy.sum([ind[m] * e for m, e in terms] + [1.0 - gate])
-
-            def record(ta, t, d_sgn, k=k):
-                ta.update_d_output(t)
-                self.found.append((k, t, int(d_sgn), ta.d_output[:self.n_all].copy()))
-
-            events.append(hy.nt_event(expr, record))
-        return events
-
-    def run(self, params, pieces) -> list:
-        """The extremum events ``(expression, t, sign of h'', state)`` of ``pieces`` ``(mode, t0, y0, t1)``."""
-        ta = self.ta
-        with self.lock:
-            self.found = []
-            for mode, t0, y0, t1 in pieces:
-                if t1 <= t0:
-                    continue
-                pars = ta.pars
-                pars[:] = 0.0
-                used = min(self.P, len(pars))
-                pars[:used] = params[:used]
-                if self.P + mode < len(pars):
-                    pars[self.P + mode] = 1.0
-                ta.time = t0
-                ta.state[:] = y0
-                ta.propagate_until(t1)
-            found, self.found = self.found, []
-        return found
-
-
-_extrema: dict[tuple[tuple, float], _Extrema] = {}
-
-
-def _extrema_integrator(system: HybridSystem, tol: float) -> _Extrema:
-    key = (system.structure, tol)
-    found = _extrema.get(key)
-    if found is None:
-        found = _extrema[key] = _Extrema(system, tol)
     return found
 
 
@@ -359,16 +271,14 @@ class HybridMap:
             dT = self.iterates * period_and_rates[1 + c]
             if dT != 0.0:
                 dp[:, j] += f_end[:n] * dT
-        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds,
-                                  extrema_of=extrema_of)
+        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds, extrema_of=extrema_of)
 
     def _sensitivity(self, system: HybridSystem, sol, p) -> tuple[np.ndarray, Any, tuple]:
         """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn; the guards' extrema (a
         function computing them) and speeds.
 
-        The extrema and the crossing speeds are those of :class:`HybridMapValue` (``extrema``,
-        ``speeds``), seen on the way: the variational integrator has each guard expression's
-        Lie derivative as a non-terminal event.
+        The crossing speeds are those of :class:`HybridMapValue` (``speeds``); its ``extrema``
+        come from the returned function, on first use (:mod:`._guard_extrema`).
         """
         tangent = _tangent(self.system, self.tol)
         rule = rules(self.system)
@@ -387,13 +297,13 @@ class HybridMap:
                 J = _compose(tangent.piece(p, mode, t, y, e.t), J, n_all)
                 J, dtau, f_plus = self._saltation(rule, system, e, p, J, n, n_all, P, reset=e.kind == "crossing")
                 if e.kind == "crossing":
-                    speeds.append((e.guard, e.t, _crossing_rate(rule, system, e, p)))
+                    speeds.append((e.guard, e.t, crossing_rate(rule, system, e, p)))
                 if on_section:
                     # the map's value is the state on the section, at the perturbed return time
                     J = J - np.outer(f_plus, dtau)
                 t, mode, y = e.t, system.mode_index(e.mode_after), e.state_after
             J = _compose(tangent.piece(p, mode, t, y, sol.t_final), J, n_all)
-        return J, partial(_guard_extrema, system, rule, (self.system, self.tol), sol, p), tuple(speeds)
+        return J, partial(guard_extrema, system, rule, (self.system, self.tol), sol, p), tuple(speeds)
 
     @staticmethod
     def _saltation(rule, system, e, p, J, n, n_all, P, reset: bool = True) -> tuple:
@@ -429,46 +339,6 @@ class HybridMap:
         J_new[:, n_all:] += R_p
         J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
         return J_new, dtau, f_plus
-
-
-def _crossing_rate(rule, system: HybridSystem, e, p) -> float:
-    """``n . f- + h_t``: the rate at which the guard's value passes zero at the crossing ``e``."""
-    g = system.guard_names.index(e.guard)
-    before = list(e.state_before)
-    f_minus = np.array(rule.field[system.mode_index(e.mode_before)](e.t, before, p))
-    dh = np.array(rule.jacobians(g)[0](e.t, before, p))
-    n_all = f_minus.size
-    return float(dh[:n_all] @ f_minus + dh[n_all])
-
-
-def _guard_extrema(system: HybridSystem, rule, structure: tuple, sol, p) -> tuple:
-    """``HybridMapValue.extrema`` of a run: the extrema inside its pieces and the values at their ends.
-
-    ``structure`` is ``(system, tol)`` of the map's integrator (built on first use).
-    """
-    tangent = _extrema_integrator(*structure)
-    starts = sol.pieces
-    pieces = [(system.mode_index(mode), t, y, starts[i + 1][0] if i + 1 < len(starts) else sol.t_final)
-              for i, (t, mode, y) in enumerate(starts)]
-    out = []
-    for k, t, curvature, y in tangent.run(p, pieces):
-        for g, guard in enumerate(system.guards):
-            # a rising guard is touched from below at a maximum of h (h'' < 0), a falling one at a minimum
-            if tangent.expression_of[g] == k and guard.direction != 0 and curvature == -guard.direction:
-                out.append((guard.name, float(t), float(rule.guard[g](t, list(y), p)[0])))
-    # the ends of the pieces: an extremum where another guard switches the mode (a velocity reversal
-    # between two slip modes) lies there, not inside a piece
-    t0, mode0, y0 = sol.pieces[0]
-    ends = [(t0, system.mode_index(mode0), y0, -1)]
-    ends += [(e.t, system.mode_index(m), state, system.guard_names.index(e.guard)) for e in sol.events
-             if e.kind == "crossing" for m, state in ((e.mode_before, e.state_before), (e.mode_after, e.state_after))]
-    ends.append((sol.t_final, system.mode_index(sol.mode_final), sol.state_final, -1))
-    for t, mode, y, by in ends:
-        for g, guard in enumerate(system.guards):
-            k = tangent.expression_of[g]
-            if guard.direction != 0 and mode in tangent.modes_of[k] and (by < 0 or tangent.expression_of[by] != k):
-                out.append((guard.name, float(t), float(rule.guard[g](t, list(y), p)[0])))
-    return tuple(out)
 
 
 def _grazings(sol) -> list:
