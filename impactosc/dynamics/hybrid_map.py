@@ -27,7 +27,9 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property, partial
+from typing import Any
 
 import numpy as np
 
@@ -35,6 +37,7 @@ from ..backends._hybrid import simulate_system
 from ..backends._hybrid_heyoka import DEFAULT_TOL
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import gated_sum, numeric, rules
+from ._guard_extrema import crossing_rate, guard_extrema
 
 __all__ = ["HybridMap", "HybridMapValue", "HybridOrbit", "periodic_orbit_of"]
 
@@ -56,6 +59,21 @@ class HybridMapValue:
     signature: tuple  #: ``(guard, mode before, mode after)`` of every crossing, in order
     failure: str = ""  #: why the run failed ("" when it ran)
     singular: str = ""  #: why the map is not differentiable here ("" when it is)
+    #: ``(guard, t, n . f- + h_t)`` of every crossing: the rate at which the guard's value passes zero.
+    speeds: tuple = ()
+    #: What :attr:`extrema` is computed from, on first use (None: no extrema, the map is singular).
+    extrema_of: Any = field(default=None, repr=False)
+
+    @cached_property
+    def extrema(self) -> tuple:
+        """``(guard, t, h)`` at every extremum of a guard's value ``h`` on the side it fires from (maxima
+        of a rising guard, minima of a falling one) and at the ends of every piece, in the modes where a
+        guard of the same expression is armed (the crossings of that expression left out, where ``h`` is 0).
+
+        The largest ``d h`` among a guard's is how near the orbit comes to firing it (a grazing when
+        it reaches 0). Empty when the map is singular. Computed on first use: shooting needs none.
+        """
+        return () if self.extrema_of is None else self.extrema_of()
 
     @property
     def ok(self) -> bool:
@@ -210,16 +228,19 @@ class HybridMap:
             return HybridMapValue(z, params, None, nan_m, nan_p, (), f"z must be {n} finite numbers, got {z}")
         sys_p = system.with_parameters(**dict(zip(self.names, params, strict=True)))
         p = sys_p.parameter_values
-        if self.section is None:
-            period_and_rates = self._period(0.0, [0.0] * len(numeric(system).states), p)
-            span = self.iterates * period_and_rates[0]
-            if not (math.isfinite(span) and span > 0.0):
-                return HybridMapValue(z, params, None, nan_m, nan_p, (), f"the period is {period_and_rates[0]!r}")
-            sol = simulate_system(sys_p, self.t0 + span, z, backend="heyoka", mode=self.mode, t0=self.t0,
-                                  tol=self.tol)
-        else:
-            sol = simulate_system(sys_p, self.t0 + self.max_time, z, backend="heyoka", mode=self.mode, t0=self.t0,
-                                  tol=self.tol, until=(self.section, self.iterates))
+        try:
+            if self.section is None:
+                period_and_rates = self._period(0.0, [0.0] * len(numeric(system).states), p)
+                span = self.iterates * period_and_rates[0]
+                if not (math.isfinite(span) and span > 0.0):
+                    return HybridMapValue(z, params, None, nan_m, nan_p, (), f"the period is {period_and_rates[0]!r}")
+                sol = simulate_system(sys_p, self.t0 + span, z, backend="heyoka", mode=self.mode, t0=self.t0,
+                                      tol=self.tol)
+            else:
+                sol = simulate_system(sys_p, self.t0 + self.max_time, z, backend="heyoka", mode=self.mode,
+                                      t0=self.t0, tol=self.tol, until=(self.section, self.iterates))
+        except ValueError as exc:  # a state no mode admits (beyond a rigid stop, say): no value, and why
+            return HybridMapValue(z, params, None, nan_m, nan_p, (), str(exc))
         signature = tuple((e.guard, e.mode_before, e.mode_after) for e in sol.events if e.kind == "crossing")
         if sol.status != 0:
             return HybridMapValue(z, params, None, nan_m, nan_p, signature, sol.message)
@@ -229,19 +250,20 @@ class HybridMap:
                                   f"no return {self.iterates} to the section {self.section!r} within "
                                   f"max_time={self.max_time!r}")
         image = sol.state_final[:n].copy()
-        grazings = [e for e in sol.events if e.kind == "grazing"]
+        grazings = _grazings(sol)
         if grazings:
             e = grazings[0]
             return HybridMapValue(z, params, image, nan_m, nan_p, signature, "",
                                   f"guard {e.guard!r} grazes at t={e.t!r} (its value has an extremum on zero)")
         try:
-            J = self._sensitivity(sys_p, sol, p)
+            J, extrema_of, speeds = self._sensitivity(sys_p, sol, p)
         except ZeroDivisionError as exc:
             return HybridMapValue(z, params, image, nan_m, nan_p, signature, "", str(exc))
         n_all = J.shape[0]
         dp = J[:n, [n_all + c for c in self.columns]].copy()
         if self.section is not None:  # the map ends on the section: no end time to move
-            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature)
+            return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds,
+                                  extrema_of=extrema_of)
         # the map ends at t0 + iterates T(p): a parameter that moves T moves the end
         f_end = np.array(rules(system).field[sys_p.mode_index(sol.mode_final)](self.t0 + span,
                                                                                 sol.state_final.tolist(), p))
@@ -249,10 +271,15 @@ class HybridMap:
             dT = self.iterates * period_and_rates[1 + c]
             if dT != 0.0:
                 dp[:, j] += f_end[:n] * dT
-        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature)
+        return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds, extrema_of=extrema_of)
 
-    def _sensitivity(self, system: HybridSystem, sol, p) -> np.ndarray:
-        """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn."""
+    def _sensitivity(self, system: HybridSystem, sol, p) -> tuple[np.ndarray, Any, tuple]:
+        """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn; the guards' extrema (a
+        function computing them) and speeds.
+
+        The crossing speeds are those of :class:`HybridMapValue` (``speeds``); its ``extrema``
+        come from the returned function, on first use (:mod:`._guard_extrema`).
+        """
         tangent = _tangent(self.system, self.tol)
         rule = rules(self.system)
         n, n_all, P = system.dimension, tangent.n_all, tangent.P
@@ -261,6 +288,7 @@ class HybridMap:
         t, mode_name, y = sol.pieces[0]
         mode = system.mode_index(mode_name)
         last = len(sol.events) - 1
+        speeds = []
         with tangent.lock:
             for i, e in enumerate(sol.events):
                 on_section = self.section is not None and i == last
@@ -268,12 +296,14 @@ class HybridMap:
                     continue
                 J = _compose(tangent.piece(p, mode, t, y, e.t), J, n_all)
                 J, dtau, f_plus = self._saltation(rule, system, e, p, J, n, n_all, P, reset=e.kind == "crossing")
+                if e.kind == "crossing":
+                    speeds.append((e.guard, e.t, crossing_rate(rule, system, e, p)))
                 if on_section:
                     # the map's value is the state on the section, at the perturbed return time
                     J = J - np.outer(f_plus, dtau)
                 t, mode, y = e.t, system.mode_index(e.mode_after), e.state_after
             J = _compose(tangent.piece(p, mode, t, y, sol.t_final), J, n_all)
-        return J
+        return J, partial(guard_extrema, system, rule, (self.system, self.tol), sol, p), tuple(speeds)
 
     @staticmethod
     def _saltation(rule, system, e, p, J, n, n_all, P, reset: bool = True) -> tuple:
@@ -309,6 +339,23 @@ class HybridMap:
         J_new[:, n_all:] += R_p
         J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
         return J_new, dtau, f_plus
+
+
+def _grazings(sol) -> list:
+    """The grazing events of a run that make the map singular.
+
+    A guard whose value is zero with a zero rate at the very instant a crossing put the state
+    on it (a slip mode entered at ``v = 0`` by a release, where the acceleration is zero too)
+    is recorded as touching zero, but the orbit does not graze it: it starts there and moves
+    away, and the saltation of the crossing is well defined.
+    """
+    out, last = [], None
+    for e in sol.events:
+        if e.kind == "crossing":
+            last = e.t
+        elif e.kind == "grazing" and not (last is not None and abs(e.t - last) <= 8.0 * 2.0**-52 * (1.0 + abs(e.t))):
+            out.append(e)
+    return out
 
 
 def _compose(piece: np.ndarray, J: np.ndarray, n_all: int) -> np.ndarray:

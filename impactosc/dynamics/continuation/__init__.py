@@ -6,7 +6,10 @@ folds, period doublings, Neimark-Sacker points, grazings, stick onsets, other ch
 the event signature), switches onto the period-doubled branch, and follows a located
 point in two parameters (the boundary a design chart draws). The map and its Jacobian
 are the exact event-driven ones of :mod:`impactosc.dynamics`: no collocation mesh, no
-user-written segment signature.
+user-written segment signature. A user's own :class:`~impactosc.HybridSystem` is followed
+by the same loop on its :class:`~impactosc.dynamics.HybridMap` (any number of states): the
+same smooth special points, a grazing of each guard, stick onsets as entries into a stick
+mode appearing; its grazings are located but not crossed.
 
 What a COCO or AUTO user expects of a run: an AUTO-style table of the labelled points
 (:meth:`Branch.table`, printed by :meth:`Branch.summary`, on the ``label`` dimension of

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..._util import validation as _v
 from ...model._oscillator import Oscillator
+from ...model.hybrid._definition import HybridSystem
 from .._common import (
     advanced,
     check_base,
@@ -20,12 +21,14 @@ from .._common import (
     parameter_value,
     with_parameter,
 )
+from ..hybrid_map import HybridMap, HybridOrbit
 from ..shooting import PeriodicOrbit
 from ..tangent import check_backend, check_start
-from ._arclength import Corrected, Settings, correct, illinois, scaled, unscaled
+from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
 from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
-from ._follow import Found, Node, follow, make_node
+from ._follow import follow, make_node
+from ._hybrid_problem import system_problem
 from ._problem import MapProblem
 
 __all__ = ["continuation"]
@@ -78,15 +81,22 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
         * a :class:`SpecialPoint` of a branch with ``parameter`` a pair of names: the
           boundary of that point in two parameters (grazing, stick onset, fold, period
           doubling); with ``parameter`` one name and the point a period doubling: the
-          period-``2n`` branch that bifurcates there (branch switching).
+          period-``2n`` branch that bifurcates there (branch switching);
+        * a user system's orbit: a converged :class:`~impactosc.dynamics.HybridOrbit` (from
+          :func:`~impactosc.dynamics.periodic_orbit_of`) or a guess of its state on the section,
+          with ``base`` its :class:`~impactosc.dynamics.HybridMap` (or the
+          :class:`~impactosc.HybridSystem`: the map of one forcing period from ``t = 0``); or
+          a point of a user system's branch.
     parameter : str or (str, str)
-        The free parameter: a field of the model (:func:`parameter_names`); two for a boundary.
+        The free parameter: a field of the model (:func:`parameter_names`), or a parameter of
+        the user system; two for a boundary (the built-in family only).
     limits : (float, float) or dict
         ``(lo, hi)`` of the (first) parameter; for a boundary, a dict of ``name: (lo, hi)``
         (either parameter; at least one). The branch ends on a limit.
-    base : Oscillator or TapeDrive, optional
+    base : Oscillator, TapeDrive, HybridMap or HybridSystem, optional
         The model whose fields are the parameters. Default: the orbit's oscillator. Give a
         :class:`TapeDrive` to continue in its SI fields (its :meth:`~TapeDrive.oscillator` must be the orbit's).
+        For a user system, its map (required with a :class:`HybridOrbit`, which does not carry it).
     backend : {"exact", "heyoka", "scipy"}, optional
         Default ``"exact"`` where it runs the member, else ``"heyoka"``.
     direction : {"both", "forward", "backward"}
@@ -152,6 +162,26 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
 
     >>> tail = dy.continuation(br.points[-1], "zeta", (0.0, 0.2))            # doctest: +SKIP
 
+    A user's own system goes through the same loop: the stop above written as a
+    :class:`~impactosc.HybridSystem`, its impacting orbit at ``F = 0.5`` followed in ``F``
+    up to its period doubling (``F = 0.5182098666`` in closed form at ``Omega = 0.8``).
+    Special points of a user system are the same kinds; a grazing is labelled with its
+    guard (:attr:`SpecialPoint.guard`), and a branch that reaches one it cannot step past
+    (an impact's square-root map) ends there with status 2:
+
+    >>> import math, heyoka as hy
+    >>> from impactosc import Guard, HybridMode, HybridSystem, symbols
+    >>> x, v, F, W = symbols("x v F W")
+    >>> wall = HybridSystem("x v", {"F": 0.5, "W": 0.8},
+    ...                     [HybridMode("free", {x: v, v: F * hy.cos(W * hy.time) - x - 0.1 * v})],
+    ...                     [Guard("impact", x - 1, 1, armed="free", to="free", reset={v: -0.8 * v})],
+    ...                     period=2 * math.pi / W)
+    >>> hmap = dy.HybridMap(wall)
+    >>> orbit = dy.periodic_orbit_of(hmap, [0.96, 0.45])
+    >>> up = dy.continuation(orbit, "F", (0.45, 0.6), base=hmap, direction="forward", progress=False)
+    >>> [(s.label, round(s.parameter, 9)) for s in up.special]
+    [('PD1', 0.518209867)]
+
     References
     ----------
     Keller (1977); Kuznetsov, *Elements of Applied Bifurcation Theory* (2004), ch. 10;
@@ -166,6 +196,8 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     if isinstance(parameter, tuple | list):
         raise TypeError("two parameters need a SpecialPoint start (a located point to follow as a boundary), got "
                         f"{type(start).__name__}")
+    if _of_a_system(start, base):
+        return _system_branch(start, parameter, limits, base, direction, settings, progress, max_points, options)
     if isinstance(start, BranchPoint | SpecialPoint):
         start, base, backend, options = _restart(start, base, backend, options)
     problem, z0, note = _problem_from(start, parameter, limits, base, backend, options)
@@ -189,6 +221,11 @@ def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, ba
     if isinstance(parameter, tuple | list):
         from ._boundary import boundary
 
+        if not isinstance(located, MapProblem):
+            raise ValueError(f"{start.label!r} was located on a user system's branch: boundaries in two parameters "
+                             "are followed for the built-in family only (continue the system in one parameter at "
+                             "several values of the other instead)")
+
         if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
             for name, pair in limits.items():
                 pair = _limits_pair(name, pair)
@@ -200,6 +237,34 @@ def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, ba
     with _progress(progress, f"period-2 branch in {parameter}") as on_point:
         settings = dataclasses.replace(settings, on_point=on_point)
         return _adopt(_switch(start, parameter, limits, settings, max_points), located)
+
+
+def _of_a_system(start, base) -> bool:
+    """Whether the start is a user system's: its orbit, a point of its branch, or a guess with its map as base."""
+    if isinstance(base, HybridMap | HybridSystem) or isinstance(start, HybridOrbit):
+        return True
+    branch = getattr(start, "branch", None) if isinstance(start, BranchPoint | SpecialPoint) else None
+    return branch is not None and branch.is_system
+
+
+def _system_branch(start, parameter, limits, base, direction: str, settings: Settings, progress, max_points: int,
+                   options) -> Branch:
+    """The branch of a user system's periodic orbits (:mod:`._hybrid_problem`), by the same follow loop."""
+    if isinstance(start, HybridOrbit) and base is None:
+        raise TypeError("a HybridOrbit does not carry its map: pass it with base=HybridMap(system, ...) (the map "
+                        "periodic_orbit_of solved), or the system itself")
+    if isinstance(start, BranchPoint | SpecialPoint):
+        branch = start.branch
+        if base is None:
+            base = HybridMap(branch.model(start), branch.n, t0=branch.section_phase)
+        start = start.z
+    lo, hi = _limits_pair(parameter, limits)
+    problem, z0 = system_problem(start, parameter, (lo, hi), base, options)
+    lo, hi = check_limits(parameter, limits, problem.values()[0])
+    with _progress(progress, f"continuation in {parameter}") as on_point:
+        settings = dataclasses.replace(settings, on_point=on_point)
+        branch = _run(problem, z0, (lo, hi), direction, settings, max_points)
+    return _adopt(branch, problem)
 
 
 @contextmanager
@@ -357,13 +422,13 @@ def _start_node(problem: MapProblem, z0, settings: Settings):
     """The start corrected at its parameter value: a Node, or a string saying why not."""
     u0 = scaled(problem, z0, problem.values())
     constraint = np.zeros_like(u0)
-    constraint[2] = 1.0
+    constraint[problem.dimension] = 1.0
     result = correct(problem, u0, constraint, settings)
     if not isinstance(result, Corrected):
         return f"no periodic orbit was found from the start ({z0[0]!r}, {z0[1]!r}): {result}"
     node = make_node(problem, result, None, 0.0)
-    problem.limit_events(result.ev.recorder.n_events)
-    if node.t[2] < 0.0:
+    problem.limit_events(problem.events_in(result.ev))
+    if node.t[problem.dimension] < 0.0:
         node.t = -node.t
     return node
 
@@ -381,112 +446,7 @@ def _run(problem: MapProblem, z0, limits, direction: str, settings: Settings, ma
     found = [reindex(f, nb - 2 - f.index) for f in reversed(back_found)]
     found += [reindex(f, nb + 1 + f.index) for f in fwd_found]
     ends = [tuple(e) for e in (back_end, fwd_end) if e[0] is not None]
-    found = [_vetted(problem, f, nodes, settings) for f in found]
     return assemble(problem, nodes, found, ends, nb)
-
-
-#: Largest distance of a located point's critical multiplier from +1 (fold, branch point), -1 (period
-#: doubling) or the unit circle (Neimark-Sacker): the yardstick of a smooth crossing in :mod:`._follow`.
-LOCATED = 1e-6
-#: Kinds located on a test function of the multipliers, and the test's name.
-_SMOOTH = {"fold": "fold", "branch_point": "fold", "period_doubling": "period_doubling",
-           "neimark_sacker": "neimark_sacker"}
-
-
-def _vetted(problem: MapProblem, f: Found, nodes: list[Node], settings: Settings) -> Found:
-    """``f`` where its test function vanishes: checked, located again, or marked "not located".
-
-    Near a pitchfork the pseudo-arclength corrector's Jacobian is singular and the locator
-    may stop early, keeping a node far from the zero (its multipliers far from +1, or even a
-    complex pair). A located point's critical multiplier must lie within :data:`LOCATED` of
-    its critical value. Where it does not, the zero is located again by regula falsi in the
-    parameter itself (each value a Newton solve at that value, which a branch point does
-    not disturb the way it does the arclength corrector). Where that fails too, the point
-    is reported with its message beginning "not located": at the last point the parameter
-    search reached, or at the zero of the test function interpolated between the two branch
-    points, with the width of that bracket as its accuracy.
-    """
-    test = _SMOOTH.get(f.kind)
-    if test is None or not 0 <= f.index < len(nodes) - 1:
-        return f
-    a, b = nodes[f.index], nodes[f.index + 1]
-    va, vb, vf = (float(n.info.tests[test]) for n in (a, b, f.node))
-    pa, pb = (float(n.u[2] * problem.scales[0]) for n in (a, b))
-    if not all(map(math.isfinite, (va, vb, vf))) or va * vb >= 0.0 or pa == pb:
-        return f
-
-    def on_its_zero(node: Node) -> bool:
-        return _critical_miss(node.info.multipliers, test) <= LOCATED
-
-    if on_its_zero(f.node):
-        return f
-    again = _locate_in_parameter(problem, a, b, test, settings)
-    # a corrector at a fixed parameter may land on another orbit near a branch point: the point found
-    # must itself lie on the zero of the test function
-    if again is not None and on_its_zero(again[0]):
-        f.node, f.accuracy = again
-        f.extra = {**f.extra, "test": f"{test} (in the parameter)"}
-        return f
-    before = f.message
-    if again is not None and math.isfinite(float(again[0].info.tests[test])):
-        f.node, f.accuracy = again
-        where = f"located only to within {f.accuracy:.3g} in {problem.names[0]}"
-    else:
-        f.extra = {**f.extra, "value": pa + va * (pb - pa) / (va - vb)}
-        f.accuracy = abs(pb - pa)
-        where = (f"somewhere between {problem.names[0]} = {pa!r} and {pb!r}; the parameter given is the zero of the "
-                 "test function interpolated between the two branch points")
-    f.message = (f"not located: {before}, {where} (the correctors fail next to it; the last point reached has test "
-                 f"value {float(f.node.info.tests[test]):.3g} and multipliers {np.round(f.node.info.multipliers, 6)})")
-    return f
-
-
-def _critical_miss(mus, test: str) -> float:
-    """Distance of the multiplier nearest the critical value of ``test`` from it (inf when none is defined)."""
-    mus = np.asarray(mus, dtype=complex)
-    if not np.all(np.isfinite(mus)):
-        return math.inf
-    if test == "neimark_sacker":
-        return float(np.min(np.abs(np.abs(mus) - 1.0))) if np.any(mus.imag != 0.0) else math.inf
-    return float(np.min(np.abs(mus - (1.0 if test == "fold" else -1.0))))
-
-
-def _locate_in_parameter(problem: MapProblem, a: Node, b: Node, test: str, settings: Settings):
-    """``(node, accuracy)`` at the zero of ``test`` between the branch points ``a`` and ``b``, or None.
-
-    Illinois regula falsi on the parameter; at each value the orbit is corrected with the
-    parameter fixed, from the state interpolated between ``a`` and ``b``. Where no orbit
-    can be corrected any more (next to the branch point, where it is not isolated), the
-    last point computed is kept with the width of the bracket reached as its accuracy.
-    """
-    from ._points import point_info
-
-    scale = problem.scales[0]
-    lo, hi = float(a.u[2]), float(b.u[2])
-    flo, fhi = (float(n.info.tests[test]) for n in (a, b))
-    constraint = np.zeros_like(a.u)
-    constraint[2] = 1.0
-    best, side = None, 0
-    for _ in range(60):
-        s = hi - fhi * (hi - lo) / (fhi - flo)
-        if not min(lo, hi) < s < max(lo, hi):
-            s = 0.5 * (lo + hi)
-        w = (s - float(a.u[2])) / (float(b.u[2]) - float(a.u[2]))
-        guess = (1.0 - w) * a.u + w * b.u
-        guess[2] = s
-        c = correct(problem, guess, constraint, settings, max_distance=2.0 * float(np.linalg.norm(b.u - a.u)))
-        info = point_info(problem, c.ev) if isinstance(c, Corrected) else None
-        value = float(info.tests[test]) if info is not None else math.nan
-        if not isinstance(c, Corrected) or info is None or not math.isfinite(value):
-            # at the branch point itself the orbit is not isolated (M - I is singular): the
-            # bracket reached so far is the accuracy
-            return (best, abs(hi - lo) * scale) if best is not None else None
-        best = Node(c.u, a.t, c, info, a.arclength)
-        lo, flo, hi, fhi, side = illinois(lo, flo, hi, fhi, s, value, side)
-        width = abs(hi - lo) * scale
-        if value == 0.0 or width <= settings.locate_tol * max(1.0, abs(s * scale)):
-            return best, width
-    return (best, abs(hi - lo) * scale) if best is not None else None
 
 
 def _switch(pd: SpecialPoint, parameter, limits, settings: Settings, max_points: int) -> Branch:
@@ -496,14 +456,11 @@ def _switch(pd: SpecialPoint, parameter, limits, settings: Settings, max_points:
         raise ValueError(f"the period doubling was located in {problem.names[0]!r}; switch branches in that "
                          f"parameter, got {parameter!r}")
     lo, hi = check_limits(parameter, limits, pd.parameter)
-    double = MapProblem(problem.base, problem.names, 2 * problem.n, problem.section_phase, problem.backend,
-                        problem.options, problem.scales)
-    if problem.orbit_events:
-        double.limit_events(2 * problem.orbit_events)
+    double = problem.doubled()
     M = node.corrected.ev.monodromy
     w, vecs = np.linalg.eig(M)
     e = np.real(vecs[:, int(np.argmin(np.abs(w + 1.0)))])
-    t0 = np.concatenate([e / np.linalg.norm(e), [0.0]])
+    t0 = np.concatenate([e / np.linalg.norm(e), np.zeros(len(problem.names))])
     for h in (settings.step, 0.5 * settings.step, 0.25 * settings.step, 0.1 * settings.step):
         result = correct(double, node.u + h * t0, t0, settings, max_distance=2.0 * h)
         if isinstance(result, Corrected):

@@ -21,7 +21,7 @@ import numpy as np
 from ._problem import MapEvaluation, MapProblem
 from ._sensitivity import flange_gap
 
-__all__ = ["Settings", "Corrected", "correct", "tangent", "scaled", "unscaled", "illinois"]
+__all__ = ["Settings", "Corrected", "correct", "tangent", "scaled", "unscaled", "parameter", "illinois"]
 
 #: Largest Newton correction (scaled units) and largest distance of the corrected point from the
 #: prediction, as multiples of the step length: beyond them the corrector is leaving the branch.
@@ -61,13 +61,18 @@ def scaled(problem: MapProblem, z, params) -> np.ndarray:
 
 
 def unscaled(problem: MapProblem, u) -> tuple[np.ndarray, tuple]:
-    k = len(problem.names)
-    return u[:2].copy(), tuple(float(s * c) for s, c in zip(u[2:2 + k], problem.scales, strict=True))
+    k, d = len(problem.names), problem.dimension
+    return u[:d].copy(), tuple(float(s * c) for s, c in zip(u[d:d + k], problem.scales, strict=True))
+
+
+def parameter(problem: MapProblem, u) -> float:
+    """The first free parameter's value at the unknowns ``u``."""
+    return float(u[problem.dimension] * problem.scales[0])
 
 
 def jacobian_rows(problem: MapProblem, ev: MapEvaluation) -> np.ndarray:
-    """``dG/du`` (2 x (2 + k)) in scaled unknowns."""
-    return np.hstack([ev.monodromy - np.eye(2), ev.dp * np.asarray(problem.scales)[None, :]])
+    """``dG/du`` (d x (d + k)) in scaled unknowns."""
+    return np.hstack([ev.monodromy - np.eye(problem.dimension), ev.dp * np.asarray(problem.scales)[None, :]])
 
 
 def tangent(rows: np.ndarray, previous=None) -> np.ndarray:

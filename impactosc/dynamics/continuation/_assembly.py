@@ -51,13 +51,17 @@ def assemble(problem: MapProblem, nodes, found, ends, start_index: int) -> Branc
                   problem.backend)
 
 
+def _xv(z) -> tuple[float, float]:
+    """The first two components of the state (``X, V`` of the built-in family; NaN for a missing one)."""
+    return float(z[0]), float(z[1]) if len(z) > 1 else math.nan
+
+
 def point_of(problem: MapProblem, node: Node) -> BranchPoint:
     z, params = unscaled(problem, node.u)
     info = node.info
-    return BranchPoint(dict(zip(problem.names, params, strict=True)), float(z[0]), float(z[1]),
-                       problem.span(problem.section(params)), info.multipliers, info.stability, info.signature,
-                       info.upper_margin, info.lower_margin, info.stick_margin, node.arclength, info.tests,
-                       info.collapsed)
+    return BranchPoint(dict(zip(problem.names, params, strict=True)), *_xv(z), problem.period(params),
+                       info.multipliers, info.stability, info.signature, info.upper_margin, info.lower_margin,
+                       info.stick_margin, node.arclength, info.tests, info.collapsed, state=z)
 
 
 def special_of(problem: MapProblem, f: Found, number: int) -> SpecialPoint:
@@ -65,5 +69,5 @@ def special_of(problem: MapProblem, f: Found, number: int) -> SpecialPoint:
     if "value" in f.extra:  # an extrapolated end: the first parameter moved to where the grazing is
         params = (f.extra["value"],) + tuple(params[1:])
     return SpecialPoint(f.kind, f"{LABELS[f.kind]}{number}", dict(zip(problem.names, params, strict=True)),
-                        float(z[0]), float(z[1]), f.node.info.multipliers, f.before, f.after, f.index, f.accuracy,
-                        f.message, context=(problem, f.node, f.extra))
+                        *_xv(z), f.node.info.multipliers, f.before, f.after, f.index, f.accuracy,
+                        f.message, context=(problem, f.node, f.extra), state=z)

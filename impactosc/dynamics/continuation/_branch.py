@@ -13,6 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from ...model.hybrid._definition import HybridSystem
+from ._table import signature_text, touched_flanges
+
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "SPECIAL_KINDS"]
 
 #: The kinds of special point a branch labels (AUTO's abbreviations LP, BP, PD, NS; GR grazing, ST stick onset, SC
@@ -70,6 +73,8 @@ class BranchPoint:
     #: The branch the point belongs to (set by :func:`continuation` and :meth:`Branch.load`): what
     #: makes the point a start of its own (``continuation(point, ...)``, :meth:`Branch.orbit`).
     branch: Any = field(default=None, repr=False, compare=False)
+    #: The whole state on the section (a user system's, any length; ``(X, V)`` of the built-in family).
+    state: Any = field(default=None, repr=False, compare=False)
 
     @property
     def parameter(self) -> float:
@@ -77,17 +82,21 @@ class BranchPoint:
         return next(iter(self.parameters.values()))
 
     @property
+    def z(self) -> np.ndarray:
+        """The orbit's state on the section: ``state``, or ``(x, v)`` of a point loaded from a file."""
+        return np.array(self.state if self.state is not None else (self.x, self.v), dtype=float)
+
+    @property
     def norm(self) -> float:
-        """``|(X, V)|`` of the orbit's point on the section (the norm column of :meth:`Branch.table`)."""
-        return math.hypot(self.x, self.v)
+        """``|z|`` of the orbit's point on the section (the norm column of :meth:`Branch.table`)."""
+        return float(np.linalg.norm(self.z))
 
     @property
     def stable(self) -> bool:
         return self.stability == "stable"
 
     def signature_text(self) -> str:
-        side = {1: "upper ", -1: "lower ", 0: ""}
-        return ", ".join(f"{count} {side[s]}{kind}" for (kind, s), count in self.signature) or "no events"
+        return signature_text(self.signature)
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,15 +141,28 @@ class SpecialPoint:
     saved_flange: str = field(default="", repr=False)
     #: The branch the point was located on (set by :func:`continuation` and :meth:`Branch.load`).
     branch: Any = field(default=None, repr=False, compare=False)
+    #: The whole state on the section (see :attr:`BranchPoint.state`).
+    state: Any = field(default=None, repr=False, compare=False)
 
     @property
     def parameter(self) -> float:
         return next(iter(self.parameters.values()))
 
     @property
+    def z(self) -> np.ndarray:
+        """The orbit's state on the section (see :attr:`BranchPoint.z`)."""
+        return np.array(self.state if self.state is not None else (self.x, self.v), dtype=float)
+
+    @property
     def norm(self) -> float:
-        """``|(X, V)|`` of the orbit's point on the section."""
-        return math.hypot(self.x, self.v)
+        """``|z|`` of the orbit's point on the section."""
+        return float(np.linalg.norm(self.z))
+
+    @property
+    def guard(self) -> str:
+        """The guard of a user system that a grazing touches (or whose crossings change); ``""`` otherwise."""
+        extra = self.context[2] if isinstance(self.context, tuple) and len(self.context) > 2 else None
+        return str((extra or {}).get("guard", ""))
 
     @property
     def located(self) -> bool:
@@ -247,10 +269,17 @@ class Branch:
             raise TypeError(f"key must be a label (str) or an index (int), got {key!r}")
         return self.points[int(key)]
 
+    @property
+    def is_system(self) -> bool:
+        """A branch of a user's :class:`~impactosc.HybridSystem` (not of the built-in family)."""
+        return isinstance(self.base, HybridSystem)
+
     def model(self, key):
-        """The model (Oscillator or TapeDrive, like ``base``) at the point ``key`` (see :meth:`point`)."""
+        """The model (Oscillator, TapeDrive or HybridSystem, like ``base``) at the point ``key`` (see :meth:`point`)."""
         from .._common import with_parameter
 
+        if self.is_system:
+            return self.base.with_parameters(**self.point(key).parameters)
         m = self.base
         for name, value in self.point(key).parameters.items():
             m = with_parameter(m, name, float(value))
@@ -286,6 +315,10 @@ class Branch:
         from ..shooting import periodic_orbit
 
         p = self.point(key)
+        if self.is_system:  # a HybridOrbit of the user system's map, on the branch's section
+            from ..hybrid_map import HybridMap, periodic_orbit_of
+
+            return periodic_orbit_of(HybridMap(self.model(p), self.n, t0=self.section_phase), p.z, **options)
         kw = {**self.options, **options}
         return periodic_orbit(self.model(p), self.n, guess=(p.x, p.v), phase=self.orbit_phase(p),
                               backend=self.backend, **kw)
@@ -337,7 +370,7 @@ class Branch:
             rows.append((s.index + 0.5, 1, {"label": s.label, "type": s.label.rstrip("0123456789"),
                                             "point": max(s.index, 0), **s.parameters, "norm": s.norm,
                                             "stability": stability,
-                                            "flange": s.flange or touched_flanges(s.after) or "none"}))
+                                            "flange": s.flange or s.guard or touched_flanges(s.after) or "none"}))
         return [row for *_, row in sorted(rows, key=lambda r: (r[0], r[1]))]
 
     def to_xarray(self):
@@ -348,41 +381,9 @@ class Branch:
         ``label_flange``. The special points are also in the attribute ``special`` (one line
         each). A branch without points gives a Dataset of length 0.
         """
-        import xarray as xr
+        from ._table import dataset
 
-        idx = np.arange(len(self.points))
-        mus = np.array([p.multipliers for p in self.points], dtype=complex).reshape(len(idx), 2)
-        data = {name: ("point", self.values(name)) for name in self.names}
-        data.update({
-            "x": ("point", self.x), "v": ("point", self.v),
-            "period": ("point", np.array([p.period for p in self.points], dtype=float)),
-            "multiplier_real": (("point", "k"), mus.real), "multiplier_imag": (("point", "k"), mus.imag),
-            "multiplier_abs": (("point", "k"), np.abs(mus)),
-            "stability": ("point", np.array([p.stability for p in self.points], dtype=str)),
-            "stable": ("point", self.stable),
-            "signature": ("point", np.array([p.signature_text() for p in self.points], dtype=str)),
-            "norm": ("point", np.array([p.norm for p in self.points], dtype=float)),
-            "flange": ("point", np.array([touched_flanges(p.signature) or "none" for p in self.points], dtype=str)),
-            "upper_margin": ("point", np.array([p.upper_margin for p in self.points], dtype=float)),
-            "lower_margin": ("point", np.array([p.lower_margin for p in self.points], dtype=float)),
-            "stick_margin": ("point", np.array([p.stick_margin for p in self.points], dtype=float)),
-            "arclength": ("point", np.array([p.arclength for p in self.points], dtype=float)),
-        })
-        rows = self.table()
-        data["type"] = ("label", np.array([r["type"] for r in rows], dtype=str))
-        data["label_point"] = ("label", np.array([r["point"] for r in rows], dtype=int))
-        for key in (*self.names, "norm"):
-            data[f"label_{key}"] = ("label", np.array([r[key] for r in rows], dtype=float))
-        for key in ("stability", "flange"):
-            data[f"label_{key}"] = ("label", np.array([r[key] for r in rows], dtype=str))
-        ds = xr.Dataset(data, coords={"point": idx, "label": np.array([r["label"] for r in rows], dtype=str)})
-        ds.attrs.update({"parameters": ", ".join(self.names), "n": self.n, "status": self.status,
-                         "message": self.message, "backend": self.backend,
-                         "special": "; ".join(f"{s.label} {s.kind} at "
-                                              + ", ".join(f"{k}={val:.12g}" for k, val in s.parameters.items())
-                                              for s in self.special),
-                         "model": repr(self.base)})
-        return ds
+        return dataset(self)
 
     def summary(self) -> str:
         """The run's outcome, its special points in words, and the AUTO-style table (:meth:`table`)."""
@@ -415,6 +416,10 @@ class Branch:
         """
         from ._file import to_dataset
 
+        if self.is_system:
+            raise TypeError(f"a branch of the user system {self.base.name!r} cannot be saved: its model is written in "
+                            "heyoka expressions, which a netCDF file cannot hold; keep the table "
+                            "(branch.to_xarray().to_netcdf(path)) and rebuild the system in code")
         to_dataset(self).to_netcdf(path, engine="scipy")
 
     @classmethod
@@ -463,13 +468,6 @@ class Branch:
 
         ax = plot_bifurcation(diagram, ax=ax) if ax is None else ax
         return self.plot(ax=ax, y="x", **style)
-
-
-def touched_flanges(signature) -> str:
-    """``"upper"``, ``"lower"``, ``"both"`` or ``""``: the flanges an event signature's contacts touch."""
-    sides = {side for (kind, side), count in signature
-             if count and kind in ("impact", "contact_start", "chatter") and side}
-    return "both" if sides == {1, -1} else "upper" if sides == {1} else "lower" if sides == {-1} else ""
 
 
 def nan_multipliers() -> np.ndarray:

@@ -26,15 +26,16 @@ import numpy as np
 
 from ...results._solution import Solution
 from ..shooting import floquet_multipliers
-from ._problem import MapEvaluation, MapProblem
+from ._problem import MARGIN_TESTS, MapEvaluation, MapProblem
 from ._sensitivity import flange_gap
 
-__all__ = ["PointInfo", "point_info", "SMOOTH_TESTS", "MARGIN_TESTS"]
+__all__ = ["GUARD", "PointInfo", "point_info", "smooth_tests", "stability", "SMOOTH_TESTS", "MARGIN_TESTS"]
 
 #: Test functions of smooth bifurcations, by special-point kind.
 SMOOTH_TESTS = ("fold", "period_doubling", "neimark_sacker")
-#: Margins whose zeros are nonsmooth bifurcations: (name of the margin, kind of the point).
-MARGIN_TESTS = (("upper_margin", "grazing"), ("lower_margin", "grazing"), ("stick_margin", "stick_onset"))
+
+#: The prefix of a user system's grazing margins, one per guard (``"guard:<name>"``, :mod:`._hybrid_problem`).
+GUARD = "guard:"
 
 #: Distance of the largest multiplier modulus from 1 within which a point is "marginal".
 MARGINAL = 1e-8
@@ -59,12 +60,23 @@ class PointInfo:
     #: Either near zero means a grazing is near (a contact about to appear or vanish).
     approach: dict = field(default_factory=dict)
     slowest_entry: dict = field(default_factory=dict)
+    #: The grazing margins by test name (:attr:`MapProblem.margin_tests`): ``upper_margin`` and
+    #: ``lower_margin`` of the built-in family, one per guard (``"guard:<name>"``) of a user system.
+    margins: dict = field(default_factory=dict)
 
     def nearest_grazing(self) -> float:
         """The smallest of the margins, approaches and entry speeds: how far the orbit is from a grazing."""
-        values = [abs(self.upper_margin), abs(self.lower_margin)]
+        values = [abs(self.upper_margin), abs(self.lower_margin)] + [abs(m) for m in self.margins.values()]
         values += list(self.approach.values()) + list(self.slowest_entry.values())
         return min((v for v in values if not math.isnan(v)), default=math.inf)
+
+    def test_value(self, name: str) -> float:
+        """The value of the test function or margin ``name`` at this point (NaN where it is not defined)."""
+        if name in SMOOTH_TESTS:
+            return float(self.tests[name])
+        if name in self.margins:
+            return float(self.margins[name])
+        return float(getattr(self, name))
 
 
 def _stability(mus) -> str:
@@ -78,8 +90,47 @@ def _stability(mus) -> str:
     return "marginal"
 
 
-def point_info(problem: MapProblem, ev: MapEvaluation) -> PointInfo:
-    """The :class:`PointInfo` of a converged evaluation."""
+def point_info(problem, ev) -> PointInfo:
+    """The :class:`PointInfo` of a converged evaluation.
+
+    The built-in family's is read off its run here; another problem (a user system's,
+    :mod:`._hybrid_problem`) gives its own (``problem.point_info(ev)``).
+    """
+    if not isinstance(problem, MapProblem):
+        return problem.point_info(ev)
+    return _family_point_info(ev)
+
+
+def smooth_tests(monodromy) -> tuple[np.ndarray, dict]:
+    """``(multipliers, tests)`` of a monodromy matrix of any size (module docstring).
+
+    ``det(M - I)`` and ``det(M + I)`` change sign where a real multiplier passes +1 or -1. The
+    Neimark-Sacker test is ``det M - 1`` while a 2 x 2 matrix has a complex pair (NaN without
+    one, as for the built-in family); for a larger matrix it is the bialternate product
+    ``prod_{i<j} (mu_i mu_j - 1)`` (Kuznetsov 2004, sec. 10.2), continuous where a pair turns
+    real, which vanishes where a complex pair crosses the unit circle and at a neutral saddle
+    (two real multipliers with product 1), which the locator leaves out.
+    """
+    M = np.asarray(monodromy, dtype=float)
+    mus = np.linalg.eigvals(M)
+    mus = mus[np.argsort(-np.abs(mus), kind="stable")]
+    n = M.shape[0]
+    eye = np.eye(n)
+    if n == 2:
+        ns = float(np.linalg.det(M)) - 1.0 if abs(mus[0].imag) > 0.0 else math.nan
+    else:
+        ns = float(np.real(np.prod([mus[i] * mus[j] - 1.0 for i in range(n) for j in range(i + 1, n)])))
+    tests = {"fold": float(np.linalg.det(M - eye)), "period_doubling": float(np.linalg.det(M + eye)),
+             "neimark_sacker": ns}
+    return mus, tests
+
+
+def stability(mus) -> str:
+    """``"stable"``, ``"unstable"``, ``"marginal"`` or ``"undefined"`` from the multipliers' largest modulus."""
+    return _stability(mus)
+
+
+def _family_point_info(ev: MapEvaluation) -> PointInfo:
     rec = ev.recorder
     osc = rec.osc
     events = Solution(rec, rec.t_final).events
@@ -92,9 +143,10 @@ def point_info(problem: MapProblem, ev: MapEvaluation) -> PointInfo:
     tests = {"fold": det - tr + 1.0, "period_doubling": det + tr + 1.0,
              "neimark_sacker": det - 1.0 if complex_pair else math.nan}
     approach, slowest = _approaches(osc, events)
-    return PointInfo(mus, _stability(mus), bool(rec.collapsed), signature(osc, events),
-                     _flange_margin(osc, rec, 1), _flange_margin(osc, rec, -1), _stick_margin(osc, events, rec),
-                     tests, events, ev.singular, approach, slowest)
+    upper, lower = _flange_margin(osc, rec, 1), _flange_margin(osc, rec, -1)
+    return PointInfo(mus, _stability(mus), bool(rec.collapsed), signature(osc, events), upper, lower,
+                     _stick_margin(osc, events, rec), tests, events, ev.singular, approach, slowest,
+                     {"upper_margin": upper, "lower_margin": lower})
 
 
 def _approaches(osc, events):

@@ -25,10 +25,12 @@ from ..saltation import vector_field
 from ..tangent import check_backend, piece_stepper
 from ._sensitivity import SensitivityRecorder, Stencil, flange_gap
 
-__all__ = ["MapProblem", "MapEvaluation", "without_flange", "UNSUPPORTED", "BOTH"]
+__all__ = ["MapProblem", "MapEvaluation", "without_flange", "UNSUPPORTED", "BOTH", "MARGIN_TESTS"]
 
 #: ``MapProblem.virtual(BOTH)``: both flanges taken away.
 BOTH = 2
+#: The built-in family's margins whose zeros are nonsmooth bifurcations: (name of the margin, kind of the point).
+MARGIN_TESTS = (("upper_margin", "grazing"), ("lower_margin", "grazing"), ("stick_margin", "stick_onset"))
 #: The start of a failure message of a member the problem's backend does not run (the branch stops there).
 UNSUPPORTED = "a member the backend does not run"
 
@@ -66,6 +68,13 @@ class MapEvaluation:
 class MapProblem:
     """``P^n`` of ``base`` with the named parameters free (:mod:`.continuation`).
 
+    What the follow loop asks of a problem, and a user system's problem
+    (:class:`._hybrid_problem.SystemProblem`) answers too: ``names``, ``n``, ``scales``,
+    ``dimension`` (the state's length), ``evaluate(z, params)``, ``values()``, ``model(params)``,
+    ``period(params)``, ``margin_tests`` (the margins whose zeros are nonsmooth points),
+    ``events_in(ev)``, ``limit_events(count)``, ``doubled()``; ``nonsmooth_steps`` says whether it
+    crosses grazings and impacts on the section (:mod:`._nonsmooth`, the built-in family only).
+
     Parameters
     ----------
     base : Oscillator or TapeDrive
@@ -79,6 +88,14 @@ class MapProblem:
     backend : str
         ``"exact"``, ``"heyoka"`` or ``"scipy"``; ``options`` are its options.
     """
+
+    #: The length of the state ``z = (X, V)`` on the section.
+    dimension = 2
+    state_names = ("X", "V")
+    #: The margins whose zeros are located as grazings and stick onsets.
+    margin_tests = MARGIN_TESTS
+    #: The branch crosses grazings and impacts on the section (:mod:`._nonsmooth`).
+    nonsmooth_steps = True
 
     def __init__(self, base, names, n: int, section_phase: float, backend: str, options: dict, scales=None,
                  stripped: int = 0):
@@ -159,6 +176,23 @@ class MapProblem:
 
     def span(self, osc: Oscillator) -> float:
         return periods_in(osc, None, self.n)[1]
+
+    def period(self, params) -> float:
+        """The time one map takes at ``params`` (``n`` forcing periods)."""
+        return self.span(self.section(params))
+
+    @staticmethod
+    def events_in(ev: MapEvaluation) -> int:
+        """The events of one map evaluation's run."""
+        return int(ev.recorder.n_events)
+
+    def doubled(self) -> MapProblem:
+        """The same problem over twice the periods (the branch born at a period doubling)."""
+        double = MapProblem(self.base, self.names, 2 * self.n, self.section_phase, self.backend, self.options,
+                            self.scales)
+        if self.orbit_events:
+            double.limit_events(2 * self.orbit_events)
+        return double
 
     # -- the map -------------------------------------------------------------------------
     def evaluate(self, z, params, record: str = "events") -> MapEvaluation:
