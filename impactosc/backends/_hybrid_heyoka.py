@@ -45,6 +45,7 @@ from .._util.notice import notice
 from ..engine._hybrid import (
     GRAZING,
     MARKER,
+    START_NUDGE,
     Accumulation,
     InstantAccumulation,
     Switch,
@@ -195,7 +196,9 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
             terms.append(_indicator(sorted(ms), ind) * expr)
         armed = on * _indicator(sorted(modes), ind)
         value = on * (terms[0] if len(terms) == 1 else hy.sum(terms))
-        events.append(hy.t_event(value + (1.0 - armed), direction=direction[d], callback=merged, cooldown=cooldown))
+        # moved by START_NUDGE to the side it fires from (below zero for a rising event)
+        events.append(hy.t_event(value + (1.0 - armed) - d * START_NUDGE, direction=direction[d], callback=merged,
+                                 cooldown=cooldown))
     return events
 
 
@@ -301,8 +304,13 @@ class _Run:
     def extremum(self, ta, guards) -> bool:
         """Check the values of ``guards`` at one of their extrema: a grazing, or a crossing lost to rounding."""
         t = ta.time
-        y = ta.state.tolist()
         switch = self.switch
+        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)):
+            # An extremum at the piece start: the tangency it starts with, or rounding (a mass
+            # released with v' = 0 moves ~1e-32 the wrong way before it turns), not a crossing
+            # lost inside a step nor a grazing.
+            return True
+        y = ta.state.tolist()
         for g in guards:
             h = switch.guard_value(g, t, y)
             d = switch.direction[g]

@@ -17,11 +17,25 @@ from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, rules
 
 __all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER",
-           "MAX_EVENTS_AT_AN_INSTANT"]
+           "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE"]
 
 #: Event kinds: a guard crossed (its transition applied), a guard's extremum on zero without a
 #: crossing (recorded, no transition), a non-terminal guard crossed (recorded only).
 CROSSING, GRAZING, MARKER = "crossing", "grazing", "marker"
+
+#: Every event with a direction ``d`` is ``h - d START_NUDGE``: a piece that starts exactly on a
+#: guard's zero (a velocity reset to 0 at a slip reversal, a contact closed where ``x - gap``
+#: rounds to 0) then starts a hair on the side the guard fires from instead of on zero. heyoka
+#: takes an event polynomial whose constant term is exactly 0 to have its root at the step's
+#: start, and its bracketing root finder returns that root for the step's first isolating
+#: interval, losing a later root in it (``y' = 0.9 - cos t`` from ``y = 0``: its rising root at
+#: t = 0.78668 was not found). The shift of an event time, ``START_NUDGE / |h'|``, is far
+#: below any representable difference of times; a guard that goes the wrong way by rounding
+#: at a piece start (past the nudge) is a root at the start that the loops ignore
+#: (:meth:`Switch.leaves`). scipy's ``solve_ivp`` has the same trouble its own way: a guard exactly
+#: 0 at the start and still 0 after a first step too short to move it takes both ends of the
+#: step for a root, and fires again at the instant of the transition.
+START_NUDGE = 1e-300
 
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
 MAX_EVENTS_AT_AN_INSTANT = 64
@@ -182,16 +196,20 @@ class Switch:
                                           f"by guard {last!r}): events accumulate at one instant.")
             if self.count(g):
                 break  # the run ends right after this event
-            g = self.pending(mode, t, y)
+            # A guard whose reset is the identity has been crossed, not left on its surface: the
+            # state after it lies on it moving its way, and firing it again would count the one
+            # crossing twice (up to the instant-accumulation limit).
+            g = self.pending(mode, t, y, g if self.rules.reset[g] is None else -1)
         self.pieces.append((t, mode, tuple(y)))
         return mode, y
 
-    def pending(self, mode: int, t: float, y) -> int:
+    def pending(self, mode: int, t: float, y, crossed: int = -1) -> int:
         """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.
 
         On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way,
         or, where it is zero within the same tolerance (a tangency, such as the slip-end guard
-        of a mass just released), the second Lie derivative does.
+        of a mass just released), the second Lie derivative does. ``crossed`` is a guard
+        crossed at this instant without a reset: not fired again.
         """
         armed = self.num.armed_in[mode]
         if not armed:
@@ -203,7 +221,7 @@ class Switch:
             return -1
         scale = self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
         for i, g in enumerate(armed):
-            if abs(values[i]) <= scale and self.terminal[g]:
+            if abs(values[i]) <= scale and self.terminal[g] and g != crossed:
                 d, rate = self.direction[g], values[k + i]
                 if abs(rate) > scale:
                     if d == 0 or d * rate > 0.0:
