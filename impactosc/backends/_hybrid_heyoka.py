@@ -247,6 +247,7 @@ class _Run:
         self.message = ""
         self.accumulation_time: float | None = None
         self.P = comp.P
+        self.pars = comp.pars
         self.n = switch.n
         self.missed: tuple[int, float] | None = None  # (guard, time of the extremum past its zero)
         self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
@@ -264,35 +265,50 @@ class _Run:
         return y
 
     def crossing(self, ta, g: int) -> bool:
+        """Guard ``g`` located at the integrator's time: apply its transition (the Python of every event)."""
         t = ta.time
         state = ta.state
         y = state.tolist()
         switch = self.switch
+        mode = self.mode
         if not switch.terminal[g]:
-            switch.events.append((t, g, MARKER, self.mode, self.mode, tuple(y), tuple(y)))
+            switch.events.append((t, g, MARKER, mode, mode, tuple(y), tuple(y)))
             return not switch.count(g) and self._go_on(t)
-        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, self.mode, t, y):
+        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, mode, t, y):
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         try:
-            after = self.transition(g, t, y)
+            target, after = switch.transition(g, mode, t, y)
         except InstantAccumulation as exc:
             self.status, self.message, self.accumulation_time = 2, str(exc), t
             return False
         except RuntimeError as exc:
             self.status, self.message = -1, str(exc)
             return False
-        if after != y:
+        if target != mode:
+            pars = self.pars
+            pars[self.P + mode] = 0.0
+            pars[self.P + target] = 1.0
+            self.mode = target
+        if after is not y:
             state[:] = after
         if switch.done:
             return False  # the event the run was to end after (until=...)
-        estimate = self.accumulation.add(t)
-        if estimate is not None:
-            self.status = 2
-            self.accumulation_time = estimate
-            self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at t={t!r}, "
-                            f"the accumulation time is estimated at {estimate!r}.")
-            return False
-        return self._go_on(t)
+        accumulation = self.accumulation
+        if t - accumulation.last > accumulation.quick * (1.0 + abs(t)):
+            accumulation.last = t  # add()'s common case: an interval too long to end an accumulation
+            accumulation.times.clear()
+            accumulation.times.append(t)
+        else:
+            estimate = accumulation.add(t)
+            if estimate is not None:
+                self.status = 2
+                self.accumulation_time = estimate
+                self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at "
+                                f"t={t!r}, the accumulation time is estimated at {estimate!r}.")
+                return False
+        if len(switch.events) >= self.max_events:
+            return self._go_on(t)
+        return True
 
     def _go_on(self, t: float) -> bool:
         if len(self.switch.events) >= self.max_events:

@@ -394,6 +394,24 @@ def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:
     return replace(mode, field=tuple(rates), integrands=mode.integrands)
 
 
+class _Structure(tuple):
+    """A system's structure: a tuple that hashes once (the key of the compiled-code caches).
+
+    Hashing heyoka expressions walks them (about 0.05 ms for eq. 3), and each run looks its
+    integrator and numeric forms up by the structure: the hash is kept after the first. It is
+    not pickled (string hashes differ between processes).
+    """
+
+    def __hash__(self):
+        found = self.__dict__.get("_hash")
+        if found is None:
+            found = self.__dict__["_hash"] = tuple.__hash__(self)
+        return found
+
+    def __reduce__(self):
+        return (_Structure, (tuple(self),))
+
+
 def _structure(system: HybridSystem) -> tuple:
     """Everything a backend compiles: the key of its cache (parameter values left out).
 
@@ -404,5 +422,5 @@ def _structure(system: HybridSystem) -> tuple:
     modes = tuple((m.name, tuple(m.field), tuple(m.entry), tuple(m.integrands)) for m in system.modes)
     guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal)
                    for g in system.guards)
-    return (tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
-            system.section, modes, guards)
+    return _Structure((tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
+                       system.section, modes, guards))
