@@ -92,8 +92,16 @@ class _Callback:
 
     def __init__(self, holder: _Holder):
         self.holder = holder
-        self.cross: dict[int, int] = {}
-        self.extrema: dict[int, list[int]] = {}
+        self.cross: dict[int, int] | list[int] = {}
+        self.extrema: dict[int, list[int]] | list[list[int] | None] = {}
+
+    def freeze(self, modes: int) -> _Callback:
+        """Turn the dictionaries into lists indexed by mode (read at every event)."""
+        cross, extrema = self.cross, self.extrema
+        assert isinstance(cross, dict) and isinstance(extrema, dict)
+        self.cross = [cross.get(m, -1) for m in range(modes)]
+        self.extrema = [extrema.get(m) for m in range(modes)]
+        return self
 
     def __deepcopy__(self, memo):
         return self
@@ -101,10 +109,10 @@ class _Callback:
     def __call__(self, ta, d_sgn) -> bool:
         run = self.holder.run
         mode = run.mode
-        checks = self.extrema.get(mode)
+        checks = self.extrema[mode]
         if checks is not None and not run.extremum(ta, checks):
             return False
-        g = self.cross.get(mode, -1)
+        g = self.cross[mode]
         if g < 0 or run.mode != mode:
             return True
         return run.crossing(ta, g)
@@ -191,12 +199,13 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
         merged = _Callback(holder)
         terms = []
         for expr, ms, cb in members:
-            merged.cross.update(cb.cross)
-            merged.extrema.update(cb.extrema)
+            merged.cross.update(cb.cross)  # type: ignore[union-attr]
+            merged.extrema.update(cb.extrema)  # type: ignore[union-attr, arg-type]
             terms.append(_indicator(sorted(ms), ind) * expr)
         armed = on * _indicator(sorted(modes), ind)
         value = on * (terms[0] if len(terms) == 1 else hy.sum(terms))
         # moved by START_NUDGE to the side it fires from (below zero for a rising event)
+        merged.freeze(len(system.modes))
         events.append(hy.t_event(value + (1.0 - armed) - d * START_NUDGE, direction=direction[d], callback=merged,
                                  cooldown=cooldown))
     return events

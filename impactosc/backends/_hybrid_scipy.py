@@ -12,6 +12,11 @@ at the restart). As in the heyoka loop, a guard that fired is off for ``cooldown
 again at once), and a root at the very start of a piece of a guard that moves away from the
 side it fires towards is rounding (:meth:`~impactosc.engine._hybrid.Switch.leaves`): ignored,
 that guard cooled the same way, where it used to fire a stop again at the instant of a reversal.
+Such a guard is also moved by the rounding band to the side it fires from for the piece (see
+:meth:`_Loop.events`), and every event by ``START_NUDGE``. The steps are bounded by a 32nd
+of the forcing period where the system has one (``max_step``): in a mode whose state is
+constant (stuck) ``solve_ivp``'s steps grow without bound and a guard in the time alone,
+seen only at step ends, would be stepped over.
 """
 
 from __future__ import annotations
