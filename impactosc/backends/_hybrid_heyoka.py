@@ -259,6 +259,8 @@ class _Run:
         self.pars = comp.pars
         self.n = switch.n
         self.missed: tuple[int, float] | None = None  # (guard, time of the extremum past its zero)
+        self.resting: tuple[int, float] | None = None  # (guard, accumulation time) where its rest mode begins
+        self.zeno_tol = zeno_tol
         self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
 
     def transition(self, g: int, t: float, y: list) -> list:
@@ -267,11 +269,15 @@ class _Run:
         Raises the errors of :meth:`Switch.transition`.
         """
         mode, y = self.switch.transition(g, self.mode, t, y)
+        self.switch_to(mode)
+        return y
+
+    def switch_to(self, mode: int) -> None:
+        """Move the mode indicators of the integrator to ``mode``."""
         pars = self.comp.pars
         pars[self.P + self.mode] = 0.0
         pars[self.P + mode] = 1.0
         self.mode = mode
-        return y
 
     def crossing(self, ta, g: int) -> bool:
         """Guard ``g`` located at the integrator's time: apply its transition (the Python of every event)."""
@@ -288,6 +294,9 @@ class _Run:
         try:
             target, after = switch.transition(g, mode, t, y)
         except InstantAccumulation as exc:
+            if switch.rests(g):
+                self.resting = (g, t)  # the loop enters the rest mode (see _propagate)
+                return False
             self.status, self.message, self.accumulation_time = 2, str(exc), t
             return False
         except RuntimeError as exc:
@@ -309,6 +318,9 @@ class _Run:
             accumulation.times.append(t)
         else:
             estimate = accumulation.add(t)
+            if estimate is not None and switch.rests(g):
+                self.resting = (g, estimate)  # the loop enters the rest mode (see _propagate)
+                return False
             if estimate is not None:
                 self.status = 2
                 self.accumulation_time = estimate
@@ -417,6 +429,18 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
             ta.reset_cooldowns()
         while True:
             outcome = ta.propagate_until(t_end)[0]
+            if run.resting is not None and not run.status and not switch.done:
+                # a guard's events accumulated: its rest mode from the accumulation time on
+                g, t_rest = run.resting
+                run.resting = None
+                t_rest = min(t_rest, t_end)
+                mode, y = switch.rest(g, run.mode, t_rest, ta.state.tolist())
+                run.switch_to(mode)
+                ta.time = t_rest
+                ta.state[:] = y
+                ta.reset_cooldowns()
+                run.accumulation = Accumulation(run.zeno_tol)
+                continue
             if run.missed is None or run.status or switch.done:
                 break
             g, t_past = run.missed

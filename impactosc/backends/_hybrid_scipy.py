@@ -61,6 +61,7 @@ class _Loop:
         self.p = system.parameter_values
         self.options = options
         self.accumulation = Accumulation(zeno_tol)
+        self.zeno_tol = zeno_tol
         self.graze_tol = graze_tol
         self.t, self.mode = 0.0, 0
         self.y: list = []
@@ -111,6 +112,9 @@ class _Loop:
         """Integrate one piece and handle its event; False when the run has reached ``t_end`` or failed."""
         from scipy.integrate import solve_ivp
 
+        if self.t >= t_end:  # a rest mode entered at the end
+            self.t = t_end
+            return False
         cooling = self.cool >= 0 and self.cool_until < t_end
         t_stop = self.cool_until if cooling else t_end
         fns, what = self.events(self.mode, self.quiet, self.cool, self.t, self.y)
@@ -142,14 +146,30 @@ class _Loop:
             self.switch.pieces.append((self.t, self.mode, tuple(self.y)))
             self.switch.count(g)
         else:
-            self.mode, self.y = self.switch.transition(g, self.mode, self.t, self.y)
+            try:
+                self.mode, self.y = self.switch.transition(g, self.mode, self.t, self.y)
+            except InstantAccumulation:
+                if not self.switch.rests(g):
+                    raise
+                self.rest(g, self.t, t_end)
+                return True
             self.cool, self.cool_until = g, self.t + self.cooldown
             self.estimate = self.accumulation.add(self.t)
-            if self.estimate is not None:
+            if self.estimate is not None and self.switch.rests(g):
+                self.rest(g, self.estimate, t_end)
+            elif self.estimate is not None:
                 self.status = 2
                 self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at "
                                 f"t={self.t!r}, the accumulation time is estimated at {self.estimate!r}.")
         return True
+
+    def rest(self, g: int, t_rest: float, t_end: float) -> None:
+        """Guard ``g``'s events accumulate at ``t_rest``: its rest mode from there (``Guard.rest``)."""
+        self.t = min(t_rest, t_end)
+        self.mode, self.y = self.switch.rest(g, self.mode, self.t, self.y)
+        self.estimate = None
+        self.cool = -1
+        self.accumulation = Accumulation(self.zeno_tol)
 
     def extremum(self, g: int) -> None:
         """Guard ``g`` at an extremum: a crossing lost inside a step, a grazing, or nothing."""

@@ -16,12 +16,13 @@ import numpy as np
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, plan, rules
 
-__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER",
+__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER", "REST",
            "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE"]
 
 #: Event kinds: a guard crossed (its transition applied), a guard's extremum on zero without a
-#: crossing (recorded, no transition), a non-terminal guard crossed (recorded only).
-CROSSING, GRAZING, MARKER = "crossing", "grazing", "marker"
+#: crossing (recorded, no transition), a non-terminal guard crossed (recorded only), the
+#: accumulation of a guard's events ending in its rest mode (``Guard.rest``).
+CROSSING, GRAZING, MARKER, REST = "crossing", "grazing", "marker", "rest"
 
 #: Every event with a direction ``d`` is ``h - d START_NUDGE``: a piece that starts exactly on a
 #: guard's zero (a velocity reset to 0 at a slip reversal, a contact closed where ``x - gap``
@@ -223,6 +224,38 @@ class Switch:
             g = then if then != -2 else self.pending(mode, t, y, g if self._reset[g] is None else -1)
         self.pieces.append((t, mode, tuple(y)))
         return mode, y
+
+    def rests(self, g: int) -> bool:
+        """Whether an accumulation of guard ``g``'s events leads into a rest mode (``Guard.rest``)."""
+        return self.num.rest[g] >= 0
+
+    def rest(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
+        """Enter guard ``g``'s rest mode at the accumulation time ``t`` from the state ``y`` of its last event.
+
+        Records the ``"rest"`` event and the new piece (and a guard the state then lies on and
+        crosses, as :meth:`transition` does); returns ``(mode, state)``.
+
+        Raises
+        ------
+        RuntimeError
+            When the rest mode's entry conditions do not hold there (named).
+        """
+        target = self.num.rest[g]
+        reset = self.rules.rest_reset[g]
+        after = list(y)
+        if reset is not None:
+            after[:self.n] = reset(t, y, self.p)
+        conditions = self._entry[target]
+        if conditions is not None and not all(c >= 0.0 for c in conditions(t, after, self.p)):
+            raise RuntimeError(f"guard {self.system.guard_names[g]!r}: its events accumulate at t={t!r}, where the "
+                               f"entry conditions of its rest mode {self.system.mode_names[target]!r} do not hold "
+                               f"(state {after})")
+        self.events.append((t, g, REST, mode, target, tuple(y), tuple(after)))
+        follow = self.pending(target, t, after)
+        if follow >= 0:
+            return self.transition(follow, target, t, after)
+        self.pieces.append((t, target, tuple(after)))
+        return target, after
 
     def pending(self, mode: int, t: float, y, crossed: int = -1) -> int:
         """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.

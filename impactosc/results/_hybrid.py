@@ -22,7 +22,7 @@ class HybridEvent(NamedTuple):
 
     t: float
     guard: str
-    kind: str  #: "crossing" (the transition applied), "grazing" or "marker"
+    kind: str  #: "crossing" (the transition applied), "grazing", "marker" or "rest" (see Guard.rest)
     mode_before: str
     mode_after: str
     state_before: tuple

@@ -80,6 +80,7 @@ class Numeric:
         self.direction = [g.direction for g in system.guards]
         self.terminal = [g.terminal for g in system.guards]
         self.to = [tuple(system.mode_names.index(m) for m in g.to) for g in system.guards]
+        self.rest = [system.mode_names.index(g.rest) if g.rest is not None else -1 for g in system.guards]
         self.lie = {(m, g): self.lie_derivative(self.guards[g], self.rates[m])
                     for g, modes in enumerate(self.armed) for m in modes}
 
@@ -280,6 +281,11 @@ class Rules:
                 continue
             exprs = [num.with_params(given[s]) if s in given else num.states[i] for i, s in enumerate(system.states)]
             self.reset.append(evaluator(num, exprs, f"reset of guard {guard.name!r}"))
+        self.rest_reset: list = []
+        for guard in system.guards:
+            given = dict(guard.rest_reset)
+            exprs = [num.with_params(given[s]) if s in given else num.states[i] for i, s in enumerate(system.states)]
+            self.rest_reset.append(evaluator(num, exprs, f"rest reset of guard {guard.name!r}") if given else None)
         self.entry = [evaluator(num, [num.with_params(c) for c in m.entry], f"entry of mode {m.name!r}")
                       if m.entry else None for m in system.modes]
         self.probe = []
