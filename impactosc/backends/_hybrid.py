@@ -35,9 +35,12 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
         ``until=(guard, k)`` (end the run right after the ``k``-th event of ``guard``: a
         return to a Poincare section; status 0 and a message that says so),
         ``touch_tol`` (a state within ``touch_tol (1 + max |y|)`` of a guard it crosses
-        fires it at once, default 1e-12); heyoka: ``tol`` (in [1e-18, 1e-2], default machine
-        epsilon) and ``cooldown`` (how long an event is ignored after it fired, default 1e-12
-        time units); scipy: ``method`` (default DOP853), ``rtol``, ``atol`` (default 1e-12).
+        fires it at once, default 1e-12), ``cooldown`` (how long a guard is ignored after it
+        fired, default 1e-12 time units); heyoka: ``tol`` (in [1e-18, 1e-2], default machine
+        epsilon); scipy: ``method`` (default DOP853), ``rtol``, ``atol`` (default 1e-12), ``max_step``
+        (default a 32nd of the forcing period, unbounded without one: ``solve_ivp`` sees a guard
+        only at its step ends, and in a mode where the state is constant its steps grow without
+        bound, so a guard that moves with the time alone needs it).
 
     Returns
     -------

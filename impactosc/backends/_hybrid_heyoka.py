@@ -45,6 +45,7 @@ from .._util.notice import notice
 from ..engine._hybrid import (
     GRAZING,
     MARKER,
+    START_NUDGE,
     Accumulation,
     InstantAccumulation,
     Switch,
@@ -91,8 +92,16 @@ class _Callback:
 
     def __init__(self, holder: _Holder):
         self.holder = holder
-        self.cross: dict[int, int] = {}
-        self.extrema: dict[int, list[int]] = {}
+        self.cross: dict[int, int] | list[int] = {}
+        self.extrema: dict[int, list[int]] | list[list[int] | None] = {}
+
+    def freeze(self, modes: int) -> _Callback:
+        """Turn the dictionaries into lists indexed by mode (read at every event)."""
+        cross, extrema = self.cross, self.extrema
+        assert isinstance(cross, dict) and isinstance(extrema, dict)
+        self.cross = [cross.get(m, -1) for m in range(modes)]
+        self.extrema = [extrema.get(m) for m in range(modes)]
+        return self
 
     def __deepcopy__(self, memo):
         return self
@@ -100,10 +109,10 @@ class _Callback:
     def __call__(self, ta, d_sgn) -> bool:
         run = self.holder.run
         mode = run.mode
-        checks = self.extrema.get(mode)
+        checks = self.extrema[mode]
         if checks is not None and not run.extremum(ta, checks):
             return False
-        g = self.cross.get(mode, -1)
+        g = self.cross[mode]
         if g < 0 or run.mode != mode:
             return True
         return run.crossing(ta, g)
@@ -190,12 +199,15 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
         merged = _Callback(holder)
         terms = []
         for expr, ms, cb in members:
-            merged.cross.update(cb.cross)
-            merged.extrema.update(cb.extrema)
+            merged.cross.update(cb.cross)  # type: ignore[union-attr]
+            merged.extrema.update(cb.extrema)  # type: ignore[union-attr, arg-type]
             terms.append(_indicator(sorted(ms), ind) * expr)
         armed = on * _indicator(sorted(modes), ind)
         value = on * (terms[0] if len(terms) == 1 else hy.sum(terms))
-        events.append(hy.t_event(value + (1.0 - armed), direction=direction[d], callback=merged, cooldown=cooldown))
+        # moved by START_NUDGE to the side it fires from (below zero for a rising event)
+        merged.freeze(len(system.modes))
+        events.append(hy.t_event(value + (1.0 - armed) - d * START_NUDGE, direction=direction[d], callback=merged,
+                                 cooldown=cooldown))
     return events
 
 
@@ -244,8 +256,11 @@ class _Run:
         self.message = ""
         self.accumulation_time: float | None = None
         self.P = comp.P
+        self.pars = comp.pars
         self.n = switch.n
         self.missed: tuple[int, float] | None = None  # (guard, time of the extremum past its zero)
+        self.resting: tuple[int, float] | None = None  # (guard, accumulation time) where its rest mode begins
+        self.zeno_tol = zeno_tol
         self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
 
     def transition(self, g: int, t: float, y: list) -> list:
@@ -254,42 +269,67 @@ class _Run:
         Raises the errors of :meth:`Switch.transition`.
         """
         mode, y = self.switch.transition(g, self.mode, t, y)
+        self.switch_to(mode)
+        return y
+
+    def switch_to(self, mode: int) -> None:
+        """Move the mode indicators of the integrator to ``mode``."""
         pars = self.comp.pars
         pars[self.P + self.mode] = 0.0
         pars[self.P + mode] = 1.0
         self.mode = mode
-        return y
 
     def crossing(self, ta, g: int) -> bool:
+        """Guard ``g`` located at the integrator's time: apply its transition (the Python of every event)."""
         t = ta.time
         state = ta.state
         y = state.tolist()
         switch = self.switch
+        mode = self.mode
         if not switch.terminal[g]:
-            switch.events.append((t, g, MARKER, self.mode, self.mode, tuple(y), tuple(y)))
+            switch.events.append((t, g, MARKER, mode, mode, tuple(y), tuple(y)))
             return not switch.count(g) and self._go_on(t)
-        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, self.mode, t, y):
+        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, mode, t, y):
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         try:
-            after = self.transition(g, t, y)
+            target, after = switch.transition(g, mode, t, y)
         except InstantAccumulation as exc:
+            if switch.rests(g):
+                self.resting = (g, t)  # the loop enters the rest mode (see _propagate)
+                return False
             self.status, self.message, self.accumulation_time = 2, str(exc), t
             return False
         except RuntimeError as exc:
             self.status, self.message = -1, str(exc)
             return False
-        if after != y:
+        if target != mode:
+            pars = self.pars
+            pars[self.P + mode] = 0.0
+            pars[self.P + target] = 1.0
+            self.mode = target
+        if after is not y:
             state[:] = after
         if switch.done:
             return False  # the event the run was to end after (until=...)
-        estimate = self.accumulation.add(t)
-        if estimate is not None:
-            self.status = 2
-            self.accumulation_time = estimate
-            self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at t={t!r}, "
-                            f"the accumulation time is estimated at {estimate!r}.")
-            return False
-        return self._go_on(t)
+        accumulation = self.accumulation
+        if t - accumulation.last > accumulation.quick * (1.0 + abs(t)):
+            accumulation.last = t  # add()'s common case: an interval too long to end an accumulation
+            accumulation.times.clear()
+            accumulation.times.append(t)
+        else:
+            estimate = accumulation.add(t)
+            if estimate is not None and switch.rests(g):
+                self.resting = (g, estimate)  # the loop enters the rest mode (see _propagate)
+                return False
+            if estimate is not None:
+                self.status = 2
+                self.accumulation_time = estimate
+                self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at "
+                                f"t={t!r}, the accumulation time is estimated at {estimate!r}.")
+                return False
+        if len(switch.events) >= self.max_events:
+            return self._go_on(t)
+        return True
 
     def _go_on(self, t: float) -> bool:
         if len(self.switch.events) >= self.max_events:
@@ -301,8 +341,13 @@ class _Run:
     def extremum(self, ta, guards) -> bool:
         """Check the values of ``guards`` at one of their extrema: a grazing, or a crossing lost to rounding."""
         t = ta.time
-        y = ta.state.tolist()
         switch = self.switch
+        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)):
+            # An extremum at the piece start: the tangency it starts with, or rounding (a mass
+            # released with v' = 0 moves ~1e-32 the wrong way before it turns), not a crossing
+            # lost inside a step nor a grazing.
+            return True
+        y = ta.state.tolist()
         for g in guards:
             h = switch.guard_value(g, t, y)
             d = switch.direction[g]
@@ -384,6 +429,18 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
             ta.reset_cooldowns()
         while True:
             outcome = ta.propagate_until(t_end)[0]
+            if run.resting is not None and not run.status and not switch.done:
+                # a guard's events accumulated: its rest mode from the accumulation time on
+                g, t_rest = run.resting
+                run.resting = None
+                t_rest = min(t_rest, t_end)
+                mode, y = switch.rest(g, run.mode, t_rest, ta.state.tolist())
+                run.switch_to(mode)
+                ta.time = t_rest
+                ta.state[:] = y
+                ta.reset_cooldowns()
+                run.accumulation = Accumulation(run.zeno_tol)
+                continue
             if run.missed is None or run.status or switch.done:
                 break
             g, t_past = run.missed

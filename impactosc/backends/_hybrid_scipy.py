@@ -7,7 +7,16 @@ in a fixed mode with every armed guard as a terminal event in its direction, and
 guard's Lie derivative as a terminal event at the extrema that can touch zero: there
 the guard's value is checked, as in the heyoka loop. After an extremum of a guard, that
 guard's extremum events are off until the next event (scipy would find the same zero again
-at the restart).
+at the restart). As in the heyoka loop, a guard that fired is off for ``cooldown`` time units
+(the located root can lie a rounding error before the surface, where scipy would find it
+again at once), and a root at the very start of a piece of a guard that moves away from the
+side it fires towards is rounding (:meth:`~impactosc.engine._hybrid.Switch.leaves`): ignored,
+that guard cooled the same way, where it used to fire a stop again at the instant of a reversal.
+Such a guard is also moved by the rounding band to the side it fires from for the piece (see
+:meth:`_Loop.events`), and every event by ``START_NUDGE``. The steps are bounded by a 32nd
+of the forcing period where the system has one (``max_step``): in a mode whose state is
+constant (stuck) ``solve_ivp``'s steps grow without bound and a guard in the time alone,
+seen only at step ends, would be stepped over.
 """
 
 from __future__ import annotations
@@ -15,7 +24,15 @@ from __future__ import annotations
 import numpy as np
 
 from .._util import validation as _v
-from ..engine._hybrid import GRAZING, MARKER, Accumulation, InstantAccumulation, Switch, check_state
+from ..engine._hybrid import (
+    GRAZING,
+    MARKER,
+    START_NUDGE,
+    Accumulation,
+    InstantAccumulation,
+    Switch,
+    check_state,
+)
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import rules
 from ..results._hybrid import STATUS_MESSAGES, HybridSolution
@@ -23,9 +40,11 @@ from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 __all__ = ["run_system"]
 
 
-def _event(fn, index: int, direction: int):
+def _event(fn, index: int, direction: int, shift: float = START_NUDGE):
+    nudge = direction * shift  # towards the side it fires from (see START_NUDGE)
+
     def event(t, y):
-        return fn(t, y, None)[index]
+        return fn(t, y, None)[index] - nudge
 
     event.terminal = True  # type: ignore[attr-defined]
     event.direction = direction  # type: ignore[attr-defined]
@@ -35,25 +54,38 @@ def _event(fn, index: int, direction: int):
 class _Loop:
     """The scipy loop's state: where the run is, and what it has found."""
 
-    def __init__(self, system: HybridSystem, switch: Switch, options: dict, zeno_tol: float, graze_tol: float):
+    def __init__(self, system: HybridSystem, switch: Switch, options: dict, zeno_tol: float, graze_tol: float,
+                 cooldown: float = 1e-12):
         self.system = system
         self.switch = switch
         self.p = system.parameter_values
         self.options = options
         self.accumulation = Accumulation(zeno_tol)
+        self.zeno_tol = zeno_tol
         self.graze_tol = graze_tol
         self.t, self.mode = 0.0, 0
         self.y: list = []
         self.status, self.message = 0, ""
         self.estimate: float | None = None
         self.quiet = -1  # a guard whose extremum the current piece starts at (its extremum event is off)
+        self.cooldown = cooldown
+        self.cool, self.cool_until = -1, -np.inf  # a guard that fired (or rounded) just now: off until then
 
     def field(self, mode: int):
         fn, p = self.switch.rules.field[mode], self.p
         return lambda t, y: fn(t, y, p)
 
-    def events(self, mode: int, quiet: int):
-        """``(functions, what)``: the events of ``mode``; ``what[i] = (guard, is_extremum)``."""
+    def events(self, mode: int, quiet: int, cool: int, t: float, y: list):
+        """``(functions, what)``: the events of ``mode`` from ``(t, y)``; ``what[i] = (guard, is_extremum)``.
+
+        ``quiet``: a guard whose extremum event is off; ``cool``: a guard whose crossing is off.
+        A guard that starts within rounding of its zero and moves away from the side it fires
+        towards is moved by that rounding band (``16 eps (1 + max |y|)``) to the side it fires
+        from, for this piece: ``solve_ivp`` only sees sign changes between steps, and a start a
+        rounding error on the wrong side would hide a crossing back within the first step
+        (a spring contact 1e-12 deep that opens ~1e-6 after it closed). The event time moves by
+        the band over ``|h'|``.
+        """
         switch, p = self.switch, self.p
         armed = switch.num.armed_in[mode]
         probe = switch.rules.probe[mode]
@@ -62,11 +94,15 @@ class _Loop:
         def values(t, y, _):
             return probe(t, y, p)
 
+        start = values(t, y, None)
+        band = 16.0 * 2.0**-52 * (1.0 + max(abs(c) for c in y))
         fns, what = [], []
         for i, g in enumerate(armed):
             d = switch.direction[g]
-            fns.append(_event(values, i, d))
-            what.append((g, False))
+            if g != cool:
+                near = d != 0 and abs(start[i]) <= band and switch.leaves(g, mode, t, y)
+                fns.append(_event(values, i, d, band if near else START_NUDGE))
+                what.append((g, False))
             if switch.terminal[g] and g != quiet:
                 fns.append(_event(values, k + i, -d))
                 what.append((g, True))
@@ -76,8 +112,13 @@ class _Loop:
         """Integrate one piece and handle its event; False when the run has reached ``t_end`` or failed."""
         from scipy.integrate import solve_ivp
 
-        fns, what = self.events(self.mode, self.quiet)
-        sol = solve_ivp(self.field(self.mode), (self.t, t_end), self.y, events=fns, **self.options)
+        if self.t >= t_end:  # a rest mode entered at the end
+            self.t = t_end
+            return False
+        cooling = self.cool >= 0 and self.cool_until < t_end
+        t_stop = self.cool_until if cooling else t_end
+        fns, what = self.events(self.mode, self.quiet, self.cool, self.t, self.y)
+        sol = solve_ivp(self.field(self.mode), (self.t, t_stop), self.y, events=fns, **self.options)
         self.t, self.y = float(sol.t[-1]), sol.y[:, -1].tolist()
         if sol.status == -1:
             self.status = -1
@@ -85,12 +126,19 @@ class _Loop:
                             f"{sol.message}")
             return False
         if sol.status == 0:
-            self.t = t_end
-            return False
+            self.t = t_stop
+            self.cool = -1
+            return cooling  # the cooled guard is back on; the piece goes on
         i = next(i for i, te in enumerate(sol.t_events) if len(te))
         self.t, self.y = float(sol.t_events[i][0]), sol.y_events[i][0].tolist()
         g, extremum = what[i]
         self.quiet = -1
+        self.cool = -1
+        t_start = self.switch.pieces[-1][0]
+        if (not extremum and self.t - t_start <= 16.0 * 2.0**-52 * (1.0 + abs(self.t))
+                and self.switch.leaves(g, self.mode, self.t, self.y)):
+            self.cool, self.cool_until = g, self.t + self.cooldown  # a rounding root at the piece start
+            return True
         if extremum:
             self.extremum(g)
         elif not self.switch.terminal[g]:
@@ -98,13 +146,30 @@ class _Loop:
             self.switch.pieces.append((self.t, self.mode, tuple(self.y)))
             self.switch.count(g)
         else:
-            self.mode, self.y = self.switch.transition(g, self.mode, self.t, self.y)
+            try:
+                self.mode, self.y = self.switch.transition(g, self.mode, self.t, self.y)
+            except InstantAccumulation:
+                if not self.switch.rests(g):
+                    raise
+                self.rest(g, self.t, t_end)
+                return True
+            self.cool, self.cool_until = g, self.t + self.cooldown
             self.estimate = self.accumulation.add(self.t)
-            if self.estimate is not None:
+            if self.estimate is not None and self.switch.rests(g):
+                self.rest(g, self.estimate, t_end)
+            elif self.estimate is not None:
                 self.status = 2
                 self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at "
                                 f"t={self.t!r}, the accumulation time is estimated at {self.estimate!r}.")
         return True
+
+    def rest(self, g: int, t_rest: float, t_end: float) -> None:
+        """Guard ``g``'s events accumulate at ``t_rest``: its rest mode from there (``Guard.rest``)."""
+        self.t = min(t_rest, t_end)
+        self.mode, self.y = self.switch.rest(g, self.mode, self.t, self.y)
+        self.estimate = None
+        self.cool = -1
+        self.accumulation = Accumulation(self.zeno_tol)
 
     def extremum(self, g: int) -> None:
         """Guard ``g`` at an extremum: a crossing lost inside a step, a grazing, or nothing."""
@@ -164,19 +229,29 @@ class _Dense:
 
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
                max_events: int = 1_000_000, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
-               zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
+               max_step: float | None = None,
+               zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12, cooldown: float = 1e-12,
                until: tuple[str, int] | None = None) -> HybridSolution:
     """Run ``system`` with scipy's ``solve_ivp`` from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
     t0, t_end = _v.real("t0", t0), _v.real("t_end", t_end)
     if not t_end > t0:
         raise ValueError(f"t_end must be > t0={t0!r}, got {t_end!r}")
     options = dict(method=method, rtol=_v.positive("rtol", rtol), atol=_v.positive("atol", atol))
+    if max_step is None:
+        # solve_ivp sees a guard only by its signs at step ends, and where the state is constant (a
+        # stuck mode) its steps grow without bound: a release guard in the time alone would be
+        # stepped over (a release by cos t was missed for a whole period).
+        period = system.period_value()
+        max_step = period / 32.0 if period is not None else np.inf
+    if max_step != np.inf:
+        options["max_step"] = _v.positive("max_step", max_step)
     max_events = _v.integer("max_events", max_events)
     y = check_state(system, state0) + [0.0] * len(system.integrals)
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
     if until is not None:
         switch.stop_after(*until)
-    run = _Loop(system, switch, options, _v.positive("zeno_tol", zeno_tol), _v.positive("graze_tol", graze_tol))
+    run = _Loop(system, switch, options, _v.positive("zeno_tol", zeno_tol), _v.positive("graze_tol", graze_tol),
+                _v.nonnegative("cooldown", cooldown))
     run.t, run.y, run.mode = t0, y, switch.initial_mode(mode, t0, y)
     switch.pieces.append((t0, run.mode, tuple(y)))
     try:

@@ -14,14 +14,31 @@ import math
 import numpy as np
 
 from ..model.hybrid._definition import HybridSystem
-from ..model.hybrid._numeric import evaluator, numeric, rules
+from ..model.hybrid._numeric import evaluator, numeric, plan, rules
 
-__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER",
-           "MAX_EVENTS_AT_AN_INSTANT"]
+__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER", "REST",
+           "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE"]
 
 #: Event kinds: a guard crossed (its transition applied), a guard's extremum on zero without a
-#: crossing (recorded, no transition), a non-terminal guard crossed (recorded only).
-CROSSING, GRAZING, MARKER = "crossing", "grazing", "marker"
+#: crossing (recorded, no transition), a non-terminal guard crossed (recorded only), the
+#: accumulation of a guard's events ending in its rest mode (``Guard.rest``).
+CROSSING, GRAZING, MARKER, REST = "crossing", "grazing", "marker", "rest"
+
+#: Every event with a direction ``d`` is ``h - d START_NUDGE``: a piece that starts exactly on a
+#: guard's zero (a velocity reset to 0 at a slip reversal, a contact closed where ``x - gap``
+#: rounds to 0) then starts a hair on the side the guard fires from instead of on zero. heyoka
+#: takes an event polynomial whose constant term is exactly 0 to have its root at the step's
+#: start, and its bracketing root finder returns that root for the step's first isolating
+#: interval, losing a later root in it (``y' = 0.9 - cos t`` from ``y = 0``: its rising root at
+#: t = 0.78668 was not found). The shift of an event time, ``START_NUDGE / |h'|``, is far
+#: below any representable difference of times; a guard that goes the wrong way by rounding
+#: at a piece start (past the nudge) is a root at the start that the loops ignore
+#: (:meth:`Switch.leaves`). scipy's ``solve_ivp`` has the same trouble its own way: a guard exactly
+#: 0 at the start and still 0 after a first step too short to move it takes both ends of the
+#: step for a root, and fires again at the instant of the transition.
+START_NUDGE = 1e-300
+
+_UNPLANNED = object()  # a (guard, mode) whose transition plan has not been asked for yet
 
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
 MAX_EVENTS_AT_AN_INSTANT = 64
@@ -90,10 +107,16 @@ class Switch:
         self.rules = rules(system)
         self.p = system.parameter_values
         self.n = system.dimension
-        self.direction = [g.direction for g in system.guards]
-        self.terminal = [g.terminal for g in system.guards]
-        self.to = [tuple(system.mode_index(m) for m in g.to) for g in system.guards]
+        self.direction = self.num.direction
+        self.terminal = self.num.terminal
+        self.to = self.num.to
         self.touch_tol = touch_tol
+        # read at every event: bound once (the loops' Python per event is what they cost)
+        self._reset = self.rules.reset
+        self._entry = self.rules.entry
+        self._values = self.rules.values
+        self._armed_in = self.num.armed_in
+        self._plans = self.rules.plans
         self.events: list[tuple] = []
         self.pieces: list[tuple] = []
         self.until_guard, self.until_count, self.seen, self.done = -1, 0, 0, False
@@ -119,7 +142,7 @@ class Switch:
         RuntimeError
             When no candidate mode's entry conditions hold after the reset (named).
         """
-        reset = self.rules.reset[g]
+        reset = self._reset[g]
         after = list(y)
         if reset is not None:
             after[:self.n] = reset(t, y, self.p)
@@ -128,10 +151,10 @@ class Switch:
             return mode, after
         if len(targets) == 1:
             return targets[0], after
-        entry = self.rules.entry
+        entry = self._entry
         for m in targets:
             conditions = entry[m]
-            if conditions is None or all(c >= 0.0 for c in conditions(t, after, self.p)):
+            if conditions is None or min(conditions(t, after, self.p)) >= 0.0:
                 return m, after
         names = [self.system.mode_names[m] for m in targets]
         raise RuntimeError(f"guard {self.system.guard_names[g]!r} fired at t={t!r} with the state {after}, "
@@ -171,39 +194,88 @@ class Switch:
             After :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at ``t``.
         """
         chained = 0
+        events, plans, p, touch = self.events, self._plans, self.p, self.touch_tol
         while g >= 0:
-            target, after = self.apply(g, mode, t, y)
-            self.events.append((t, g, CROSSING, mode, target, tuple(y), tuple(after)))
+            # the reset, the next mode and whether the state after lies near a guard of it: one
+            # generated function per (guard, mode), made on first use (this runs at every event)
+            step = plans.get((g, mode), _UNPLANNED)
+            if step is _UNPLANNED:
+                step = plans[(g, mode)] = plan(self.num, self.rules, g, mode)
+            if step is not None:
+                target, after, then = step(t, y, p, touch)
+                if target < 0:
+                    self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
+            else:
+                target, after = self.apply(g, mode, t, y)
+                then = -2
+            before = tuple(y)
+            events.append((t, g, CROSSING, mode, target, before, before if after is y else tuple(after)))
             mode, y = target, after
             chained += 1
             if chained > MAX_EVENTS_AT_AN_INSTANT:
                 last = self.system.guard_names[g]
                 raise InstantAccumulation(f"More than {MAX_EVENTS_AT_AN_INSTANT} transitions at t={t!r} (the last "
                                           f"by guard {last!r}): events accumulate at one instant.")
-            if self.count(g):
+            if g == self.until_guard and self.count(g):
                 break  # the run ends right after this event
-            g = self.pending(mode, t, y)
+            # A guard whose reset is the identity has been crossed, not left on its surface: the
+            # state after it lies on it moving its way, and firing it again would count the one
+            # crossing twice (up to the instant-accumulation limit).
+            g = then if then != -2 else self.pending(mode, t, y, g if self._reset[g] is None else -1)
         self.pieces.append((t, mode, tuple(y)))
         return mode, y
 
-    def pending(self, mode: int, t: float, y) -> int:
+    def rests(self, g: int) -> bool:
+        """Whether an accumulation of guard ``g``'s events leads into a rest mode (``Guard.rest``)."""
+        return self.num.rest[g] >= 0
+
+    def rest(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
+        """Enter guard ``g``'s rest mode at the accumulation time ``t`` from the state ``y`` of its last event.
+
+        Records the ``"rest"`` event and the new piece (and a guard the state then lies on and
+        crosses, as :meth:`transition` does); returns ``(mode, state)``.
+
+        Raises
+        ------
+        RuntimeError
+            When the rest mode's entry conditions do not hold there (named).
+        """
+        target = self.num.rest[g]
+        reset = self.rules.rest_reset[g]
+        after = list(y)
+        if reset is not None:
+            after[:self.n] = reset(t, y, self.p)
+        conditions = self._entry[target]
+        if conditions is not None and not all(c >= 0.0 for c in conditions(t, after, self.p)):
+            raise RuntimeError(f"guard {self.system.guard_names[g]!r}: its events accumulate at t={t!r}, where the "
+                               f"entry conditions of its rest mode {self.system.mode_names[target]!r} do not hold "
+                               f"(state {after})")
+        self.events.append((t, g, REST, mode, target, tuple(y), tuple(after)))
+        follow = self.pending(target, t, after)
+        if follow >= 0:
+            return self.transition(follow, target, t, after)
+        self.pieces.append((t, target, tuple(after)))
+        return target, after
+
+    def pending(self, mode: int, t: float, y, crossed: int = -1) -> int:
         """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.
 
         On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way,
         or, where it is zero within the same tolerance (a tangency, such as the slip-end guard
-        of a mass just released), the second Lie derivative does.
+        of a mass just released), the second Lie derivative does. ``crossed`` is a guard
+        crossed at this instant without a reset: not fired again.
         """
-        armed = self.num.armed_in[mode]
+        armed = self._armed_in[mode]
         if not armed:
+            return -1
+        values = self._values[mode](t, y, self.p)
+        if min(map(abs, values)) > self.touch_tol * (1.0 + max(map(abs, y))):  # the common case: on no guard
             return -1
         values = self.rules.probe[mode](t, y, self.p)
         k = len(armed)
-        near = min(abs(h) for h in values[:k])
-        if near > self.touch_tol * (1.0 + max(map(abs, y))):  # the common case: on no guard
-            return -1
         scale = self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
         for i, g in enumerate(armed):
-            if abs(values[i]) <= scale and self.terminal[g]:
+            if abs(values[i]) <= scale and self.terminal[g] and g != crossed:
                 d, rate = self.direction[g], values[k + i]
                 if abs(rate) > scale:
                     if d == 0 or d * rate > 0.0:

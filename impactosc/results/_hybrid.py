@@ -22,7 +22,7 @@ class HybridEvent(NamedTuple):
 
     t: float
     guard: str
-    kind: str  #: "crossing" (the transition applied), "grazing" or "marker"
+    kind: str  #: "crossing" (the transition applied), "grazing", "marker" or "rest" (see Guard.rest)
     mode_before: str
     mode_after: str
     state_before: tuple
@@ -53,15 +53,15 @@ class HybridSolution:
 
     def __init__(self, system, backend: str, t_end: float, t_final: float, status: int, message: str,
                  events, pieces, state_final, mode_final: int, evaluate, accumulation_time=None):
-        names, guards = system.mode_names, system.guard_names
+        names = system.mode_names
         self.system = system
         self.backend = backend
         self.t_end = t_end
         self.t_final = float(t_final)
         self.status = status
         self.message = message
-        self.events = [HybridEvent(t, guards[g], kind, names[a], names[b], tuple(before), tuple(after))
-                       for t, g, kind, a, b, before, after in events]
+        self._raw_events = events  # named on first use (a run's loop keeps indices)
+        self._events: list[HybridEvent] | None = None
         self._pieces = pieces
         self.state_final = np.asarray(state_final, dtype=float)
         self.mode_final = names[mode_final]
@@ -69,6 +69,15 @@ class HybridSolution:
         n = system.dimension
         self.integrals = {q: float(self.state_final[n + i]) for i, q in enumerate(system.integrals)}
         self._evaluate = evaluate
+
+    @property
+    def events(self) -> list[HybridEvent]:
+        """Every event in time order (:class:`HybridEvent`: guards and modes by name)."""
+        if self._events is None:
+            names, guards = self.system.mode_names, self.system.guard_names
+            self._events = [HybridEvent(t, guards[g], kind, names[a], names[b], tuple(before), tuple(after))
+                            for t, g, kind, a, b, before, after in self._raw_events]
+        return self._events
 
     @property
     def pieces(self) -> list[tuple[float, str, tuple]]:

@@ -96,6 +96,13 @@ def _check_guard(system, g, allowed: set[str]) -> None:
                              f"entry per state it changes, among {list(system.states)})")
         _check_symbols(f"{where}: the reset of {key!r}", e, allowed)
     _duplicates(f"{where}: reset state", [k for k, _ in g.reset])
+    if g.rest is not None and g.rest not in system.mode_names:
+        raise ValueError(f"{where}: rest names the mode {g.rest!r}, which the system does not have "
+                         f"(its modes are {list(system.mode_names)})")
+    for key, e in g.rest_reset:
+        if key not in system.states:
+            raise ValueError(f"{where}: rest_reset of {key!r}, which is not a state (among {list(system.states)})")
+        _check_symbols(f"{where}: the rest_reset of {key!r}", e, allowed)
     for i, t in enumerate(g.to[:-1]):
         if not system.modes[system.mode_names.index(t)].entry:
             raise ValueError(f"{where}: the candidate mode {t!r} has no entry conditions, so the candidates after "

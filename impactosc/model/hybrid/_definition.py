@@ -198,6 +198,16 @@ class Guard:
     terminal : bool, optional
         False: the guard only marks an event (a Poincare section, a crossing to count):
         no transition, no reset. Default True.
+    rest : str, optional
+        The mode entered where this guard's events accumulate (Zeno: rebounds of shrinking
+        height, such as a ball coming to rest on the floor or a mass chattering against a
+        rigid stop): instead of ending with status 2, the run goes on from the estimated
+        accumulation time in ``rest``, with the state of the last event and ``rest_reset``
+        applied (an event of kind ``"rest"``). The flights left out last less than the
+        accumulation tolerance ``zeno_tol (1 + |t|)`` in all. The rest mode is left by its own
+        guards (a release when the force that holds the state there changes sign).
+    rest_reset : mapping, optional
+        The reset into ``rest`` (e.g. ``{v: 0}``), written like ``reset``.
 
     Examples
     --------
@@ -206,6 +216,11 @@ class Guard:
     >>> impact = Guard("impact", x, direction=-1, armed="flight", to="flight", reset={v: -e * v})
     >>> impact.armed
     ('flight',)
+
+    A ball that comes to rest on the floor (mode ``"floor"``, with ``x' = 0, v' = 0``):
+
+    >>> landing = Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v},
+    ...                 rest="floor", rest_reset={x: 0.0, v: 0.0})
     """
 
     name: str
@@ -215,6 +230,8 @@ class Guard:
     to: Any = None
     reset: Any = ()
     terminal: bool = True
+    rest: Any = None
+    rest_reset: Any = ()
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -230,6 +247,13 @@ class Guard:
         if not self.terminal and (self.to or self.reset):
             raise ValueError(f"{where}: a non-terminal guard (terminal=False) has no transition or reset, "
                              f"got to={self.to!r}, reset={dict(self.reset)!r}")
+        if self.rest is not None and (not isinstance(self.rest, str) or not self.rest):
+            raise TypeError(f"{where}: rest must be the name of a mode, got {self.rest!r}")
+        object.__setattr__(self, "rest_reset", _by_name(f"{where}: rest_reset", dict(self.rest_reset)))
+        if self.rest_reset and self.rest is None:
+            raise ValueError(f"{where}: rest_reset={dict(self.rest_reset)!r} is given without a rest mode (rest=...)")
+        if self.rest is not None and not self.terminal:
+            raise ValueError(f"{where}: a non-terminal guard (terminal=False) has no rest mode, got rest={self.rest!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -394,6 +418,24 @@ def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:
     return replace(mode, field=tuple(rates), integrands=mode.integrands)
 
 
+class _Structure(tuple):
+    """A system's structure: a tuple that hashes once (the key of the compiled-code caches).
+
+    Hashing heyoka expressions walks them (about 0.05 ms for eq. 3), and each run looks its
+    integrator and numeric forms up by the structure: the hash is kept after the first. It is
+    not pickled (string hashes differ between processes).
+    """
+
+    def __hash__(self):
+        found = self.__dict__.get("_hash")
+        if found is None:
+            found = self.__dict__["_hash"] = tuple.__hash__(self)
+        return found
+
+    def __reduce__(self):
+        return (_Structure, (tuple(self),))
+
+
 def _structure(system: HybridSystem) -> tuple:
     """Everything a backend compiles: the key of its cache (parameter values left out).
 
@@ -402,7 +444,7 @@ def _structure(system: HybridSystem) -> tuple:
     different long vector fields could print alike and share a compiled integrator.
     """
     modes = tuple((m.name, tuple(m.field), tuple(m.entry), tuple(m.integrands)) for m in system.modes)
-    guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal)
-                   for g in system.guards)
-    return (tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
-            system.section, modes, guards)
+    guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal,
+                    g.rest, tuple(g.rest_reset)) for g in system.guards)
+    return _Structure((tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
+                       system.section, modes, guards))

@@ -38,23 +38,6 @@ MAX_MODES = 54
 #: Friction states of a coordinate, in the order its candidate modes are tried.
 _STUCK, _UP, _DOWN = 0, 1, -1
 _TAG = {_STUCK: "0", _UP: "+", _DOWN: "-"}
-#: Every guard ``h`` with direction ``d`` is written ``h - d _OFFSET``: a piece that starts on the
-#: surface (a slip that reverses from ``v_j = 0`` exactly, a contact that closes where ``n.q - gap``
-#: rounds to 0) then starts just on the side the guard fires from, not on zero. heyoka's root
-#: isolation misses the later roots of an event polynomial that is exactly zero at the start of
-#: its step (the opening of a contact 1e-6 deep, a slip that ends within the step of its
-#: reversal). It also exceeds the excursion that rounding gives a slip released from sticking
-#: with ``mu_s = mu_k`` (``v_j' = 0`` in theory, ``~1e-16`` in floats: ``v_j`` moves ``~1e-32`` the
-#: wrong way before it turns), which the loops took for a stop missed by rounding. The shift of
-#: an event time, ``_OFFSET / |h'|``, is far below the tolerances of the event times.
-_OFFSET = 1e-20
-
-
-def _fires(expression, direction: int):
-    """``expression`` moved by :data:`_OFFSET` towards the side a guard of ``direction`` fires from."""
-    return expression - direction * _OFFSET
-
-
 def _linear(coefficients, variables):
     """``sum_i c_i x_i`` as one heyoka sum (zero coefficients left out)."""
     import heyoka as hy
@@ -168,9 +151,6 @@ def mechanical_system(ms: MechanicalSystem, *, energy: bool = True) -> HybridSys
     against it accumulate; the hybrid loops end such a run with status 2 and the estimated
     accumulation time, where the exact backend sums the chatter and lets the system rest on
     the stop (the resting contact is a constraint the modes here do not write).
-
-    Each guard is moved by 1e-20 towards the side it fires from (``_fires``), so that no
-    piece starts exactly on a guard: the event times move by ``1e-20 / |h'|``.
 
     Examples
     --------
@@ -316,7 +296,7 @@ class _Writer:
                     flipped = tuple((not o) if s == c else o for s, o in zip(self.springs, engaged, strict=True))
                     what = "opens" if on else "closes"
                     d = -1 if on else 1
-                    guards.append(Guard(f"{here}: contact {c} {what}", _fires(self.gaps[c], d), d, armed=here,
+                    guards.append(Guard(f"{here}: contact {c} {what}", self.gaps[c], d, armed=here,
                                         to=self.name(flipped, motion)))
                 guards += self.friction_guards(engaged, motion)
         for c in self.stops:
@@ -329,7 +309,7 @@ class _Writer:
                 # the impulse may set a stuck coordinate moving or reverse a slip: the entry conditions decide
                 targets = [self.name(engaged, m) for m in motions]
                 tag = "/".join(f"c{s}{'in' if on else 'out'}" for s, on in zip(self.springs, engaged, strict=True))
-                guards.append(Guard(f"impact {c}" + (f" [{tag}]" if tag else ""), _fires(self.gaps[c], 1), 1,
+                guards.append(Guard(f"impact {c}" + (f" [{tag}]" if tag else ""), self.gaps[c], 1,
                                     armed=targets,
                                     to=targets if len(targets) > 1 else None, reset=reset))
         return modes, guards
@@ -347,12 +327,12 @@ class _Writer:
 
             if s == _STUCK:
                 force = self.effective_force(engaged, motion, k)
-                out.append(Guard(f"{here}: q{j} released up", _fires(force - f.static, 1), 1, armed=here,
+                out.append(Guard(f"{here}: q{j} released up", force - f.static, 1, armed=here,
                                  to=becomes(_UP)))
-                out.append(Guard(f"{here}: q{j} released down", _fires(force + f.static, -1), -1, armed=here,
+                out.append(Guard(f"{here}: q{j} released down", force + f.static, -1, armed=here,
                                  to=becomes(_DOWN)))
             else:
                 # the velocity is snapped onto v_j = 0: the stuck mode's entry tests it exactly
-                out.append(Guard(f"{here}: q{j} stops", _fires(self.v[j], -s), -s, armed=here,
+                out.append(Guard(f"{here}: q{j} stops", self.v[j], -s, armed=here,
                                  to=(becomes(_STUCK), becomes(-s)), reset={self.v[j]: hy.expression(0.0)}))
         return out

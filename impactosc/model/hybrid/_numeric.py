@@ -23,7 +23,7 @@ import numpy as np
 if TYPE_CHECKING:  # annotations only: the definition imports this module for its period
     from ._definition import HybridSystem
 
-__all__ = ["Numeric", "numeric", "evaluator", "Rules", "rules", "gated_sum"]
+__all__ = ["Numeric", "numeric", "evaluator", "Rules", "rules", "gated_sum", "plan"]
 
 _TIME_VAR = "_time"  # the time as a variable, to differentiate with respect to it
 
@@ -76,6 +76,11 @@ class Numeric:
         self.armed = [tuple(system.mode_names.index(a) for a in g.armed) for g in system.guards]
         self.armed_in = [tuple(g for g, modes in enumerate(self.armed) if m in modes)
                          for m in range(len(system.modes))]
+        # each guard's direction, whether it is terminal and its candidate next modes, as the loops read them
+        self.direction = [g.direction for g in system.guards]
+        self.terminal = [g.terminal for g in system.guards]
+        self.to = [tuple(system.mode_names.index(m) for m in g.to) for g in system.guards]
+        self.rest = [system.mode_names.index(g.rest) if g.rest is not None else -1 for g in system.guards]
         self.lie = {(m, g): self.lie_derivative(self.guards[g], self.rates[m])
                     for g, modes in enumerate(self.armed) for m in modes}
 
@@ -174,6 +179,7 @@ def evaluator(num: Numeric, exprs, label: str):
     except Exception:  # an operator or function the generated code does not reproduce
         agree = False
     if agree:
+        fast.texts = [str(e) for e in renamed]  # checked: transition plans compose them (see plan)
         return fast
     out = np.empty(len(exprs))
 
@@ -185,12 +191,83 @@ def evaluator(num: Numeric, exprs, label: str):
     return slow
 
 
+def plan(num: Numeric, rules: Rules, g: int, mode: int):
+    """The transition of guard ``g`` fired in ``mode`` as one generated function, or None.
+
+    ``f(t, y, p, touch) -> (target, after, next)``: the reset (``after`` is ``y`` itself for
+    the identity), the first candidate mode whose entry conditions hold (``target = -1``
+    when none does), and what the state after does at a guard armed in the target, as
+    :meth:`~impactosc.engine._hybrid.Switch.pending` decides it: ``next = -1`` on none,
+    a guard's index when it lies on that guard and crosses it now (its Lie derivative beyond
+    the tolerance, its way), ``-2`` when only the full check can tell (a tangency). The same
+    arithmetic as the separate evaluators, whose checked texts it is built from, in one call
+    instead of a dozen (it runs at every event). None when one of them is not generated code.
+    """
+    system = num.system
+    n, n_all = system.dimension, len(num.states)
+    targets = num.to[g] or (mode,)
+    multiple = len(targets) > 1
+    reset = rules.reset[g]
+    pieces = [reset] if reset is not None else []
+    if multiple:
+        pieces += [rules.entry[m] for m in targets if rules.entry[m] is not None]
+    pieces += [rules.probe[m] for m in targets if num.armed_in[m]]
+    if not all(hasattr(f, "texts") for f in pieces):
+        return None
+    names = [f"_y{i}" for i in range(n_all)]
+    lines = ["def _plan(t, y, p, touch):", f"    {', '.join(names)}{',' if n_all == 1 else ''} = y"]
+    if num.n_params:
+        pars = ", ".join(f"p{i}" for i in range(num.n_params))
+        lines.append(f"    {pars}{',' if num.n_params == 1 else ''} = p")
+    after = "y"
+    if reset is not None:
+        lines.append(f"    {', '.join(names[:n])}{',' if n == 1 else ''} = "
+                     f"{', '.join(f'({e})' for e in reset.texts)},")
+        after = "_after"
+        lines.append(f"    _after = [{', '.join(names)}]")
+
+    def largest(vs):
+        return f"_abs({vs[0]})" if len(vs) == 1 else f"_max({', '.join(f'_abs({v})' for v in vs)})"
+
+    lines.append(f"    _quick = touch * (1.0 + {largest(names)})")
+    lines.append(f"    _scale = touch * (1.0 + {largest(names[:n])})")
+    for k, m in enumerate(targets):
+        test = "True"
+        entry = rules.entry[m]
+        if multiple and entry is not None:
+            test = " and ".join(f"({c}) >= 0.0" for c in entry.texts)
+        lines.append(f"    {'if' if k == 0 else 'elif'} {test}:")
+        armed = num.armed_in[m]
+        if not armed:
+            lines.append(f"        return {m}, {after}, -1")
+            continue
+        texts = rules.probe[m].texts
+        count = len(armed)
+        lines.append(f"        if {' and '.join(f'_abs({h}) > _quick' for h in texts[:count])}:")
+        lines.append(f"            return {m}, {after}, -1")
+        for i, guard in enumerate(armed):
+            if not num.terminal[guard] or (guard == g and reset is None):
+                continue  # a marker never fires here; a guard crossed without a reset is not fired again
+            d = num.direction[guard]
+            lines.append(f"        if _abs({texts[i]}) <= _scale:")
+            lines.append(f"            _rate = {texts[count + i]}")
+            lines.append("            if _abs(_rate) <= _scale:")
+            lines.append(f"                return {m}, {after}, -2")
+            lines.append(f"            if {'True' if d == 0 else f'{d} * _rate > 0.0'}:")
+            lines.append(f"                return {m}, {after}, {guard}")
+        lines.append(f"        return {m}, {after}, -1")
+    lines.append(f"    return -1, {after}, -1")
+    space = {**_NAMESPACE, "_abs": abs, "_max": max}
+    exec(compile("\n".join(lines), f"<transition of guard {system.guards[g].name!r}>", "exec"), space)  # noqa: S102
+    return space["_plan"]
+
+
 class Rules:
     """The per-event functions of one structure, built on first use and kept (see :func:`rules`).
 
-    ``reset[g]`` (``None`` for the identity), ``entry[m]`` (``None`` without conditions) and
+    ``reset[g]`` (``None`` for the identity), ``entry[m]`` (``None`` without conditions),
     ``probe[m]``, which gives the values of the guards armed in ``m`` followed by their Lie
-    derivatives, each ``f(t, y, p) -> tuple``.
+    derivatives, and ``values[m]``, the values alone, each ``f(t, y, p) -> tuple``.
     """
 
     def __init__(self, num: Numeric):
@@ -204,18 +281,27 @@ class Rules:
                 continue
             exprs = [num.with_params(given[s]) if s in given else num.states[i] for i, s in enumerate(system.states)]
             self.reset.append(evaluator(num, exprs, f"reset of guard {guard.name!r}"))
+        self.rest_reset: list = []
+        for guard in system.guards:
+            given = dict(guard.rest_reset)
+            exprs = [num.with_params(given[s]) if s in given else num.states[i] for i, s in enumerate(system.states)]
+            self.rest_reset.append(evaluator(num, exprs, f"rest reset of guard {guard.name!r}") if given else None)
         self.entry = [evaluator(num, [num.with_params(c) for c in m.entry], f"entry of mode {m.name!r}")
                       if m.entry else None for m in system.modes]
         self.probe = []
+        self.values = []
         for m, mode in enumerate(system.modes):
             armed = num.armed_in[m]
             exprs = [num.guards[g] for g in armed] + [num.lie[(m, g)] for g in armed]
             self.probe.append(evaluator(num, exprs, f"guards of mode {mode.name!r}"))
+            # the values alone: after each transition the loops ask whether the state lies on a guard
+            self.values.append(evaluator(num, exprs[:len(armed)], f"guard values of mode {mode.name!r}"))
         self.field = [evaluator(num, num.rates[m], f"vector field of mode {system.modes[m].name!r}")
                       for m in range(len(system.modes))]
         self.guard = [evaluator(num, [num.guards[g]], f"guard {system.guards[g].name!r}")
                       for g in range(len(system.guards))]
         self.dimension = n
+        self.plans: dict = {}  # (guard, mode) -> the transition's generated function (see plan), made on first use
         self._num = num
         self._jacobians: dict[int, tuple] = {}
 
