@@ -41,3 +41,11 @@ def test_readme_own_system_example_runs_and_its_comments_hold():
     period = 2 * math.pi / 0.8
     again = scope["io"].simulate(scope["stop"], period, orbit.z, backend="scipy", rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(again.state_final[:2], orbit.z, atol=1e-8)
+    # the continuation: a fold where a multiplier is +1, and the grazing of the guard that ends the branch
+    branch = scope["branch"]
+    fold = branch.find("fold")[0]
+    assert fold.parameter == pytest.approx(0.96866, abs=1e-5)
+    assert np.min(np.abs(np.asarray(fold.multipliers) - 1.0)) < 1e-6
+    graze = branch.find("grazing")[0]
+    assert branch.status == 2 and graze.guard == "impact"
+    assert graze.parameter == pytest.approx(1.22499, abs=1e-5)
