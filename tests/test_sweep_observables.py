@@ -60,3 +60,21 @@ def test_a_store_of_the_format_before_the_observables_is_refused(tmp_path):
     manifest.write_text(json.dumps(doc))
     with pytest.raises(ValueError, match="format 1, expected 2"):
         sweep(BASE, {"speed": [4.0]}, duration=2e-4, executor="serial", progress=False, store=store)
+
+
+def test_cli_sweep_prints_and_keeps_the_observables(capsys, tmp_path):
+    import xarray as xr
+
+    from impactosc.cli import main
+
+    toml = tmp_path / "grid.toml"
+    toml.write_text('[grid]\npack_diameter = [0.05, 0.09]\n\n[drive]\nspeed = 8.0\nclearance = 40e-6\n')
+    nc = tmp_path / "s.nc"
+    assert main(["sweep", "--toml", str(toml), "--duration", "0.002", "--serial", "--no-progress",
+                 "--out", str(nc)]) == 0
+    header = next(line for line in capsys.readouterr().out.splitlines() if "mean_flange_force" in line)
+    assert "impact_rate" in header and "ae_impact_sum" in header
+    with xr.open_dataset(nc, engine="scipy") as ds:
+        for name, units in UNITS.items():
+            assert ds[name].attrs["units"] == units
+        assert (ds["ae_impact_sum"].values > 0).all()
