@@ -266,7 +266,7 @@ def evaluate_models(models: dict[str, dict], *, quick: bool = False, executor=No
     models : dict
         name -> TapeDrive fields changed from the paper's; a tape path's also hold ``guides``
         (a list of :class:`~impactosc.model.Guide` fields) and ``end_span``
-        (:data:`~impactosc.paper._study_path.PATH_CANDIDATES`).
+        (``PATH_CANDIDATES`` of ``impactosc.paper._study_path``).
     quick : bool
         The coarse grid (5 diameters, T sin(theta/2) = 0.1 and 0.7 N).
     executor, progress

@@ -126,7 +126,8 @@ def _path_section(s: dict) -> list[str]:
         lines.append(
             f"* `{name}`: {n_failed} of {p['points']} points failed "
             f"({', '.join(f'{n} at T sin = {ts} N' for ts, n in failed.items())}). "
-            "Largest change between tensions, relative to the largest value: "
+            "Largest change between tensions at one pack diameter and speed (where two or more ran), relative "
+            "to the largest value: "
             + ", ".join(f"{STUDY_OBSERVABLES[o][0]} {v:.2g}" for o, v in effect.items()) + ". Curves rising at "
             "every step over the pack: "
             + ", ".join(f"{STUDY_OBSERVABLES[o][0]} {r['rising']}/{r['curves']}" for o, r in rising.items()) + ".")

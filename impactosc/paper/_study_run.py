@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import platform
 import time
 import warnings
@@ -139,8 +140,12 @@ def _path_summary(res: dict) -> dict:
                            "rising_over_pack": {}}
     for obs, v in values.items():
         scale = np.nanmax(np.abs(v))
-        spread = np.nanmax(np.abs(v - v[:, :, :1])) / scale if scale > 0 else math.nan
-        out["tension_effect"][obs] = float(spread)  # max |y(T) - y(T_lowest)| / max |y|
+        compared = np.sum(np.isfinite(v), axis=2) >= 2  # (diameter, speed) points run at two tensions or more
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices are left out by ``compared``
+            change = (np.nanmax(v, axis=2) - np.nanmin(v, axis=2))[compared]
+        # the largest change between tensions at one (diameter, speed), relative to the largest value
+        out["tension_effect"][obs] = float(change.max() / scale) if change.size and scale > 0 else math.nan
         steps = np.diff(v, axis=0)
         curves = [bool(np.all(steps[:, j, k] > 0)) for j in range(v.shape[1]) for k in range(v.shape[2])
                   if np.all(np.isfinite(v[:, j, k]))]
@@ -203,8 +208,10 @@ def study(out_dir="reports", quick: bool = False, executor=None, progress: bool 
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
     s: dict[str, Any] = {"quick": quick, "criteria": CRITERIA,
-                         "machine": f"{platform.system()} {platform.machine()}, Python {platform.python_version()}"}
+                         "machine": f"{platform.system()} {platform.machine()}, {os.cpu_count()} CPUs, Python "
+                                    f"{platform.python_version()}, load average {load:.1f} at the start"}
 
     s["lead"] = _lead_check()
     s["lead_bound"] = lead_ratio_bound()

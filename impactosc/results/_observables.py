@@ -4,8 +4,10 @@ The paper's flange is an acoustic-emission (AE) sensor calibrated by ball drops 
 Fig. 1): each impact's peak voltage is read as a peak force. Its Fig. 3(c) is an rms force
 over a moving window, its Fig. 4 that force averaged over one second ("the magnitude as well
 as the frequency of the impacts is taken into account"). The model's answer to those
-readings is computed here from a :class:`~impactosc.results.Solution` and its
-:attr:`~impactosc.results.Solution.impacts`:
+readings is computed here from a :class:`~impactosc.results.Solution`: from its
+:attr:`~impactosc.results.Solution.impacts` per contact, and from the sums over the contacts
+that every run streams (:meth:`~impactosc.results.Solution.contact_sums`, also with
+``record="stats"``, as sweeps run) per second:
 
 * per contact (:func:`contact_table`): duration, entry speed, peak force, impulse, the
   elastic impact force of the entry speed, the kinetic energy brought in and the energy

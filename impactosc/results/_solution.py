@@ -7,7 +7,8 @@ options. What is kept is chosen with ``record``:
 ``"full"``    events, impacts and the start of every smooth piece, so that
               :meth:`Solution.sample` and windowed averages can re-integrate any piece.
 ``"events"``  events and impacts only.
-``"stats"``   counts and integrals only: memory stays flat however many events occur.
+``"stats"``   counts, integrals and sums over the contacts (:meth:`Solution.contact_sums`)
+              only: memory stays flat however many events occur.
 
 Averages are integrals, not samples: the flange impulse, the integral of the member's
 flange force (``K d^p`` on the penetration ``d = (|X| - 1)+`` of a spring flange; the wall's
