@@ -48,7 +48,8 @@ PATH_CANDIDATES: dict[str, dict] = {
                  "fixed head; no friction",
         "source": "spans 10-100 mm as the long-span candidate (assumption: a cartridge drive's reel-to-guide "
                   "and guide-to-guide distances); friction left out because the n-DOF exact backend stops "
-                  "('no consistent mode') when a guide with friction presses a spring flange"},
+                  "('no consistent mode') when a guide with friction sticks and releases while a guide presses "
+                  "a spring flange (itself or its neighbour: see tape_path_friction)"},
     "tape_path_friction": {
         "fields": {"clearance": 30e-6, "friction": 0.2,
                    "guides": [{"position": 50e-3, "friction": 0.0},
