@@ -14,6 +14,7 @@ import xarray as xr
 from impactosc.model import TapeDrive
 from impactosc.runner import _store as _runner_store
 from impactosc.sweeps import STATUS_NOT_COMPUTED, load_sweep, sweep
+from impactosc.sweeps._store import STORE_FORMAT
 
 BASE = TapeDrive(clearance=50e-6)
 GRID = {"speed": [4.0, 8.0, 12.0]}
@@ -113,7 +114,7 @@ def test_a_point_file_of_other_settings_under_a_valid_name_is_not_used(filled, t
     xr.testing.assert_identical(again, ds)
 
 
-@pytest.mark.parametrize("text", ["", "{not json", "[1, 2]", '{"format": 1}'])
+@pytest.mark.parametrize("text", ["", "{not json", "[1, 2]", f'{{"format": {STORE_FORMAT}}}'])
 def test_a_damaged_manifest_is_replaced_and_the_points_still_resume(filled, text):
     store, ds = filled
     manifest = store / "manifest.json"
@@ -124,7 +125,7 @@ def test_a_damaged_manifest_is_replaced_and_the_points_still_resume(filled, text
         again, n_run = _rerun(store)
     assert n_run == 0  # every point file still matches this sweep's settings
     xr.testing.assert_identical(again, ds)
-    assert json.loads(manifest.read_text())["format"] == 1
+    assert json.loads(manifest.read_text())["format"] == STORE_FORMAT
     xr.testing.assert_identical(load_sweep(store), ds)
 
 
@@ -134,7 +135,7 @@ def test_a_manifest_of_another_format_is_refused_not_quarantined(filled):
     doc = json.loads(manifest.read_text())
     doc["format"] = 99
     manifest.write_text(json.dumps(doc))
-    with pytest.raises(ValueError, match="format 99, expected 1"):
+    with pytest.raises(ValueError, match=f"format 99, expected {STORE_FORMAT}"):
         sweep(BASE, GRID, store=store, **KW)
     assert json.loads(manifest.read_text())["format"] == 99
 

@@ -21,6 +21,7 @@ from ..backends._simulate import simulate
 from ..model._tape import TapeDrive
 from ..runner import run_points
 from ._grids import resolve_drive
+from ._study_path import observe_path, path_of
 
 #: The four trends of Fig. 4 and 8, and what counts as holding (fixed before the search).
 CRITERIA = {
@@ -228,7 +229,7 @@ def observe(drive: TapeDrive, *, transient_turns: int = TRANSIENT_TURNS, measure
         raise RuntimeError(f"transient failed: {first.message}")
     phase = math.fmod(osc.Omega * first.t_final, 2.0 * math.pi)
     sol = simulate(drive.oscillator(phase=phase), measured_turns * period, first.x_final, first.v_final,
-                   backend=backend, record="events")
+                   backend=backend, record="stats")  # the contact sums are streamed: no table needed
     if sol.status != 0:
         raise RuntimeError(f"measured run failed: {sol.message}")
     return sol.contact_observables(drive)["both"]
@@ -238,8 +239,11 @@ def _point(payload: tuple) -> dict:
     """One study point (module level: pickles for a process pool). Never raises."""
     fields, point, turns = payload
     try:
-        drive = resolve_drive(TapeDrive(**fields), point)
-        out = observe(drive, transient_turns=turns[0], measured_turns=turns[1])
+        if "guides" in fields:  # a tape path (impactosc.paper._study_path)
+            out = observe_path(path_of(fields, point), transient_turns=turns[0], measured_turns=turns[1])
+        else:
+            out = observe(resolve_drive(TapeDrive(**fields), point), transient_turns=turns[0],
+                          measured_turns=turns[1])
         return {name: out[name] for name in STUDY_OBSERVABLES} | {"error": ""}
     except Exception as exc:  # noqa: BLE001 - a failed point is recorded as NaN with its reason
         return dict.fromkeys(STUDY_OBSERVABLES, math.nan) | {"error": f"{type(exc).__name__}: {exc}"}
@@ -260,7 +264,9 @@ def evaluate_models(models: dict[str, dict], *, quick: bool = False, executor=No
     Parameters
     ----------
     models : dict
-        name -> TapeDrive fields changed from the paper's.
+        name -> TapeDrive fields changed from the paper's; a tape path's also hold ``guides``
+        (a list of :class:`~impactosc.model.Guide` fields) and ``end_span``
+        (``PATH_CANDIDATES`` of ``impactosc.paper._study_path``).
     quick : bool
         The coarse grid (5 diameters, T sin(theta/2) = 0.1 and 0.7 N).
     executor, progress

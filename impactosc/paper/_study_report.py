@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from ._study import CANDIDATES, CRITERIA, MEASURED_TURNS, STUDY_OBSERVABLES, TRANSIENT_TURNS
+from ._study_path import PATH_CANDIDATES
 
 
 def _mark(ok: bool) -> str:
@@ -88,7 +89,7 @@ def _lead_section(s: dict) -> list[str]:
 def _candidates_section(s: dict) -> list[str]:
     lines = ["## 4. Candidate models: which trends each observable gives", ""]
     for name, c in s["candidates"].items():
-        meta = CANDIDATES[name]
+        meta = CANDIDATES.get(name) or PATH_CANDIDATES[name]
         lines.append(f"* **{name}** -- {meta['title']}. Fields changed: `{c['fields']}`. Ranges: {meta['source']}. "
                      f"Failed points: {c['n_errors']}.")
     if s["quick"]:
@@ -103,6 +104,39 @@ def _candidates_section(s: dict) -> list[str]:
             lines.append(_trend_row(name, obs, c))
     lines += ["", "'curves peaking mid pack': the share of the (speed, T sin) curves that meet the mid-pack rule "
               "(the criterion wants all of them).", ""]
+    lines += _path_section(s)
+    return lines
+
+
+def _path_section(s: dict) -> list[str]:
+    """The tape-path candidates: why their trends hold or not, from :func:`._study_run._path_summary`."""
+    paths = s.get("tape_path", {})
+    if not paths:
+        return []
+    lines = ["**The tape path** (`impactosc.TapePath`: a chain of guides, eq. 4 per span, eq. 5 per guide, the "
+             "pack's run-out of Fig. 6 at its end; the sensor is the flanged guide nearest the pack, "
+             "`impactosc.paper._study_path`). Its AE proxy uses that guide's flange stiffness and lumped mass, "
+             "sqrt(k0 m_0) v; its rms force is not computed (no streamed integral of the squared force on the "
+             "n-DOF backend), so that row holds nothing by construction.", ""]
+    for name, p in paths.items():
+        failed = p["failed_by_t_sin"]
+        n_failed = sum(failed.values())
+        rising = p["rising_over_pack"]
+        effect = p["tension_effect"]
+        lines.append(
+            f"* `{name}`: {n_failed} of {p['points']} points failed "
+            f"({', '.join(f'{n} at T sin = {ts} N' for ts, n in failed.items())}). "
+            "Largest change between tensions at one pack diameter and speed (where two or more ran), relative "
+            "to the largest value: "
+            + ", ".join(f"{STUDY_OBSERVABLES[o][0]} {v:.2g}" for o, v in effect.items()) + ". Curves rising at "
+            "every step over the pack: "
+            + ", ".join(f"{STUDY_OBSERVABLES[o][0]} {r['rising']}/{r['curves']}" for o, r in rising.items()) + ".")
+    lines += ["", "Without friction the tension enters a tape path nowhere (eq. 5's normal force acts only through "
+              "friction; the spans of eq. 4 do not depend on T), so its observables are the same at every tension "
+              "(the change above is zero) and the tension and doubling trends cannot hold. With friction on a "
+              "guide, the n-DOF exact backend stops with 'no consistent mode' (the stick, lift-off and contact "
+              "tests keep switching) on the points counted as failed: those trends are then not decided by this "
+              "study.", ""]
     return lines
 
 
@@ -257,7 +291,8 @@ def _conclusion(s: dict) -> list[str]:
         "scale with omega_r) and can peak inside the pack, but their peak sits where the run-out is about "
         "sqrt(2) (L + mu N/k), so a tension large enough to halve them also moves the peak out of the middle "
         "third (section 3's bound on the ratio); the plate-bending reading has the dynamics but not the "
-        "mid-pack maximum (as the reproduction found).",
+        "mid-pack maximum (as the reproduction found); a frictionless tape path does not see the tension at all, "
+        "and one with friction could not be run at the low tension on the n-DOF exact backend (section 4).",
         "",
         "Uncertainty: the criteria's margins (10 %, [1.5, 2.5]) and the middle-third window are readings of a "
         "figure's words; the assumed hub and full-pack diameters set where 'mid pack' is; the run-out law is a "

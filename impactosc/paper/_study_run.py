@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import platform
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +33,7 @@ from ._study import (
     quasi_static_impact_speed,
     search_models,
 )
+from ._study_path import PATH_CANDIDATES
 from ._study_report import study_report_text
 
 #: Reel turns (transient, measured) of the candidates whose points are expensive.
@@ -128,6 +131,28 @@ def _neighbourhood(search: dict, spans, clearances, best: str, obs: str) -> dict
     return around
 
 
+def _path_summary(res: dict) -> dict:
+    """What decides a tape path's trends: failed points per T sin, the tension's effect, curves rising over the pack."""
+    values = {obs: v for obs, v in res["values"].items() if np.any(np.isfinite(v))}  # rms: not computed for a path
+    failed = np.isnan(res["values"]["mean_force"])
+    by_t_sin = {f"{ts:g}": int(failed[:, :, k].sum()) for k, ts in enumerate(res["t_sin"])}
+    out: dict[str, Any] = {"failed_by_t_sin": by_t_sin, "points": int(failed.size), "tension_effect": {},
+                           "rising_over_pack": {}}
+    for obs, v in values.items():
+        scale = np.nanmax(np.abs(v))
+        compared = np.sum(np.isfinite(v), axis=2) >= 2  # (diameter, speed) points run at two tensions or more
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices are left out by ``compared``
+            change = (np.nanmax(v, axis=2) - np.nanmin(v, axis=2))[compared]
+        # the largest change between tensions at one (diameter, speed), relative to the largest value
+        out["tension_effect"][obs] = float(change.max() / scale) if change.size and scale > 0 else math.nan
+        steps = np.diff(v, axis=0)
+        curves = [bool(np.all(steps[:, j, k] > 0)) for j in range(v.shape[1]) for k in range(v.shape[2])
+                  if np.all(np.isfinite(v[:, j, k]))]
+        out["rising_over_pack"][obs] = {"rising": sum(curves), "curves": len(curves)}
+    return out
+
+
 def _csv(path: Path, results: dict) -> None:
     lines = ["model,observable,pack_diameter_mm,speed_m_s,t_sin_half_theta_N,value"]
     for name, res in results.items():
@@ -143,7 +168,14 @@ def _jsonable(res: dict) -> dict:
     return {"fields": res["fields"], "trends": res["trends"], "errors": res["errors"][:5],
             "n_errors": len(res["errors"]), "mid_pack_curves": {
                 obs: mid_pack_fraction(res["values"][obs], res["diameters"]) for obs in STUDY_OBSERVABLES},
-            "pack_mean": {obs: np.nanmean(res["values"][obs], axis=0).tolist() for obs in STUDY_OBSERVABLES}}
+            "pack_mean": {obs: _pack_mean(res["values"][obs]) for obs in STUDY_OBSERVABLES}}
+
+
+def _pack_mean(values: np.ndarray) -> list:
+    """Mean over the pack diameters of the points that ran (NaN where none did: a tape path's rms)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices are NaN, as meant
+        return np.nanmean(values, axis=0).tolist()
 
 
 def study(out_dir="reports", quick: bool = False, executor=None, progress: bool = True) -> dict:
@@ -176,8 +208,10 @@ def study(out_dir="reports", quick: bool = False, executor=None, progress: bool 
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
     s: dict[str, Any] = {"quick": quick, "criteria": CRITERIA,
-                         "machine": f"{platform.system()} {platform.machine()}, Python {platform.python_version()}"}
+                         "machine": f"{platform.system()} {platform.machine()}, {os.cpu_count()} CPUs, Python "
+                                    f"{platform.python_version()}, load average {load:.1f} at the start"}
 
     s["lead"] = _lead_check()
     s["lead_bound"] = lead_ratio_bound()
@@ -194,9 +228,11 @@ def study(out_dir="reports", quick: bool = False, executor=None, progress: bool 
                       "three": sum(sum(r[k] for k in CRITERIA) >= 3 for r in scan)}
 
     models = {k: c["fields"] for k, c in CANDIDATES.items() if not (quick and k == "short_clearance")}
+    models.update({k: c["fields"] for k, c in PATH_CANDIDATES.items()})
     t = time.perf_counter()
     cand = evaluate_models(models, quick=quick, executor=executor, progress=progress, turns=_CHEAP_TURNS)
     s["candidates_wall_s"] = time.perf_counter() - t
+    s["tape_path"] = {k: _path_summary(cand[k]) for k in PATH_CANDIDATES}
     t = time.perf_counter()
     smodels = search_models(quick)
     search = evaluate_models(smodels, quick=True, executor=executor, progress=progress)

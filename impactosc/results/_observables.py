@@ -4,8 +4,10 @@ The paper's flange is an acoustic-emission (AE) sensor calibrated by ball drops 
 Fig. 1): each impact's peak voltage is read as a peak force. Its Fig. 3(c) is an rms force
 over a moving window, its Fig. 4 that force averaged over one second ("the magnitude as well
 as the frequency of the impacts is taken into account"). The model's answer to those
-readings is computed here from a :class:`~impactosc.results.Solution` and its
-:attr:`~impactosc.results.Solution.impacts`:
+readings is computed here from a :class:`~impactosc.results.Solution`: from its
+:attr:`~impactosc.results.Solution.impacts` per contact, and from the sums over the contacts
+that every run streams (:meth:`~impactosc.results.Solution.contact_sums`, also with
+``record="stats"``, as sweeps run) per second:
 
 * per contact (:func:`contact_table`): duration, entry speed, peak force, impulse, the
   elastic impact force of the entry speed, the kinetic energy brought in and the energy
@@ -30,7 +32,8 @@ import numpy as np
 
 from .._util import validation as _v
 
-__all__ = ["CONTACT_DTYPE", "OBSERVABLES", "contact_table", "contact_observables", "moving_rms_force"]
+__all__ = ["CONTACT_DTYPE", "OBSERVABLES", "contact_table", "contact_observables", "moving_rms_force",
+           "elastic_impact_force", "impact_force_law"]
 
 CONTACT_DTYPE = np.dtype([
     ("start", "f8"), ("duration", "f8"), ("side", "i1"), ("entry_speed", "f8"), ("exit_speed", "f8"),
@@ -54,7 +57,33 @@ OBSERVABLES = {
 }
 
 _SIDES = {"upper": (1,), "lower": (-1,), "both": (1, -1)}
-_GAUSS = np.polynomial.legendre.leggauss(16)
+
+
+def impact_force_law(K: float, exponent: float) -> tuple[float, float]:
+    """``(c, q)`` of the elastic impact force ``c |V|^q`` of a flange ``K d^p`` (see :func:`elastic_impact_force`).
+
+    ``q = 2p / (p + 1)`` and ``c = K^(1/(p+1)) ((p + 1)/2)^(p/(p+1))``; the linear flange
+    (eq. 2-3, ``p = 1``) gives ``(sqrt(K), 1)``.
+    """
+    p = float(exponent)
+    return float(K) ** (1.0 / (p + 1.0)) * (0.5 * (p + 1.0)) ** (p / (p + 1.0)), 2.0 * p / (p + 1.0)
+
+
+def elastic_impact_force(K: float, exponent: float, v):
+    """The peak force of an entry speed ``v`` alone on a flange ``K d^p`` (units of eq. 3; arrays too).
+
+    A mass arriving at ``|v|`` on the flange spring with nothing else acting stops where
+    ``v^2/2 = K d^(p+1)/(p+1)``; the force there is ``K d^p = c |v|^q`` (:func:`impact_force_law`),
+    ``sqrt(K) |v|`` for the linear flange of eq. 2-3 (``sqrt(k0 m) v`` in SI).
+
+    Examples
+    --------
+    >>> from impactosc.results import elastic_impact_force
+    >>> float(elastic_impact_force(1e4, 1.0, -2.0))           # sqrt(K) |V|
+    200.0
+    """
+    c, q = impact_force_law(K, exponent)
+    return c * abs(v) ** q
 
 
 def _scales(sol, drive) -> dict[str, float]:
@@ -76,8 +105,9 @@ def contact_table(sol, drive=None) -> np.recarray:
     ----------
     sol : Solution
         A run recorded with ``record="events"`` or ``"full"``. The energy dissipated in the
-        contacts of a spring flange with friction (``beta > 0``) or damping (``zeta > 0``)
-        needs ``"full"`` (the pieces inside each contact); with ``"events"`` it is NaN.
+        contacts of a spring flange with friction (``beta > 0``) or damping (``zeta > 0``) is
+        summed over the pieces inside each contact as the run streams them; the ``rk4``
+        backend streams none, and gives NaN there.
     drive : TapeDrive, optional
         Gives SI units (see the module); without it the units are those of eq. 3.
 
@@ -107,9 +137,10 @@ def contact_table(sol, drive=None) -> np.recarray:
     A spring flange stores and returns energy; during the contact the tape loses
     ``mu N`` times its slip path (friction, eq. 2) plus ``2 zeta m omega_n int v^2 dt``
     (damping): the friction and damping terms of the energy balance
-    (:meth:`Solution.energy_balance`) restricted to the contact. The slip path is exact
-    (smooth pieces are monotonic); the damping integral uses 16-point Gauss-Legendre on
-    sub-intervals of a quarter contact period.
+    (:meth:`Solution.energy_balance`) restricted to the contact's pieces. The slip path is
+    exact (smooth pieces are monotonic); ``int v^2 dt`` is the backend's own integral
+    (closed form on ``exact``, an extra state of the Taylor integrator on ``heyoka``, of
+    ``solve_ivp`` at its tolerance on ``scipy``).
 
     Examples
     --------
@@ -126,7 +157,7 @@ def contact_table(sol, drive=None) -> np.recarray:
     imp = sol.impacts
     v_in = np.abs(np.asarray(imp.entry_velocity, dtype=float))
     v_out = np.abs(np.asarray(imp.exit_velocity, dtype=float))
-    rigid_hit = np.asarray(imp.start == imp.end) & bool(osc.rigid)
+    rigid_hit = np.isinf(np.asarray(imp.peak_force, dtype=float)) & bool(osc.rigid)  # an impact, not a rest
     out = np.recarray((len(imp),), dtype=CONTACT_DTYPE)
     out.start = imp.start * sc["time"]
     out.duration = (imp.end - imp.start) * sc["time"]
@@ -139,49 +170,24 @@ def contact_table(sol, drive=None) -> np.recarray:
     out.complete = imp.complete
     if osc.rigid:
         out.impact_force = np.where(rigid_hit, math.inf, 0.0)
-        e = osc.restitution
-        out.dissipated = np.where(rigid_hit, 0.5 * (1.0 - e * e) * v_in**2, 0.0) * sc["energy"]
-        return out
-    p, K = osc.exponent, osc.K
-    depth = ((p + 1.0) * 0.5 * v_in**2 / K) ** (1.0 / (p + 1.0))  # energy stored = energy brought in
-    out.impact_force = K * depth**p * sc["force"]
-    out.dissipated = _spring_dissipation(sol, imp) * sc["energy"]
+    else:
+        out.impact_force = elastic_impact_force(osc.K, osc.exponent, v_in) * sc["force"]
+    out.dissipated = _dissipated(sol, imp, rigid_hit) * sc["energy"]
     return out
 
 
-def _spring_dissipation(sol, imp) -> np.ndarray:
-    """Friction and damping work over each contact of a spring flange (units of ``k L^2``)."""
+def _dissipated(sol, imp, rigid_hit: np.ndarray) -> np.ndarray:
+    """The energy each contact took (units of ``k L^2``): the recorder's, else what the table alone gives."""
+    if sol._dissipated is not None:
+        return sol._dissipated
     osc = sol.oscillator
-    n = len(imp)
-    if n == 0 or (osc.beta == 0.0 and osc.zeta == 0.0):
-        return np.zeros(n)
-    if sol.record != "full":
-        return np.full(n, math.nan)  # the slip path needs the pieces: documented, not silent
-    seg = sol._segments
-    t_seg = seg["t"]
-    ends = np.append(t_seg[1:], sol.t_final)
-    x_end = np.append(seg["x"][1:], sol.x_final)
-    path = np.where(seg["motion"] != 0, np.abs(x_end - seg["x"]), 0.0)
-    cum_path = np.concatenate(([0.0], np.cumsum(path)))
-    lo = np.searchsorted(t_seg, imp.start, side="left")
-    hi = np.searchsorted(t_seg, imp.end, side="left")
-    friction = osc.beta * (cum_path[hi] - cum_path[lo])
-    if osc.zeta == 0.0:
-        return friction
-    damping = np.zeros(n)
-    quarter = 0.5 * math.pi / osc.contact_frequency
-    x_gl, w_gl = _GAUSS
-    for i in range(n):
-        for j in range(lo[i], hi[i]):
-            if seg["motion"][j] == 0 or not ends[j] > t_seg[j]:
-                continue
-            m = max(1, math.ceil((ends[j] - t_seg[j]) / quarter))
-            edges = np.linspace(t_seg[j], ends[j], m + 1)
-            half = 0.5 * np.diff(edges)
-            nodes = (0.5 * (edges[:-1] + edges[1:]))[:, None] + half[:, None] * x_gl[None, :]
-            _, v, _, _ = sol._evaluate(nodes.ravel())
-            damping[i] += float(np.sum((half[:, None] * w_gl[None, :]).ravel() * v * v))
-    return friction + 2.0 * osc.zeta * damping
+    if osc.rigid:
+        e = osc.restitution
+        v_in = np.asarray(imp.entry_velocity, dtype=float)
+        return np.where(rigid_hit, 0.5 * (1.0 - e * e) * v_in**2, 0.0)
+    if osc.beta == 0.0 and osc.zeta == 0.0:
+        return np.zeros(len(imp))
+    return np.full(len(imp), math.nan)  # a backend that streamed no pieces (rk4): documented, not silent
 
 
 def contact_observables(sol, drive=None) -> dict[str, dict[str, float]]:
@@ -190,8 +196,11 @@ def contact_observables(sol, drive=None) -> dict[str, dict[str, float]]:
     Parameters
     ----------
     sol : Solution
-        The run (``record="events"`` or ``"full"``; ``mean_dissipated`` and ``dissipation_rate``
-        of a dissipative spring flange need ``"full"``, else NaN, see :func:`contact_table`). Its whole
+        The run, in any recording mode: the sums over its contacts are streamed
+        (:meth:`Solution.contact_sums`), so a ``record="stats"`` run (a sweep's) gives the
+        same numbers as a ``"full"`` one. The ``rk4`` backend streams none: it needs
+        ``record="events"`` (its rows), and its ``mean_dissipated`` and ``dissipation_rate``
+        of a dissipative spring flange are NaN (see :func:`contact_table`). Its whole
         duration is the averaging window (the paper averages over 1 s, Fig. 4, 7, 8); run a
         transient first and start the measured run from its end to average a steady state.
     drive : TapeDrive, optional
@@ -234,32 +243,41 @@ def contact_observables(sol, drive=None) -> dict[str, dict[str, float]]:
     (3.0, 2.0, 1.0)
     """
     sc = _scales(sol, drive)
-    table = contact_table(sol, drive)
     duration = (sol.t_final - sol.t0) * sc["time"]
     per_second = 1.0 / duration if duration > 0 else math.nan
+    table = None if sol._contact_sums is not None else contact_table(sol)  # rk4: its own rows
     out: dict[str, dict[str, float]] = {}
     for name, sides in _SIDES.items():
-        rows = table[np.isin(table.side, sides)]
-        n = len(rows)
         side: int | None = None if len(sides) == 2 else sides[0]
+        sums = sol.contact_sums(side) if table is None else _table_sums(table[np.isin(table.side, sides)])
+        n = sums["contacts"]
 
-        def mean(a, n=n):
-            return float(np.mean(a)) if n else math.nan
+        def mean(total, n=n):
+            return total / n if n else math.nan
 
+        force, impulse, energy = sc["force"], sc["force"] * sc["time"], sc["energy"]
         out[name] = {
-            "impacts": float(n),
+            "impacts": n,
             "impact_rate": n * per_second,
-            "mean_peak_force": mean(rows["peak_force"]),
-            "mean_impulse": mean(rows["impulse"]),
-            "mean_dissipated": mean(rows["dissipated"]),
-            "mean_force": sol.mean_flange_force(side) * sc["force"],
-            "rms_force": sol.rms_flange_force(side) * sc["force"],
-            "ae_peak_sum": float(np.sum(rows["peak_force"])) * per_second,
-            "ae_impact_sum": float(np.sum(rows["impact_force"])) * per_second,
-            "impact_energy_rate": float(np.sum(rows["entry_energy"])) * per_second,
-            "dissipation_rate": float(np.sum(rows["dissipated"])) * per_second,
+            "mean_peak_force": mean(sums["peak_force"]) * force,
+            "mean_impulse": mean(sums["impulse"]) * impulse,
+            "mean_dissipated": mean(sums["dissipated"]) * energy,
+            "mean_force": sol.mean_flange_force(side) * force,
+            "rms_force": sol.rms_flange_force(side) * force,
+            "ae_peak_sum": sums["peak_force"] * force * per_second,
+            "ae_impact_sum": sums["impact_force"] * force * per_second,
+            "impact_energy_rate": 0.5 * sums["entry_speed_sq"] * energy * per_second,
+            "dissipation_rate": sums["dissipated"] * energy * per_second,
         }
     return out
+
+
+def _table_sums(rows) -> dict[str, float]:
+    """The sums of :meth:`Solution.contact_sums` over rows of :func:`contact_table` (units of eq. 3)."""
+    return {"contacts": float(len(rows)), "entry_speed": float(np.sum(rows.entry_speed)),
+            "entry_speed_sq": float(np.sum(rows.entry_speed**2)), "peak_force": float(np.sum(rows.peak_force)),
+            "impulse": float(np.sum(rows.impulse)), "impact_force": float(np.sum(rows.impact_force)),
+            "dissipated": float(np.sum(rows.dissipated))}
 
 
 def moving_rms_force(sol, window: float, *, drive=None, step: float | None = None, side: int | None = None,

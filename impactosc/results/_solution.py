@@ -7,7 +7,8 @@ options. What is kept is chosen with ``record``:
 ``"full"``    events, impacts and the start of every smooth piece, so that
               :meth:`Solution.sample` and windowed averages can re-integrate any piece.
 ``"events"``  events and impacts only.
-``"stats"``   counts and integrals only: memory stays flat however many events occur.
+``"stats"``   counts, integrals and sums over the contacts (:meth:`Solution.contact_sums`)
+              only: memory stays flat however many events occur.
 
 Averages are integrals, not samples: the flange impulse, the integral of the member's
 flange force (``K d^p`` on the penetration ``d = (|X| - 1)+`` of a spring flange; the wall's
@@ -27,10 +28,16 @@ from .._util import validation as _v
 from ..engine._driver import CHATTER, CONTACT_END, CONTACT_START, EVENT_KINDS, IMPACT, Mode
 from ..model._oscillator import Oscillator
 from ._frames import SolutionFramesMixin
+from ._observables import elastic_impact_force
 
-__all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE"]
+__all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE", "CONTACT_SUMS"]
 
 RECORD_OPTIONS = ("full", "events", "stats")
+
+#: The per-flange sums over contacts streamed in every recording mode (units of eq. 3), in
+#: the order of the recorder's and the compiled loop's slots: see :meth:`Solution.contact_sums`.
+CONTACT_SUMS = ("contacts", "entry_speed", "entry_speed_sq", "peak_force", "impulse", "impact_force", "dissipated")
+(S_CONTACTS, S_SPEED, S_SPEED_SQ, S_PEAK, S_IMPULSE, S_IMPACT_FORCE, S_DISSIPATED) = range(len(CONTACT_SUMS))
 
 EVENT_DTYPE = np.dtype([("t", "f8"), ("kind", "U13"), ("x", "f8"), ("v", "f8"), ("side", "i1"), ("count", "i8"),
                         ("direction", "i1")])
@@ -112,6 +119,13 @@ class _Recorder:
         self.steps = 0
         self.pieces = 0
         self._open: list | None = None  # [start, side, entry_v, peak_pen, impulse, complete]
+        # The open contact's slip path and int V^2 (its friction and damping losses).
+        self._open_loss = [0.0, 0.0]
+        # Sums over the contacts per flange (CONTACT_SUMS), and each contact's dissipated
+        # energy beside the impact rows when they are kept.
+        self.contact_sums = {1: [0.0] * len(CONTACT_SUMS), -1: [0.0] * len(CONTACT_SUMS)}
+        self.dissipated: list[float] = []
+        self.streamed_pieces = False  # piece() was called: the contact sums saw the contacts' insides
         self.samples: list[tuple] = []  # exact states at the requested sample times
         self.tails: list = []  # chatter jumps, for dense output inside their tails
 
@@ -122,6 +136,7 @@ class _Recorder:
         if mode.region != 0:
             # A run that starts inside a flange: a contact in progress, not an event.
             self._open = [t, mode.region, v, mode.region * x - osc.gap(mode.region), 0.0, False]
+            self._open_loss = [0.0, 0.0]
         self.segment(t, x, v, mode)
 
     def piece(self, mode: Mode, t0: float, x0: float, t1: float, x1: float,
@@ -150,12 +165,16 @@ class _Recorder:
                 op[4] += q
                 if pen > op[3]:
                     op[3] = pen
+                if mode.motion != 0:
+                    self._open_loss[0] += abs(x1 - x0)
+                self._open_loss[1] += vv
         if mode.motion != 0:
             self.slip_path += abs(x1 - x0)
         self.forcing_work += w
         self.v_squared += vv
         self.steps += steps
         self.pieces += 1
+        self.streamed_pieces = True
 
     def event(self, t: float, kind: str, x: float, v: float, side: int, count: int = 1, direction: int = 0) -> None:
         self.counts[kind] += 1
@@ -165,6 +184,7 @@ class _Recorder:
         if kind == CONTACT_START:
             self.entries[side] += 1
             self._open = [t, side, v, 0.0, 0.0, True]
+            self._open_loss = [0.0, 0.0]
         elif kind == CONTACT_END and self._open is not None:
             self._close(t, v)
         elif kind == IMPACT:
@@ -173,9 +193,12 @@ class _Recorder:
             impulse = (1.0 + e) * abs(v)
             self.entries[side] += 1
             self.impulse[side] += impulse
-            self.impact_loss += 0.5 * (1.0 - e * e) * v * v
+            loss = 0.5 * (1.0 - e * e) * v * v
+            self.impact_loss += loss
+            self._add_contact(side, v, math.inf, impulse, math.inf, loss)
             if self.keep_events:
                 self.impacts.append((t, t, side, v, -e * v, 0.0, math.inf, impulse, True))
+                self.dissipated.append(loss)
 
     def chatter(self, jump, t: float) -> tuple[float, float, int]:
         """Add the resolved tail of a chatter (``impactosc._chatter.ChatterJump``) up to ``t``.
@@ -201,14 +224,34 @@ class _Recorder:
 
     def _close(self, t: float, v: float) -> None:
         start, side, v_in, pen, imp, complete = _kept(self._open, "the open contact being closed")
+        osc = self.osc
         if self.rigid:
             peak, pen = pen, 0.0  # a resting contact keeps its peak wall force in the slot
+            impact_force = loss = 0.0  # at rest on the wall: no impact, nothing dissipated
         else:
             pen = max(pen, 0.0)
-            peak = self.osc.K * pen**self.osc.exponent
+            peak = osc.K * pen**osc.exponent
+            impact_force = elastic_impact_force(osc.K, osc.exponent, v_in)
+            # Friction times the slip path and damping 2 zeta int V^2 over the contact's pieces.
+            loss = osc.beta * self._open_loss[0] + 2.0 * osc.zeta * self._open_loss[1]
+        self._add_contact(side, v_in, peak, imp, impact_force, loss)
         if self.keep_events:
             self.impacts.append((start, t, side, v_in, v, pen, peak, imp, complete))
+            self.dissipated.append(loss)
         self._open = None
+
+    def _add_contact(self, side: int, v_in: float, peak: float, impulse: float, impact_force: float,
+                     loss: float) -> None:
+        """Add one contact (a row of the impact table) to its flange's :data:`CONTACT_SUMS`."""
+        sums = self.contact_sums[side]
+        speed = abs(v_in)
+        sums[S_CONTACTS] += 1.0
+        sums[S_SPEED] += speed
+        sums[S_SPEED_SQ] += speed * speed
+        sums[S_PEAK] += peak
+        sums[S_IMPULSE] += impulse
+        sums[S_IMPACT_FORCE] += impact_force
+        sums[S_DISSIPATED] += loss
 
     def sample(self, t: float, x: float, v: float, mode: Mode) -> None:
         """The exact state at a requested sample time (a time event of the run)."""
@@ -286,6 +329,13 @@ class Solution(SolutionFramesMixin):
         self._contact_time = dict(rec.contact_time)
         self._max_pen = dict(rec.max_pen)
         self._max_force = dict(rec.max_force)
+        # The contact sums hold only where the backend streamed its pieces through the recorder
+        # (rk4 hands over its own totals and rows): else None, and the impact table decides.
+        contacts = sum(rec.contact_sums[s][S_CONTACTS] for s in (1, -1)) + sum(rec.entries.values())
+        streamed = rec.streamed_pieces or contacts == 0
+        self._contact_sums = {s: tuple(rec.contact_sums[s]) for s in (1, -1)} if streamed else None
+        self._dissipated = (np.array(rec.dissipated, dtype=float)
+                            if streamed and rec.keep_events and len(rec.dissipated) == len(rec.impacts) else None)
         self._evaluator = rec.evaluator
         self._events = (np.rec.array(rec.events, dtype=EVENT_DTYPE) if len(rec.events)
                         else np.recarray((0,), dtype=EVENT_DTYPE)) if rec.keep_events else None
@@ -360,6 +410,46 @@ class Solution(SolutionFramesMixin):
     def contact_entries(self, side: int | None = None) -> int:
         """Number of contacts that started during the run on ``side`` (+1, -1, or None for both)."""
         return sum(self._entries[s] for s in self._sides(side))
+
+    def contact_sums(self, side: int | None = None) -> dict[str, float]:
+        """Sums over the contacts of ``side`` (+1, -1, or None for both), streamed in every recording mode.
+
+        One term per row of :attr:`impacts` (contacts that started in the run, and one in
+        progress at its start), in the units of eq. 3, so that
+        :func:`impactosc.results.contact_observables` needs no table and a sweep
+        (``record="stats"``) can report per-impact means and rates:
+
+        ``contacts`` (their number), ``entry_speed`` (``sum |V_in|``), ``entry_speed_sq``
+        (``sum V_in^2``, twice the kinetic energy brought in), ``peak_force`` (``sum K d_max^p``;
+        inf with a rigid impact), ``impulse`` (``sum`` of the contacts' impulses; a chatter's
+        accumulated tail is in :meth:`flange_impulse` but in no row), ``impact_force`` (``sum``
+        of :func:`impactosc.results.elastic_impact_force` of the entry speeds; inf with a rigid
+        impact) and ``dissipated`` (``sum`` of the energy each contact took: ``(1 - e^2) V^2/2``
+        per rigid impact; for a spring flange ``beta`` times the slip path plus ``2 zeta int V^2``
+        over the contact's pieces, the friction and damping terms of :meth:`energy_balance`
+        restricted to the contact, as exact as the backend's own integrals).
+
+        Raises
+        ------
+        ValueError
+            A run whose backend did not stream its pieces through the recorder (``rk4``)
+            and had contacts: use :func:`impactosc.results.contact_table` of a
+            ``record="events"`` run instead.
+
+        Examples
+        --------
+        >>> import impactosc
+        >>> osc = impactosc.Oscillator(F=0.0, Omega=1.0, beta=0.0, K=1e4)
+        >>> sol = impactosc.simulate(osc, 3.0, 0.0, 2.0, backend="exact", record="stats")
+        >>> sums = sol.contact_sums(1)
+        >>> sums["contacts"], round(sums["entry_speed"] / sums["contacts"], 6)   # V_in = sqrt(2^2 - 1)
+        (2.0, 1.732051)
+        """
+        sides = self._sides(side)
+        if self._contact_sums is None:
+            raise ValueError(f"contact_sums: the {self.backend} backend does not stream the insides of its "
+                             "contacts; use impactosc.results.contact_table(sol) of a run with record='events'")
+        return {name: sum(self._contact_sums[s][i] for s in sides) for i, name in enumerate(CONTACT_SUMS)}
 
     def contact_time(self, side: int | None = None) -> float:
         """Total time spent in contact with ``side``: a spring flange compressed, or resting on a rigid one."""

@@ -35,6 +35,25 @@ RESULTS = {
     "max_penetration": ("um", "deepest penetration into a flange"),
     "peak_flange_force": ("N", "peak flange force"),
     "contact_fraction": ("1", "fraction of the time in flange contact"),
+    # What a flange sensor reads (impactosc.results.contact_observables, streamed in "stats").
+    "mean_peak_force": ("N", "mean peak force per contact, both flanges"),
+    "ae_peak_sum": ("N/s", "AE proxy: peak forces of the contacts summed per second, both flanges"),
+    "ae_impact_sum": ("N/s", "AE proxy: elastic impact forces sqrt(k0 m) v of the entry speeds summed per second, "
+                             "both flanges"),
+    "ae_impact_sum_upper": ("N/s", "AE proxy (elastic impact forces per second), upper flange"),
+    "ae_impact_sum_lower": ("N/s", "AE proxy (elastic impact forces per second), lower flange"),
+    "impact_energy_rate": ("W", "kinetic energy m v^2/2 brought into contacts per second, both flanges"),
+    "dissipation_rate": ("W", "energy dissipated in contacts per second, both flanges"),
+}
+#: The sweep variables read from contact_observables(drive): variable -> (flange, observable).
+OBSERVED = {
+    "mean_peak_force": ("both", "mean_peak_force"),
+    "ae_peak_sum": ("both", "ae_peak_sum"),
+    "ae_impact_sum": ("both", "ae_impact_sum"),
+    "ae_impact_sum_upper": ("upper", "ae_impact_sum"),
+    "ae_impact_sum_lower": ("lower", "ae_impact_sum"),
+    "impact_energy_rate": ("both", "impact_energy_rate"),
+    "dissipation_rate": ("both", "dissipation_rate"),
 }
 # Inputs of the point, defined whenever the drive is: kept even when the run failed.
 PARAMETERS = {
@@ -84,6 +103,8 @@ def run_point(fields: dict, duration: float, backend: str, x0: float, v0: float,
         peak_flange_force=sol.max_flange_force() * fs,
         contact_fraction=sol.contact_time() / dur if dur > 0 else math.nan,
     )
+    observed = sol.contact_observables(drive)
+    out.update({name: observed[flange][key] for name, (flange, key) in OBSERVED.items()})
     return out
 
 

@@ -1,6 +1,7 @@
 """The store of :func:`impactosc.sweep`: the runner's verified point store, one netCDF file per point.
 
-Layout (format 1, unchanged since the first sweep stores; see :mod:`impactosc.runner`)::
+Layout (format 2: format 1 had no contact observables, ``mean_peak_force`` ... ``dissipation_rate``;
+a store of format 1 is refused by name, not reused; see :mod:`impactosc.runner`)::
 
     store/manifest.json        kind, format, settings (everything but the grid), latest grid
     store/points/<key>.nc      one finished point; <key> hashes its drive and the settings
@@ -23,7 +24,8 @@ import xarray as xr
 from ..runner import PointStore
 from ._point import FLOAT_VARS
 
-STORE_FORMAT = 1
+#: 2: the contact observables joined the point variables (a format-1 store lacks them).
+STORE_FORMAT = 2
 KIND = "sweep"
 _REQUIRED = ("settings", "grid")
 

@@ -244,7 +244,14 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
         ``mean_flange_force``, ``rms_flange_force`` (N, both flanges; ``_upper``/``_lower``
         per flange), ``impacts`` (contacts; ``_upper``/``_lower``), ``impact_rate`` (1/s),
         ``sticks``, ``releases``, ``reversals``, ``max_penetration`` (um),
-        ``peak_flange_force`` (N), ``contact_fraction``, the nondimensional ``F``,
+        ``peak_flange_force`` (N), ``contact_fraction``; what a flange sensor reads
+        (:func:`impactosc.results.contact_observables`, from the contact sums every run
+        streams): ``mean_peak_force`` (N per contact), the AE proxies ``ae_peak_sum`` and
+        ``ae_impact_sum`` (N/s: peak forces and elastic impact forces ``sqrt(k0 m) v`` of the
+        contacts summed per second; ``_upper``/``_lower`` for the latter),
+        ``impact_energy_rate`` and ``dissipation_rate`` (W: kinetic energy brought into
+        contacts and energy dissipated in them per second; inf peak and impact forces for a
+        rigid flange's impacts); the nondimensional ``F``,
         ``Omega``, ``beta``, ``K`` of each point, ``simulated_time`` (s), ``status`` (int32,
         see the module docstring) and ``message`` (str). Counts are float64 so that a
         failed point can be NaN. ``attrs`` hold the base drive's fields (``base_<field>``),

@@ -37,6 +37,7 @@ from ...model._rule import (
     KINEMATIC_GUARD_OFFSET,
     NO_GUARD,
     NO_KIND,
+    P_BETA,
     P_BETA_S,
     P_K,
     P_RESTITUTION,
@@ -49,7 +50,16 @@ from ...model._rule import (
     forcing,
 )
 from ...model._wall import wall_force_integrals
-from ...results._solution import EVENT_DTYPE, IMPACT_DTYPE, SAMPLE_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
+from ...results._observables import impact_force_law
+from ...results._solution import (
+    CONTACT_SUMS,
+    EVENT_DTYPE,
+    IMPACT_DTYPE,
+    SAMPLE_DTYPE,
+    SEGMENT_DTYPE,
+    Solution,
+    _Recorder,
+)
 from ._family import advance_family
 from ._family import mode_constants as family_constants
 from ._piece import M_SIZE, SEARCH_FAILED, advance_slip, mode_constants
@@ -57,13 +67,22 @@ from ._piece import M_SIZE, SEARCH_FAILED, advance_slip, mode_constants
 __all__ = ["run"]
 
 # Accumulators (float): impulse, impulse^2, contact time and peak penetration per flange
-# (upper, lower), forcing work, slip path, int V^2, impact losses.
+# (upper, lower), forcing work, slip path, int V^2, impact losses; then the sums over the
+# contacts of the upper flange, then of the lower one (results._solution.CONTACT_SUMS, named
+# here in this file's own order: numba freezes these constants into its cache of this file).
 (A_IMP_UP, A_IMP_LO, A_SQ_UP, A_SQ_LO, A_CT_UP, A_CT_LO, A_PEN_UP, A_PEN_LO, A_WORK, A_SLIP, A_VSQ, A_LOSS) = range(12)
-N_ACC = 12
+A_SUMS = 12
+SUMS = ("contacts", "entry_speed", "entry_speed_sq", "peak_force", "impulse", "impact_force", "dissipated")
+S_CONTACTS, S_SPEED, S_SPEED_SQ, S_PEAK, S_IMPULSE, S_IMPACT_FORCE, S_DISSIPATED = range(7)
+N_SUMS = 7
+N_ACC = A_SUMS + 2 * N_SUMS
 # Counters (int): events by kind (0..6), then entries per flange, events, pieces, steps.
 C_ENTRIES_UP, C_ENTRIES_LO, C_EVENTS, C_PIECES, C_STEPS = range(7, 12)
-# The open contact: start, side, entry velocity, peak penetration, impulse, complete.
-O_START, O_SIDE, O_VIN, O_PEN, O_IMP, O_COMPLETE = range(6)
+# The open contact: start, side, entry velocity, peak penetration, impulse, complete, and its
+# slip path and int V^2 (its friction and damping losses).
+O_START, O_SIDE, O_VIN, O_PEN, O_IMP, O_COMPLETE, O_PATH, O_VSQ = range(8)
+# A row of the contacts table: the impact table's fields (IMPACT_DTYPE), then the energy dissipated.
+N_CONTACT_COLUMNS = 10
 # How the loop ended (the messages are the engine's, written in Python from these codes).
 DONE, EVENT_LIMIT, FAILED, NON_FINITE, MISSED, SAME_INSTANT, CHATTER_END = range(7)
 # The loop's steps: settle the start; a piece and its transitions; the rest after a chatter.
@@ -110,14 +129,15 @@ def _chatter_totals(p, jump, t, acc):
 
 
 @njit
-def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
+def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops, impact_law):
     """Run the member ``p`` from ``(x0, v0)``; returns the final state, the records and how the loop ended.
 
     ``stops`` are the sorted sample times (time events: a piece ends there, the state is
-    recorded and the motion goes on in the same mode).
+    recorded and the motion goes on in the same mode). ``impact_law`` is the ``(c, q)`` of
+    the elastic impact force ``c |V|^q`` (:func:`impactosc.results.impact_force_law`).
     """
     rigid = p[P_RIGID] != 0.0
-    F, Om, phase, beta_s, K = p[P_TERMS], p[P_TERMS + 1], p[P_TERMS + 2], p[P_BETA_S], p[P_K]
+    F, Om, phase, beta_s = p[P_TERMS], p[P_TERMS + 1], p[P_TERMS + 2], p[P_BETA_S]
     e = p[P_RESTITUTION]
     n_terms = (p.shape[0] - P_TERMS) // 3
     constant = True  # impactosc.Oscillator.constant_forcing
@@ -134,14 +154,14 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
     acc = np.zeros(N_ACC)
     cnt = np.zeros(12, dtype=np.int64)
     events = np.empty((64 if keep_events else 1, 7))
-    contacts = np.empty((16 if keep_events else 1, 9))
+    contacts = np.empty((16 if keep_events else 1, N_CONTACT_COLUMNS))
     segments = np.empty((64 if keep_segments else 1, 8))
     samples = np.empty((max(stops.shape[0], 1), 5))
     tails = np.empty((4 if keep_segments else 1, J_SIZE))
     n_ev = n_co = n_seg = n_sa = n_ta = 0
     next_stop = stops[0] if stops.shape[0] > 0 else math.inf
-    row6, row8, row9 = np.empty(7), np.empty(8), np.empty(9)  # row6: an event row (7 fields)
-    op = np.zeros(6)
+    row6, row8, row9 = np.empty(7), np.empty(8), np.empty(N_CONTACT_COLUMNS)  # row6: an event row (7 fields)
+    op = np.zeros(8)
     is_open = False
     jump = np.empty(J_SIZE)
     ch_side = ch_count = 0  # the chatter tracker (impactosc._chatter.ChatterTracker)
@@ -152,6 +172,7 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
     if r != 0:  # a run that starts inside a flange: a contact in progress, not an event
         pen0 = r * x - _rule.gap(p, r)
         op[O_START], op[O_SIDE], op[O_VIN], op[O_PEN], op[O_IMP], op[O_COMPLETE] = t, r, v, pen0, 0.0, 0.0
+        op[O_PATH], op[O_VSQ] = 0.0, 0.0
         is_open = True
     start = (r, s, a)
     if keep_segments:
@@ -223,6 +244,9 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                         op[O_IMP] += q
                         if pen > op[O_PEN]:
                             op[O_PEN] = pen
+                        if s != 0:
+                            op[O_PATH] += abs(x1 - x)
+                        op[O_VSQ] += vv
             if s != 0:
                 acc[A_SLIP] += abs(x1 - x)
             acc[A_WORK] += w
@@ -268,10 +292,12 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                     cnt[C_ENTRIES_UP if side > 0 else C_ENTRIES_LO] += 1
                     op[O_START], op[O_SIDE], op[O_VIN] = t1, side, v_event
                     op[O_PEN], op[O_IMP], op[O_COMPLETE] = 0.0, 0.0, 1.0
+                    op[O_PATH], op[O_VSQ] = 0.0, 0.0
                     is_open = True
                 elif kind == CONTACT_END and is_open:
+                    _close_contact(row9, op, t1, v_event, p, impact_law, acc)
                     if keep_events:
-                        contacts = _append(contacts, n_co, _contact_row(row9, op, t1, v_event, K, rigid))
+                        contacts = _append(contacts, n_co, row9)
                         n_co += 1
                     is_open = False
                 elif kind == IMPACT:
@@ -279,10 +305,12 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
                     impulse = (1.0 + e) * abs(v_event)
                     cnt[C_ENTRIES_UP if side > 0 else C_ENTRIES_LO] += 1
                     acc[A_IMP_UP if side > 0 else A_IMP_LO] += impulse
-                    acc[A_LOSS] += 0.5 * (1.0 - e * e) * v_event * v_event
+                    loss = 0.5 * (1.0 - e * e) * v_event * v_event
+                    acc[A_LOSS] += loss
+                    _add_contact(acc, side, v_event, math.inf, impulse, math.inf, loss)
                     if keep_events:
                         row9[0], row9[1], row9[2], row9[3], row9[4] = t1, t1, side, v_event, -e * v_event
-                        row9[5], row9[6], row9[7], row9[8] = 0.0, math.inf, impulse, 1.0
+                        row9[5], row9[6], row9[7], row9[8], row9[9] = 0.0, math.inf, impulse, 1.0, loss
                         contacts = _append(contacts, n_co, row9)
                         n_co += 1
                 if rigid:  # the chatter tracker
@@ -344,10 +372,12 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
         if same_instant > MAX_EVENTS_AT_ONE_INSTANT:
             status, info[0] = SAME_INSTANT, same_instant
             break
-    if is_open and keep_events:  # a contact in progress at the end: incomplete, no exit velocity
+    if is_open:  # a contact in progress at the end: incomplete, no exit velocity
         op[O_COMPLETE] = 0.0
-        contacts = _append(contacts, n_co, _contact_row(row9, op, t, math.nan, K, rigid))
-        n_co += 1
+        _close_contact(row9, op, t, math.nan, p, impact_law, acc)
+        if keep_events:
+            contacts = _append(contacts, n_co, row9)
+            n_co += 1
     final = np.array([t, x, v])
     modes = np.array([start[0], start[1], start[2], r, s, a], dtype=np.int64)
     return (final, modes, status, info, acc, cnt, events[:n_ev].copy(), contacts[:n_co].copy(),
@@ -355,16 +385,33 @@ def _loop(p, t_end, x0, v0, max_events, keep_events, keep_segments, stops):
 
 
 @njit
-def _contact_row(row, op, t, v, K, rigid):
-    """The closed contact ``op`` as a row of the impacts table (``_Recorder._close``)."""
-    if rigid:  # a resting contact keeps its peak wall force in the penetration slot
+def _close_contact(row, op, t, v, p, impact_law, acc):
+    """Close the contact ``op`` (``_Recorder._close``): its row of the contacts table in ``row``, sums in ``acc``."""
+    if p[P_RIGID] != 0.0:  # a resting contact keeps its peak wall force in the penetration slot
         pen, peak = 0.0, op[O_PEN]
+        impact_force = loss = 0.0  # at rest on the wall: no impact, nothing dissipated
     else:
         pen = max(op[O_PEN], 0.0)
-        peak = K * pen
+        peak = p[P_K] * pen
+        impact_force = impact_law[0] * abs(op[O_VIN]) ** impact_law[1]
+        loss = p[P_BETA] * op[O_PATH] + 2.0 * p[P_ZETA] * op[O_VSQ]
+    _add_contact(acc, int(op[O_SIDE]), op[O_VIN], peak, op[O_IMP], impact_force, loss)
     row[0], row[1], row[2], row[3], row[4] = op[O_START], t, op[O_SIDE], op[O_VIN], v
-    row[5], row[6], row[7], row[8] = pen, peak, op[O_IMP], op[O_COMPLETE]
-    return row
+    row[5], row[6], row[7], row[8], row[9] = pen, peak, op[O_IMP], op[O_COMPLETE], loss
+
+
+@njit
+def _add_contact(acc, side, v_in, peak, impulse, impact_force, loss):
+    """Add one contact to its flange's sums in ``acc`` (``_Recorder._add_contact``)."""
+    j = A_SUMS + (0 if side > 0 else N_SUMS)
+    speed = abs(v_in)
+    acc[j + S_CONTACTS] += 1.0
+    acc[j + S_SPEED] += speed
+    acc[j + S_SPEED_SQ] += speed * speed
+    acc[j + S_PEAK] += peak
+    acc[j + S_IMPULSE] += impulse
+    acc[j + S_IMPACT_FORCE] += impact_force
+    acc[j + S_DISSIPATED] += loss
 
 
 def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
@@ -375,7 +422,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     keep_events, keep_segments = record != "stats", record == "full"
     final, modes, status, info, acc, cnt, events, contacts, segments, samples, tails = _loop(
         osc._p, float(t_end), float(x0), float(v0), int(max_events), keep_events, keep_segments,
-        np.asarray(sample_at, dtype=float))
+        np.asarray(sample_at, dtype=float), np.array(impact_force_law(osc.K, osc.exponent)))
     t, x, v = (float(a) for a in final)
     start = Mode(int(modes[0]), int(modes[1]), bool(modes[2]))
     mode = Mode(int(modes[3]), int(modes[4]), bool(modes[5]))
@@ -393,6 +440,9 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         rec.max_force, rec.max_pen = rec.max_pen, {1: 0.0, -1: 0.0}
     rec.forcing_work, rec.slip_path, rec.v_squared = float(acc[A_WORK]), float(acc[A_SLIP]), float(acc[A_VSQ])
     rec.impact_loss = float(acc[A_LOSS])
+    rec.contact_sums = {side: [float(acc[A_SUMS + (0 if side > 0 else N_SUMS) + SUMS.index(name)])
+                               for name in CONTACT_SUMS] for side in (1, -1)}
+    rec.streamed_pieces = bool(cnt[C_PIECES] > 0)
     # The recorder's tables are lists of rows; Solution takes any sequence of rows, and
     # record arrays built here in one go cost nothing per event.
     if keep_events:
@@ -400,6 +450,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
         table["kind"] = np.asarray(EVENT_KINDS)[events[:, 1].astype(np.int64)]
         rec.events = cast(Any, table)
         rec.impacts = cast(Any, _table(IMPACT_DTYPE, contacts, IMPACT_DTYPE.names or ()))
+        rec.dissipated = [float(a) for a in contacts[:, N_CONTACT_COLUMNS - 1]]
     if keep_segments:
         rec.segments = cast(Any, _table(SEGMENT_DTYPE, segments, SEGMENT_DTYPE.names or ()))
     rec.samples = cast(Any, _table(SAMPLE_DTYPE, samples, SAMPLE_DTYPE.names or ()))
