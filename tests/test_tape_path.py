@@ -322,3 +322,31 @@ def test_chain_statics_properties(gaps, end):
         np.testing.assert_allclose(x, u, rtol=1e-9)
     else:
         assert np.all(np.diff(x) < 0) and np.all((x > 0) & (x < u))
+
+
+def test_one_guide_path_reads_what_the_tape_drive_sensor_reads():
+    """``TapePathRun.contact_observables`` of the one-guide path is the drive's ``contact_observables``."""
+    drive = ONE_GUIDE[0]  # spring flanges, friction
+    path = TapePath.from_drive(drive)
+    t_end = 150.0
+    ref = impactosc.simulate(drive.oscillator(), t_end, 0.0, 0.0, backend="exact").contact_observables(drive)
+    run = TapePathRun(path, simulate_mechanical(path.mechanical_system(), t_end, [0.0], [0.0]))
+    assert ref["upper"]["impacts"] > 10
+    for side, name in ((1, "upper"), (-1, "lower"), (None, "both")):
+        seen, expected = run.contact_observables(0, side), ref[name]
+        for key in ("impact_rate", "mean_force", "mean_impulse", "ae_impact_sum", "impact_energy_rate"):
+            assert seen[key] == pytest.approx(expected[key], rel=1e-9, nan_ok=True), (name, key)
+        assert math.isnan(seen["dissipation_rate"])  # spring flanges: no per-contact dissipation on this backend
+
+
+def test_rigid_flange_dissipation_per_impact_is_newtons_loss():
+    """``(1 - e^2) m v^2 / 2`` per impact, summed per second, from the path's entry speeds."""
+    drive = ONE_GUIDE[3]
+    path = TapePath.from_drive(drive)
+    run = TapePathRun(path, simulate_mechanical(path.mechanical_system(), 150.0, [0.0], [0.0]))
+    seen = run.contact_observables(0)
+    e = drive.restitution
+    assert seen["impact_energy_rate"] > 0.0
+    assert seen["dissipation_rate"] == pytest.approx((1.0 - e**2) * seen["impact_energy_rate"], rel=1e-12)
+    with pytest.raises(ValueError, match="guide"):
+        run.contact_observables(5)

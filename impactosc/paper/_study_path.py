@@ -2,20 +2,13 @@
 
 A :class:`~impactosc.model.TapePath` couples the paper's guide to the spans and guides after it
 (eq. 4 per span, eq. 5 per guide, Fig. 6 at the pack). The sensor is the flanged guide nearest
-the pack (guide 0, the paper's single guide); its observables are those of
-:func:`impactosc.results.contact_observables`, read from a :class:`~impactosc.results.TapePathRun`
-and its :class:`~impactosc.results.MechanicalSolution`:
-
-* ``mean_force``: :meth:`TapePathRun.mean_flange_force` of guide 0 (both flanges, exact
-  integrals);
-* ``impact_rate``: its contacts per second (:meth:`TapePathRun.impacts_per_second`);
-* ``ae_impact_sum``: the elastic impact forces ``sqrt(k0 m_0) v`` of the entry speeds summed per
-  second, with ``k0`` the guide's flange stiffness (:meth:`TapePath.flange_stiffness`) and ``m_0``
-  its lumped mass (the diagonal of :attr:`TapePath.mass_matrix`): the 1-DOF definition with the
-  guide's own mass;
-* ``impact_energy_rate``: ``m_0 v^2 / 2`` brought in per second;
-* ``rms_force``: NaN (a run of the n-DOF backend streams no integral of the squared force; a
-  sampled one would need sub-microsecond steps over a second).
+the pack (guide 0, the paper's single guide); its observables are
+:meth:`TapePathRun.contact_observables` (``mean_force``, ``impact_rate``, ``ae_impact_sum``: the
+elastic impact forces ``sqrt(k0 m_0) v`` of the entry speeds summed per second with the guide's
+flange stiffness and lumped mass, ``impact_energy_rate``: ``m_0 v^2 / 2`` per second), the 1-DOF
+definitions of :func:`impactosc.results.contact_observables` with the guide's own mass;
+``rms_force`` is NaN (a run of the n-DOF backend streams no integral of the squared force; a
+sampled one would need sub-microsecond steps over a second).
 
 Every point is a steady state as in :func:`impactosc.paper.observe`: a transient of whole reel
 turns from rest, then the measured turns restarted from its end state with the reel's phase
@@ -92,16 +85,7 @@ def observe_path(path: TapePath, *, transient_turns: int, measured_turns: int) -
     if sol.status != 0:
         raise RuntimeError(f"measured run failed: {sol.message}")
     run = TapePathRun(path, sol, phase)
-    g = SENSOR_GUIDE
-    contacts = [c for c, (guide, _) in enumerate(path.contact_guides()) if guide == g]
-    ev = sol.events
-    starts = np.isin(ev.index, contacts) & (ev.kind == "contact_start")
-    speed = np.abs(np.asarray(ev.v, dtype=float).reshape(len(ev), path.n)[starts, g])
-    speed *= path.length_scale / path.time_scale  # m/s
-    mass = float(path.mass_matrix[g, g])
-    seconds = run.duration
-    return {"mean_force": float(run.mean_flange_force(g)),
-            "impact_rate": float(run.impacts_per_second(g)),
-            "ae_impact_sum": float(np.sum(np.sqrt(path.flange_stiffness(g) * mass) * speed)) / seconds,
-            "impact_energy_rate": float(np.sum(0.5 * mass * speed**2)) / seconds,
+    seen = run.contact_observables(SENSOR_GUIDE)
+    return {"mean_force": seen["mean_force"], "impact_rate": seen["impact_rate"],
+            "ae_impact_sum": seen["ae_impact_sum"], "impact_energy_rate": seen["impact_energy_rate"],
             "rms_force": math.nan}

@@ -12,6 +12,8 @@ resting stop's reaction; an impact's impulse is the jump of momentum on its coor
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._util import validation as _v
@@ -325,6 +327,53 @@ class TapePathRun:
         if guide is None:
             return np.array([self.impacts_per_second(g, side) for g in range(self.path.n)])
         return self.contact_starts(guide, side).size / self.duration
+
+    def entry_speeds(self, guide: int, side: int | None = None) -> np.ndarray:
+        """Speeds in m/s at which guide ``guide``'s flanges are entered (spring contacts closing, rigid impacts)."""
+        contacts = self._contacts_of(guide, side)
+        ev = self.solution.events
+        sel = np.isin(ev.index, contacts) & np.isin(ev.kind, ("contact_start", "impact"))
+        v = np.asarray(ev.v, dtype=float).reshape(len(ev), self.path.n)[sel, self._guide(guide)]
+        return np.abs(v) * (self.path.length_scale / self.path.time_scale)
+
+    def contact_observables(self, guide: int, side: int | None = None) -> dict[str, float]:
+        """What a flange sensor at guide ``guide`` reads, in SI, as :func:`impactosc.results.contact_observables`.
+
+        With ``m`` the guide's lumped mass (the diagonal of :attr:`TapePath.mass_matrix`), ``k0``
+        its flange stiffness and ``v_i`` the entry speeds (:meth:`entry_speeds`), over the
+        run's :attr:`duration` ``T``:
+
+        * ``impact_rate`` (1/s), ``mean_force`` (N), ``mean_impulse`` (N s per contact; exact integrals);
+        * ``ae_impact_sum = sum_i sqrt(k0 m) v_i / T`` (N/s), the elastic impact force of each
+          entry summed per second (the AE proxy);
+        * ``impact_energy_rate = sum_i m v_i^2 / 2 / T`` (W), the kinetic energy brought in;
+        * ``dissipation_rate`` (W): ``(1 - e^2) m v_i^2 / 2`` per impact on a rigid flange; NaN on
+          a spring flange (the n-DOF backend keeps no per-contact damping and friction integrals).
+
+        Peak forces per contact and the rms force are not given: the n-DOF backend keeps no
+        extremum or integral of the squared force per contact (sample :meth:`flange_force`).
+        """
+        g = self._guide(guide)
+        contacts = self._contacts_of(g, side)
+        speeds = self.entry_speeds(g, side)
+        seconds = self.duration
+        mass = float(self.path.mass_matrix[g, g])
+        count = speeds.size
+        laws = {self._system.contacts[c].law for c in contacts}
+        dissipation = math.nan
+        if laws == {"rigid"}:
+            ev = self.solution.events
+            e = {c: float(self._system.contacts[c].restitution) for c in contacts}
+            sel = np.isin(ev.index, contacts) & (ev.kind == "impact")
+            factor = np.array([1.0 - e[int(c)] ** 2 for c in np.asarray(ev.index)[sel]])
+            dissipation = float(np.sum(factor * 0.5 * mass * speeds**2)) / seconds if count else 0.0
+        impulse = self.flange_impulse(g, side)
+        return {"impact_rate": count / seconds,
+                "mean_force": impulse / seconds,
+                "mean_impulse": impulse / count if count else math.nan,
+                "ae_impact_sum": float(np.sum(np.sqrt(self.path.flange_stiffness(g) * mass) * speeds)) / seconds,
+                "impact_energy_rate": float(np.sum(0.5 * mass * speeds**2)) / seconds,
+                "dissipation_rate": dissipation}
 
     def lateral_motion(self, t_s, position: float) -> np.ndarray:
         """Lateral tape position in m at ``position`` (m along the path) at times ``t_s`` (s).
