@@ -188,6 +188,19 @@ class HybridMap:
         """Forcing periods (or section returns) per map, as the continuation's map problem names it."""
         return self.iterates
 
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """The names of the components of ``z``: the system's states."""
+        return tuple(self.system.states)
+
+    def period(self, params=None) -> float:
+        """The time one map takes at ``params`` (default :meth:`values`); NaN for a section map."""
+        if self.section is not None:
+            return math.nan
+        params = self.values() if params is None else tuple(float(q) for q in params)
+        p = self.system.with_parameters(**dict(zip(self.names, params, strict=True))).parameter_values
+        return self.iterates * float(self._period(0.0, [0.0] * len(numeric(self.system).states), p)[0])
+
     def with_names(self, names) -> HybridMap:
         """The same map with other free parameters."""
         return HybridMap(self.system, self.iterates, names=names, mode=self.mode, t0=self.t0, tol=self.tol,
