@@ -10,9 +10,10 @@ rule::
 
     J+ = R_y J + [0 | R_p] + (f+ - R_y f- - R_t) (n^T J + [0 | h_p]) / (n . f- + h_t)
 
-with ``n = dh/dy``, ``h_t``, ``h_p`` the guard's derivatives and ``R_y``, ``R_t``, ``R_p`` the
-reset's, all symbolic derivatives of the definition, ``f-``/``f+`` the vector fields before and
-after. Without parameters and time dependence this is ``S = R + (f+ - R f-) n^T / (n . f-)``.
+(the one saltation formula of every system, :func:`._jump.saltation_nd`) with ``n = dh/dy``,
+``h_t``, ``h_p`` the guard's derivatives and ``R_y``, ``R_t``, ``R_p`` the reset's, all
+symbolic derivatives of the definition, ``f-``/``f+`` the vector fields before and after.
+Without parameters and time dependence this is ``S = R + (f+ - R f-) n^T / (n . f-)``.
 Where ``n . f- + h_t`` vanishes (the orbit reaches the guard tangentially: a grazing) the map
 is not differentiable: the evaluation says so (``singular``), with the guard and the time,
 instead of returning a huge number. Everything is n-dimensional: the paper's eq. 3
@@ -35,6 +36,7 @@ from ..backends._hybrid import simulate_system
 from ..backends._hybrid_heyoka import DEFAULT_TOL
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import gated_sum, numeric, rules
+from ._jump import saltation_nd
 
 __all__ = ["HybridMap", "HybridMapValue", "HybridOrbit", "periodic_orbit_of"]
 
@@ -309,18 +311,21 @@ class HybridMap:
             R_y[:n] = rows[:, :n_all]
             R_t[:n] = rows[:, n_all]
             R_p[:n] = rows[:, n_all + 1:]
-        speed = float(normal @ f_minus + h_t)
-        if abs(speed) <= GRAZING_RATIO * (np.linalg.norm(normal) * np.linalg.norm(f_minus) + abs(h_t)):
+        if not reset:  # a marker guard: no transition, only its time moves
+            R_t, R_p, f_plus = np.zeros(n_all), np.zeros((n_all, P)), f_minus
+        jump = saltation_nd(R_y.tolist(), f_minus.tolist(), f_plus.tolist(), normal.tolist(), h_t=float(h_t),
+                            reset_rate=R_t.tolist(), guard_params=h_p.tolist(), reset_params=R_p.tolist(),
+                            tangential=GRAZING_RATIO * (np.linalg.norm(normal) * np.linalg.norm(f_minus) + abs(h_t)))
+        if jump.singular:
             raise ZeroDivisionError(f"guard {e.guard!r} is reached tangentially at t={e.t!r} (n . f- + h_t = "
-                                    f"{speed!r}): a grazing, where the map has no derivative")
-        crossing = normal @ J
-        crossing[n_all:] += h_p
-        dtau = crossing / speed
+                                    f"{jump.speed!r}): a grazing, where the map has no derivative")
+        dtau = -(np.array(jump.time_state) @ J)  # -d(event time)/d(z, p)
+        dtau[n_all:] -= np.array(jump.time_params)
         if not reset:
             return J, dtau, f_minus
-        J_new = R_y @ J
-        J_new[:, n_all:] += R_p
-        J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
+        S = np.array(jump.matrix)
+        J_new = S @ J
+        J_new[:, n_all:] += np.array(jump.params).reshape(n_all, P)
         return J_new, dtau, f_plus
 
 
