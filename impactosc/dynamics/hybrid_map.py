@@ -37,6 +37,7 @@ from ..backends._hybrid_heyoka import DEFAULT_TOL
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import gated_sum, numeric, rules
 from ._jump import saltation_nd
+from ._newton import PeriodicOrbit, orbit_of, shoot
 
 __all__ = ["HybridMap", "HybridMapValue", "HybridOrbit", "periodic_orbit_of"]
 
@@ -336,26 +337,13 @@ def _compose(piece: np.ndarray, J: np.ndarray, n_all: int) -> np.ndarray:
     return out
 
 
-@dataclass(frozen=True, eq=False)
-class HybridOrbit:
-    """A fixed point of a :class:`HybridMap` (or the last Newton iterate, see ``status``)."""
-
-    z: np.ndarray
-    monodromy: np.ndarray
-    multipliers: np.ndarray  #: eigenvalues of ``dP/dz``, largest modulus first
-    signature: tuple
-    status: int  #: 0 converged, 1 not converged, 2 not differentiable (``message``), -1 a run failed
-    message: str
-    iterations: int
-    residual: float
-
-
-def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: int = 30) -> HybridOrbit:
+def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: int = 30) -> PeriodicOrbit:
     """A fixed point of ``hmap`` by Newton's method from ``guess``, with its Floquet multipliers.
 
-    Newton's step solves ``(M - I) dz = -(P(z) - z)`` (least squares when ``M - I`` is
-    singular), halving while the residual grows; convergence when
-    ``|P(z) - z| <= tol max(1, |z|)``.
+    The one shooting (:func:`._newton.shoot`, which the built-in family's
+    :func:`~impactosc.dynamics.periodic_orbit` calls too): Newton's step solves
+    ``(M - I) dz = -(P(z) - z)`` (least squares when ``M - I`` is singular), halving while
+    the residual does not fall; convergence when ``|P(z) - z| <= tol max(1, |z|)``.
 
     Parameters
     ----------
@@ -370,10 +358,12 @@ def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: i
 
     Returns
     -------
-    HybridOrbit
-        The fixed point ``z``, the monodromy matrix, the Floquet multipliers (largest
-        modulus first), the event signature of one period and a status: 0 converged,
-        1 not converged, 2 not differentiable (a grazing, see ``message``), -1 a run failed.
+    PeriodicOrbit
+        The fixed point ``z`` (named by ``state_names``), the monodromy matrix, the Floquet
+        multipliers (largest modulus first), the verdict, the event signature of one period
+        and a status: 0 converged, 1 not converged (stalled or out of iterations), 2 not
+        differentiable (a grazing, see ``message``), -1 the run from ``guess`` failed.
+        ``events`` and ``solution`` are None: simulate the system from ``z`` for the run.
 
     Examples
     --------
@@ -396,31 +386,9 @@ def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: i
     >>> bool(np.all(np.abs(orbit.multipliers) < 1))
     True
     """
-    z = np.asarray(guess, dtype=float).ravel()
-    n = z.size
-    value = hmap.evaluate(z)
-    for it in range(max_iter + 1):
-        if not value.ok:
-            return HybridOrbit(z, value.monodromy, np.full(n, np.nan), value.signature, -1, value.failure, it,
-                               math.nan)
-        res = value.residual
-        rnorm = float(np.linalg.norm(res))
-        if value.singular:
-            return HybridOrbit(z, value.monodromy, np.full(n, np.nan), value.signature, 2, value.singular, it, rnorm)
-        if rnorm <= tol * max(1.0, float(np.linalg.norm(z))):
-            mu = np.linalg.eigvals(value.monodromy)
-            mu = mu[np.argsort(-np.abs(mu))]
-            return HybridOrbit(z, value.monodromy, mu, value.signature, 0, "converged", it, rnorm)
-        if it == max_iter:
-            break
-        step = np.linalg.lstsq(value.monodromy - np.eye(n), -res, rcond=None)[0]
-        scale = 1.0
-        while True:
-            trial = hmap.evaluate(z + scale * step)
-            if trial.ok and np.linalg.norm(trial.residual) < rnorm or scale < 1e-6:
-                break
-            scale *= 0.5
-        z, value = z + scale * step, trial
-    mu = np.full(n, np.nan)
-    return HybridOrbit(z, value.monodromy, mu, value.signature, 1, f"Newton did not converge in {max_iter} iterations",
-                       max_iter, float(np.linalg.norm(value.residual)) if value.ok else math.nan)
+    shot = shoot(hmap, guess, tol=tol, max_iter=max_iter)
+    return orbit_of(shot, hmap.system, hmap.iterates, hmap.period(), hmap.t0, state_names=hmap.state_names)
+
+
+#: The result of :func:`periodic_orbit_of`: the one periodic-orbit type of every map.
+HybridOrbit = PeriodicOrbit
