@@ -39,7 +39,7 @@ from ..model.hybrid._numeric import gated_sum, numeric, rules
 from ._jump import saltation_nd
 from ._newton import PeriodicOrbit, orbit_of, shoot
 
-__all__ = ["HybridMap", "HybridMapValue", "HybridOrbit", "periodic_orbit_of"]
+__all__ = ["HybridMap", "HybridMapValue", "periodic_orbit_of"]
 
 #: ``|n . f- + h_t|`` below this fraction of ``|n| |f-| + |h_t|`` is a grazing: the map's derivative does not
 #: exist. Near a double root of the guard its time is only known to about ``sqrt(eps)`` (1.5e-8) relative,
