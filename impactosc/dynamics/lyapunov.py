@@ -295,6 +295,23 @@ def map_lyapunov_exponent(pmap, periods: int = 1000, *, state0=None, transient_p
                 z = np.asarray(value.image)
         if not ok:
             return LyapunovResult(math.nan, empty, empty, empty, -1, f"the transient failed: {why}", renormalise_every)
+    times, growth, status, message = _tangent_products(pmap, z, periods, renormalise_every, T)
+    t, g = np.array(times), np.array(growth)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        history = np.cumsum(g) / t if t.size else empty
+    exponent = float(history[-1]) if history.size else math.nan
+    if status == 0:
+        message = f"{t.size} renormalisations over {t[-1] if t.size else 0:.6g} time units"
+    elif status == 2:
+        exponent = math.nan
+    elif status == 3:
+        exponent = -math.inf
+    return LyapunovResult(exponent, t, history, g, status, message, renormalise_every)
+
+
+def _tangent_products(pmap, z, periods: int, every: int, T: float) -> tuple[list, list, int, str]:
+    """``(times, growth, status, message)``: the renormalised tangent products along ``z_{k+1} = P(z_k)``."""
+    d = z.size
     u = np.full(d, 1.0 / math.sqrt(d))
     J = np.eye(d)
     times: list[float] = []
@@ -310,7 +327,7 @@ def map_lyapunov_exponent(pmap, periods: int = 1000, *, state0=None, transient_p
             break
         J = value.monodromy @ J
         z = np.asarray(value.image)
-        if k % renormalise_every and k != periods:
+        if k % every and k != periods:
             continue
         w = J @ u
         norm = float(np.linalg.norm(w))
@@ -323,14 +340,4 @@ def map_lyapunov_exponent(pmap, periods: int = 1000, *, state0=None, transient_p
             break
         growth.append(math.log(norm))
         u = w / norm
-    t, g = np.array(times), np.array(growth)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        history = np.cumsum(g) / t if t.size else empty
-    exponent = float(history[-1]) if history.size else math.nan
-    if status == 0:
-        message = f"{t.size} renormalisations over {t[-1] if t.size else 0:.6g} time units"
-    elif status == 2:
-        exponent = math.nan
-    elif status == 3:
-        exponent = -math.inf
-    return LyapunovResult(exponent, t, history, g, status, message, renormalise_every)
+    return times, growth, status, message

@@ -7,6 +7,12 @@ state-transition matrices (:mod:`.flow`) and the saltation matrix of every event
 (:mod:`.saltation`), gathered by one run (:func:`.tangent.tangent_run`). Its eigenvalues are
 the orbit's Floquet multipliers: the orbit is stable when they all lie inside the unit circle.
 
+The Newton iteration and the result type are the ones every map shares (:mod:`._newton`:
+:func:`shoot`, :class:`PeriodicOrbit`); the map is :class:`~.oscillator_map.OscillatorMap`.
+What is the built-in family's own here: the transient that gives the first iterate, the
+section phase, the period as a multiple of the forcing period, the run of one period kept
+with the orbit, and :func:`monodromy`.
+
 A stick (or a chatter on a rigid flange) zeroes the ``V`` row of a saltation matrix, so the
 monodromy matrix of an orbit that sticks has rank one at most: one multiplier is exactly 0
 and the other is its trace. The result says so (``collapsed``) rather than reporting the
