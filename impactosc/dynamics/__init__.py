@@ -12,6 +12,7 @@ drive in SI units (:class:`~impactosc.TapeDrive`):
 :func:`periodic_orbit`             period-n orbits by Newton shooting, Floquet multipliers, verdict
 :func:`monodromy`                  the stroboscopic map and its Jacobian (saltation product)
 :func:`lyapunov_exponent`          largest Lyapunov exponent of the nonsmooth flow, with history
+                                   (the built-in family, a user system, any map)
 :func:`bifurcation_diagram`        stroboscopic points over a parameter, parallel, resumable,
                                    forward/backward continuation (hysteresis)
 :func:`contact_onset`              critical parameter value at which the steady state touches a flange
@@ -22,7 +23,11 @@ drive in SI units (:class:`~impactosc.TapeDrive`):
 :class:`HybridMap`                 the stroboscopic (or section) map of a user system
                                    (:class:`~impactosc.HybridSystem`) and its Jacobians by saltation
 :func:`periodic_orbit_of`          a periodic orbit of a user system by Newton's method on its
-                                   map, with its Floquet multipliers
+                                   map, with its Floquet multipliers (the same shooting as
+                                   :func:`periodic_orbit`, the same :class:`PeriodicOrbit`)
+:class:`OscillatorMap`             the built-in family's stroboscopic map behind the same
+                                   interface (:class:`PoincareMap`) as :class:`HybridMap`
+:func:`shoot`                      Newton + Floquet on any :class:`PoincareMap`
 =================================  ====================================================
 
 The Jacobians come from the smooth pieces' state-transition matrices (:mod:`.flow`) and a
@@ -33,6 +38,8 @@ of its definition (:mod:`.hybrid_map`).
 """
 
 from ._common import OSCILLATOR_PARAMETERS, TAPE_PARAMETERS, forcing_period, parameter_names
+from ._map import MapValue, PoincareMap
+from ._newton import Shot, shoot
 from .bifurcation import bifurcation_diagram, load_bifurcation, plot_bifurcation
 from .chart import onset_chart, plot_onset_chart
 from .closed_form import (
@@ -42,9 +49,11 @@ from .closed_form import (
     quasi_static_critical_clearance,
 )
 from .continuation import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint, continuation
-from .hybrid_map import HybridMap, HybridMapValue, HybridOrbit, periodic_orbit_of
-from .lyapunov import LyapunovResult, lyapunov_exponent
+from .hybrid_map import HybridMap, HybridMapValue, periodic_orbit_of
+from .hybrid_map import HybridOrbit as HybridOrbit  # the former name of PeriodicOrbit for user systems
+from .lyapunov import LyapunovResult, lyapunov_exponent, map_lyapunov_exponent
 from .onset import ContactOnset, contact_margin, contact_onset
+from .oscillator_map import OscillatorMap, OscillatorMapValue
 from .poincare import Section, detect_period, event_section, stroboscopic_section
 from .saltation import Saltation, saltation_matrix
 from .shooting import Monodromy, PeriodicOrbit, floquet_multipliers, monodromy, periodic_orbit
@@ -78,8 +87,14 @@ __all__ = [
     "SPECIAL_KINDS",
     "HybridMap",
     "HybridMapValue",
-    "HybridOrbit",
     "periodic_orbit_of",
+    "PoincareMap",
+    "MapValue",
+    "OscillatorMap",
+    "OscillatorMapValue",
+    "shoot",
+    "Shot",
+    "map_lyapunov_exponent",
     "den_hartog_amplitude",
     "den_hartog_onset",
     "den_hartog_multipliers",

@@ -32,6 +32,7 @@ import numpy as np
 
 from .._util import validation as _v
 from ..backends._simulate import simulate
+from ..model.hybrid._definition import HybridSystem
 from ..runner import PointStore, check_executor, check_store_path, point_key, run_points
 from ._common import (
     check_base,
@@ -43,6 +44,7 @@ from ._common import (
     section_offset,
     with_parameter,
 )
+from .system_bifurcation import system_bifurcation_diagram
 
 __all__ = ["bifurcation_diagram", "plot_bifurcation", "load_bifurcation", "CONTINUATIONS"]
 
@@ -170,8 +172,10 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
 
     Parameters
     ----------
-    base : Oscillator or TapeDrive
-        The model; ``parameter`` is one of its fields (a drive: SI units, e.g. ``speed``).
+    base : Oscillator, TapeDrive or HybridSystem
+        The model; ``parameter`` is one of its fields (a drive: SI units, e.g. ``speed``). A
+        user system (with a forcing period) goes to :func:`.system_bifurcation.system_bifurcation_diagram`
+        (``state0=``, ``t0=`` instead of ``x0, v0, phase``; no store).
     parameter : str
         The parameter to vary (see ``impactosc.dynamics.parameter_names``).
     values : sequence of float
@@ -214,6 +218,12 @@ def bifurcation_diagram(base, parameter: str, values, *, transient_periods: int 
     RuntimeError
         Every value (or pass) run was lost with its task (the workers crashed or could not start).
     """
+    if isinstance(base, HybridSystem):  # a user system: its own sampling, the same runner
+        if store is not None or (x0, v0, phase) != (0.95, 0.0, None):
+            raise TypeError("x0, v0, phase and store are the built-in family's; a user system takes state0= and t0=")
+        return system_bifurcation_diagram(base, parameter, values, transient_periods=transient_periods,
+                                          record_periods=record_periods, continuation=continuation, backend=backend,
+                                          executor=executor, progress=progress, **options)
     settings = _check(base, parameter, values, transient_periods, record_periods, continuation, x0, v0, phase,
                       backend, options)
     check_executor(executor)

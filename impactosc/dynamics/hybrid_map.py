@@ -10,9 +10,10 @@ rule::
 
     J+ = R_y J + [0 | R_p] + (f+ - R_y f- - R_t) (n^T J + [0 | h_p]) / (n . f- + h_t)
 
-with ``n = dh/dy``, ``h_t``, ``h_p`` the guard's derivatives and ``R_y``, ``R_t``, ``R_p`` the
-reset's, all symbolic derivatives of the definition, ``f-``/``f+`` the vector fields before and
-after. Without parameters and time dependence this is ``S = R + (f+ - R f-) n^T / (n . f-)``.
+(the one saltation formula of every system, :func:`._jump.saltation_nd`) with ``n = dh/dy``,
+``h_t``, ``h_p`` the guard's derivatives and ``R_y``, ``R_t``, ``R_p`` the reset's, all
+symbolic derivatives of the definition, ``f-``/``f+`` the vector fields before and after.
+Without parameters and time dependence this is ``S = R + (f+ - R f-) n^T / (n . f-)``.
 Where ``n . f- + h_t`` vanishes (the orbit reaches the guard tangentially: a grazing) the map
 is not differentiable: the evaluation says so (``singular``), with the guard and the time,
 instead of returning a huge number. Everything is n-dimensional: the paper's eq. 3
@@ -38,8 +39,10 @@ from ..backends._hybrid_heyoka import DEFAULT_TOL
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import gated_sum, numeric, rules
 from ._guard_extrema import crossing_rate, guard_extrema
+from ._jump import saltation_nd
+from ._newton import PeriodicOrbit, orbit_of, shoot
 
-__all__ = ["HybridMap", "HybridMapValue", "HybridOrbit", "periodic_orbit_of"]
+__all__ = ["HybridMap", "HybridMapValue", "periodic_orbit_of"]
 
 #: ``|n . f- + h_t|`` below this fraction of ``|n| |f-| + |h_t|`` is a grazing: the map's derivative does not
 #: exist. Near a double root of the guard its time is only known to about ``sqrt(eps)`` (1.5e-8) relative,
@@ -206,6 +209,19 @@ class HybridMap:
         """Forcing periods (or section returns) per map, as the continuation's map problem names it."""
         return self.iterates
 
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """The names of the components of ``z``: the system's states."""
+        return tuple(self.system.states)
+
+    def period(self, params=None) -> float:
+        """The time one map takes at ``params`` (default :meth:`values`); NaN for a section map."""
+        if self.section is not None:
+            return math.nan
+        params = self.values() if params is None else tuple(float(q) for q in params)
+        p = self.system.with_parameters(**dict(zip(self.names, params, strict=True))).parameter_values
+        return self.iterates * float(self._period(0.0, [0.0] * len(numeric(self.system).states), p)[0])
+
     def with_names(self, names) -> HybridMap:
         """The same map with other free parameters."""
         return HybridMap(self.system, self.iterates, names=names, mode=self.mode, t0=self.t0, tol=self.tol,
@@ -326,18 +342,21 @@ class HybridMap:
             R_y[:n] = rows[:, :n_all]
             R_t[:n] = rows[:, n_all]
             R_p[:n] = rows[:, n_all + 1:]
-        speed = float(normal @ f_minus + h_t)
-        if abs(speed) <= GRAZING_RATIO * (np.linalg.norm(normal) * np.linalg.norm(f_minus) + abs(h_t)):
+        if not reset:  # a marker guard: no transition, only its time moves
+            R_t, R_p, f_plus = np.zeros(n_all), np.zeros((n_all, P)), f_minus
+        jump = saltation_nd(R_y.tolist(), f_minus.tolist(), f_plus.tolist(), normal.tolist(), h_t=float(h_t),
+                            reset_rate=R_t.tolist(), guard_params=h_p.tolist(), reset_params=R_p.tolist(),
+                            tangential=GRAZING_RATIO * (np.linalg.norm(normal) * np.linalg.norm(f_minus) + abs(h_t)))
+        if jump.singular:
             raise ZeroDivisionError(f"guard {e.guard!r} is reached tangentially at t={e.t!r} (n . f- + h_t = "
-                                    f"{speed!r}): a grazing, where the map has no derivative")
-        crossing = normal @ J
-        crossing[n_all:] += h_p
-        dtau = crossing / speed
+                                    f"{jump.speed!r}): a grazing, where the map has no derivative")
+        dtau = -(np.array(jump.time_state) @ J)  # -d(event time)/d(z, p)
+        dtau[n_all:] -= np.array(jump.time_params)
         if not reset:
             return J, dtau, f_minus
-        J_new = R_y @ J
-        J_new[:, n_all:] += R_p
-        J_new += np.outer(f_plus - R_y @ f_minus - R_t, dtau)
+        S = np.array(jump.matrix)
+        J_new = S @ J
+        J_new[:, n_all:] += np.array(jump.params).reshape(n_all, P)
         return J_new, dtau, f_plus
 
 
@@ -365,26 +384,13 @@ def _compose(piece: np.ndarray, J: np.ndarray, n_all: int) -> np.ndarray:
     return out
 
 
-@dataclass(frozen=True, eq=False)
-class HybridOrbit:
-    """A fixed point of a :class:`HybridMap` (or the last Newton iterate, see ``status``)."""
-
-    z: np.ndarray
-    monodromy: np.ndarray
-    multipliers: np.ndarray  #: eigenvalues of ``dP/dz``, largest modulus first
-    signature: tuple
-    status: int  #: 0 converged, 1 not converged, 2 not differentiable (``message``), -1 a run failed
-    message: str
-    iterations: int
-    residual: float
-
-
-def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: int = 30) -> HybridOrbit:
+def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: int = 30) -> PeriodicOrbit:
     """A fixed point of ``hmap`` by Newton's method from ``guess``, with its Floquet multipliers.
 
-    Newton's step solves ``(M - I) dz = -(P(z) - z)`` (least squares when ``M - I`` is
-    singular), halving while the residual grows; convergence when
-    ``|P(z) - z| <= tol max(1, |z|)``.
+    The one shooting (:func:`._newton.shoot`, which the built-in family's
+    :func:`~impactosc.dynamics.periodic_orbit` calls too): Newton's step solves
+    ``(M - I) dz = -(P(z) - z)`` (least squares when ``M - I`` is singular), halving while
+    the residual does not fall; convergence when ``|P(z) - z| <= tol max(1, |z|)``.
 
     Parameters
     ----------
@@ -399,10 +405,12 @@ def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: i
 
     Returns
     -------
-    HybridOrbit
-        The fixed point ``z``, the monodromy matrix, the Floquet multipliers (largest
-        modulus first), the event signature of one period and a status: 0 converged,
-        1 not converged, 2 not differentiable (a grazing, see ``message``), -1 a run failed.
+    PeriodicOrbit
+        The fixed point ``z`` (named by ``state_names``), the monodromy matrix, the Floquet
+        multipliers (largest modulus first), the verdict, the event signature of one period
+        and a status: 0 converged, 1 not converged (stalled or out of iterations), 2 not
+        differentiable (a grazing, see ``message``), -1 the run from ``guess`` failed.
+        ``events`` and ``solution`` are None: simulate the system from ``z`` for the run.
 
     Examples
     --------
@@ -425,31 +433,9 @@ def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: i
     >>> bool(np.all(np.abs(orbit.multipliers) < 1))
     True
     """
-    z = np.asarray(guess, dtype=float).ravel()
-    n = z.size
-    value = hmap.evaluate(z)
-    for it in range(max_iter + 1):
-        if not value.ok:
-            return HybridOrbit(z, value.monodromy, np.full(n, np.nan), value.signature, -1, value.failure, it,
-                               math.nan)
-        res = value.residual
-        rnorm = float(np.linalg.norm(res))
-        if value.singular:
-            return HybridOrbit(z, value.monodromy, np.full(n, np.nan), value.signature, 2, value.singular, it, rnorm)
-        if rnorm <= tol * max(1.0, float(np.linalg.norm(z))):
-            mu = np.linalg.eigvals(value.monodromy)
-            mu = mu[np.argsort(-np.abs(mu))]
-            return HybridOrbit(z, value.monodromy, mu, value.signature, 0, "converged", it, rnorm)
-        if it == max_iter:
-            break
-        step = np.linalg.lstsq(value.monodromy - np.eye(n), -res, rcond=None)[0]
-        scale = 1.0
-        while True:
-            trial = hmap.evaluate(z + scale * step)
-            if trial.ok and np.linalg.norm(trial.residual) < rnorm or scale < 1e-6:
-                break
-            scale *= 0.5
-        z, value = z + scale * step, trial
-    mu = np.full(n, np.nan)
-    return HybridOrbit(z, value.monodromy, mu, value.signature, 1, f"Newton did not converge in {max_iter} iterations",
-                       max_iter, float(np.linalg.norm(value.residual)) if value.ok else math.nan)
+    shot = shoot(hmap, guess, tol=tol, max_iter=max_iter)
+    return orbit_of(shot, hmap.system, hmap.iterates, hmap.period(), hmap.t0, state_names=hmap.state_names)
+
+
+#: The result of :func:`periodic_orbit_of`: the one periodic-orbit type of every map.
+HybridOrbit = PeriodicOrbit

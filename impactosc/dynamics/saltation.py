@@ -16,8 +16,11 @@ otherwise: the engine's snap onto the guard surface moves a state that is alread
 Everything here comes from the model's definition: ``f`` from :meth:`Oscillator.acceleration`
 (its scalar twin), ``n`` and ``h_t`` from :func:`impactosc.engine.guard_gradient`, the modes
 before and after from the engine's transition rule. A new member of the model family
-therefore gets its saltation matrices without new code here. Special cases follow from
-the formula, they are not coded:
+therefore gets its saltation matrices without new code here. The formula itself is the
+one every system shares (:func:`._jump.saltation_nd`, n-dimensional; a user system's map
+calls it too); what is the built-in family's own is what it is given: the 2-D fields, the
+guard gradient from the rule, the reset ``diag(1, -e)`` and the grazing bounds below.
+Special cases follow from the formula, they are not coded:
 
 * a continuous vector field across the guard (spring flange entry and exit, the internal
   acceleration-zero re-arming, a release with ``beta_static == beta``) gives ``S = I``;
@@ -71,6 +74,7 @@ from ..engine._driver import (
 from ..model import _rule
 from ..model._layout import EPS
 from ..model._oscillator import Oscillator
+from ._jump import saltation_nd
 
 __all__ = ["Saltation", "saltation_matrix", "vector_field"]
 
@@ -147,14 +151,13 @@ def saltation_matrix(osc: Oscillator, t: float, mode_before: Mode, guard: int, m
             return Saltation(t, name, kind, (r11, 0.0, 0.0, 0.0), 0.0, False)
         return Saltation(t, name, kind, (r11, 0.0, 0.0, r22), r11 * r22, False)
     scale = abs(nx * fx0) + abs(nv * fv0) + abs(ht)
-    if not (abs(denom) > TANGENCY * scale and abs(denom) > graze):
+    bound = max(graze, TANGENCY * scale)
+    jump = saltation_nd(((r11, 0.0), (0.0, r22)), (fx0, fv0), (fx1, fv1), (nx, nv), h_t=ht, tangential=bound)
+    if jump.singular:
         return _singular(t, name, kind, f"the {name} guard is crossed tangentially at t={t:.12g} (its crossing rate "
-                         f"{denom:.3g} is within the rounding bound {max(graze, TANGENCY * scale):.3g}): the map "
-                         "is not differentiable there")
-    a = r11 + jx * nx / denom
-    b = jx * nv / denom
-    c = jv * nx / denom
-    d = r22 + jv * nv / denom
+                         f"{denom:.3g} is within the rounding bound {bound:.3g}): the map is not differentiable "
+                         "there")
+    (a, b), (c, d) = jump.matrix
     if into_stick:
         # Into a stuck mode V is 0 after the event for every nearby trajectory: the V row is
         # exactly zero (the formula gives 1 - a-/a- up to rounding).
