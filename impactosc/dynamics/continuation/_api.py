@@ -21,14 +21,14 @@ from .._common import (
     parameter_value,
     with_parameter,
 )
-from ..hybrid_map import HybridMap, HybridOrbit
+from ..hybrid_map import HybridMap
 from ..shooting import PeriodicOrbit
 from ..tangent import check_backend, check_start
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
 from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
 from ._follow import follow, make_node
-from ._hybrid_problem import system_problem
+from ._hybrid_problem import is_system_orbit, system_problem
 from ._problem import MapProblem
 
 __all__ = ["continuation"]
@@ -241,7 +241,7 @@ def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, ba
 
 def _of_a_system(start, base) -> bool:
     """Whether the start is a user system's: its orbit, a point of its branch, or a guess with its map as base."""
-    if isinstance(base, HybridMap | HybridSystem) or isinstance(start, HybridOrbit):
+    if isinstance(base, HybridMap | HybridSystem) or is_system_orbit(start):
         return True
     branch = getattr(start, "branch", None) if isinstance(start, BranchPoint | SpecialPoint) else None
     return branch is not None and branch.is_system
@@ -250,7 +250,7 @@ def _of_a_system(start, base) -> bool:
 def _system_branch(start, parameter, limits, base, direction: str, settings: Settings, progress, max_points: int,
                    options) -> Branch:
     """The branch of a user system's periodic orbits (:mod:`._hybrid_problem`), by the same follow loop."""
-    if isinstance(start, HybridOrbit) and base is None:
+    if is_system_orbit(start) and base is None:
         raise TypeError("a HybridOrbit does not carry its map: pass it with base=HybridMap(system, ...) (the map "
                         "periodic_orbit_of solved), or the system itself")
     if isinstance(start, BranchPoint | SpecialPoint):

@@ -32,10 +32,16 @@ from collections import Counter
 import numpy as np
 
 from ...model.hybrid._definition import HybridSystem
-from ..hybrid_map import HybridMap, HybridMapValue, HybridOrbit
+from .._newton import PeriodicOrbit
+from ..hybrid_map import HybridMap, HybridMapValue
 from ._points import GUARD, PointInfo, smooth_tests, stability
 
-__all__ = ["SystemProblem", "GUARD", "system_problem"]
+__all__ = ["SystemProblem", "GUARD", "system_problem", "is_system_orbit"]
+
+
+def is_system_orbit(start) -> bool:
+    """Whether ``start`` is a periodic orbit of a user system (the built-in family's is one too, of an Oscillator)."""
+    return isinstance(start, PeriodicOrbit) and isinstance(start.model, HybridSystem)
 
 
 class SystemProblem:
@@ -218,7 +224,7 @@ def system_problem(start, parameter: str, limits, base, options: dict):
         raise ValueError(f"parameter must name a parameter of the system {system.name!r}; the parameters are "
                          f"{list(system.parameter_names)}, got {parameter!r}")
     hmap = base.with_names((parameter,))
-    if isinstance(start, HybridOrbit):
+    if is_system_orbit(start):
         if start.status != 0:
             raise ValueError(f"start must be a converged HybridOrbit (status 0), got status {start.status}: "
                              f"{start.message}")
