@@ -24,10 +24,10 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const,
     Returns ``(tau, guard, status, q1, v1, work, dissipation)`` (:func:`setup_piece`,
     :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`).
     """
-    a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X = setup_piece(
+    a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X = setup_piece(
         lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0)
     armed = np.ones(W.shape[0], dtype=np.bool_)
-    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, t_end - t0)
+    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, t_end - t0)
     if status != 0:
         return tau, g, status, q0, v0, 0.0, 0.0
     if g < 0:
@@ -41,7 +41,7 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const,
 
 @njit
 def run_mode(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
-             guard_kind, guard_index, impact_kind, normals, mn, nmn, restitution, gaps, mn_norm, any_resting,
+             guard_kind, guard_index, impact_kind, normals, mn, nmn, restitution, can_rest, gaps, mn_norm, any_resting,
              fr_coord, fr_motion, fr_kinetic, f0, M, bound_forces, k_norm, c_norm, chatter_height, push_margin,
              t, q, v, t_end, energy, ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v):
     """Pieces of one mode, with the impacts that keep the mode resolved here, compiled.
@@ -86,7 +86,7 @@ def run_mode(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const
             s = 1 if vn[fr_coord[i]] > 0.0 else (-1 if vn[fr_coord[i]] < 0.0 else 0)
             if s != fr_motion[i]:
                 return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
-        if restitution[c] < 1.0:
+        if can_rest[c]:
             wn = -(normals[c] @ vn)
             if wn <= 0.0:
                 return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale

@@ -57,11 +57,12 @@ def E(lam, mu, tau):
 def setup_piece(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
     """The coefficients of the piece that starts at ``(t0, q0, v0)`` in a mode.
 
-    Returns ``(a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X)``: the modal
-    amplitudes of the classical form, the particular amplitudes, the modal forcing, the
+    Returns ``(a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X)``: the
+    modal amplitudes of the classical form, the particular amplitudes, the modal forcing, the
     resonance flags, for every guard its exponential, harmonic and resonant coefficients and
-    constant, the frequencies (``omt[0] = 0``), the size of the terms of each constant (its
-    rounding scale), and the zero-eigenvalue block: each guard's polynomial coefficients
+    constant, the frequencies (``omt[0] = 0``), the rounding scales of each guard's value and
+    derivative at the start (:func:`_rounding_scales`), and the zero-eigenvalue block: each
+    guard's polynomial coefficients
     ``poly[g, p]`` (of ``tau^p``) and the block's coordinates
     ``xi = sum_p Xi[p] tau^p + sum_j X[j] e^{i omega_j tau}``.
     """
@@ -93,7 +94,7 @@ def setup_piece(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, co
     W, D, RG, rk, rj = _guard_terms(lam, pair, wk, gu, om, fh, t0, a, P, beta, res, nres)
     ng = wk.shape[0]
     c0 = ga @ q0 + gc
-    cscale = np.abs(ga) @ np.abs(q0) + np.abs(gc)
+    cscale, dscale = _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, res)
     Xi, X = _zero_block(N, gin0, gv0, om, fh, t0, q0, v0, const, kmode)
     k0 = N.shape[0]
     poly = np.zeros((ng, k0 + 1))
@@ -102,7 +103,51 @@ def setup_piece(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, co
             poly[g, p] = (wk0[g] @ Xi[p]).real
         for j in range(nh):
             D[g, j + 1] += wk0[g] @ X[j + 1]
-    return a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, poly, Xi, X
+    return a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X
+
+
+@njit
+def _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, res):
+    """Every guard's rounding scales at the piece start: ``(value, derivative)``.
+
+    The closed form rebuilds a guard from the modal state, ``h(0) = c0 + Re sum_k wk_k (eta0_k
+    - sum_j P_kj) + ...``, whose terms can be far larger than ``h`` or its terms after they
+    cancel: the modal velocities ``gv v0`` of coordinates the guard does not see (a neighbour
+    moving fast while the guarded one is at rest), the particular amplitudes of a preloaded
+    spring (``const - K q0``, two large forces that cancel). The sizes of these terms before
+    the cancellation are the scales of the rounding of ``h(0)`` and ``h'(0)``; without them a
+    guard at rest on its zero looks clearly crossed (a reversal or an impact fired again at
+    once, with no time passing).
+    """
+    m2 = lam.shape[0]
+    ng = wk.shape[0]
+    jt = omt.shape[0]
+    n = q0.shape[0]
+    f0abs = np.abs(const) + np.abs(kmode) @ np.abs(q0)
+    vabs = np.abs(v0)
+    cscale = np.abs(ga) @ np.abs(q0) + np.abs(gc)
+    dscale = np.zeros(ng)
+    for k in range(m2):
+        eta_abs = 0.0
+        for i in range(n):
+            eta_abs += abs(gv[k, i]) * vabs[i]
+        vk = eta_abs
+        dk = abs(lam[k]) * eta_abs
+        for j in range(jt):
+            babs = 0.0
+            for i in range(n):
+                babs += abs(gin[k, i]) * (f0abs[i] if j == 0 else abs(fh[j - 1, i]))
+            if res[k, j]:
+                dk += babs
+            else:
+                d = abs(1j * omt[j] - lam[k])
+                vk += babs / d
+                dk += babs * (abs(lam[k]) + omt[j]) / d
+        for g in range(ng):
+            w = abs(wk[g, k])
+            cscale[g] += w * vk
+            dscale[g] += w * dk
+    return cscale, dscale
 
 
 @njit

@@ -165,7 +165,7 @@ def _leave_band(st, tol, t0, T):
 
 
 @njit
-def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
+def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, T):
     """The first armed guard that rises through zero in ``(0, T]``: ``(tau, guard, status)``.
 
     ``guard`` is -1 when none does before ``T``. A guard that starts on its zero (within
@@ -195,7 +195,7 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
         h0, d0 = _h(st, 0.0)
         size, dsize = _size(st)
         tol = _START_ULPS * _EPS * (size + cscale[g])
-        dtol = _START_ULPS * _EPS * dsize
+        dtol = _START_ULPS * _EPS * (dsize + dscale[g])
         if h0 >= -tol and (d0 > dtol or h0 > tol):
             return 0.0, g, 0
         if h0 >= -tol:

@@ -63,6 +63,8 @@ class _Runner:
         self.nmn_array = np.array(self.nmn, dtype=float)
         self.mn_norm_array = np.array(self.mn_norm, dtype=float)
         self.restitution = np.array([c.restitution if c.rigid else 1.0 for c in system.contacts], dtype=float)
+        self.can_rest = system.can_rest
+        self.can_rest_array = np.array(self.can_rest, dtype=np.bool_)
         self.gaps = np.array([c.gap for c in system.contacts], dtype=float)
         self.fr_coord = np.array([f.coordinate for f in system.friction], dtype=np.int64)
         self.fr_kinetic = np.array([f.kinetic for f in system.friction], dtype=float)
@@ -101,7 +103,7 @@ class _Runner:
                                    q0, v0)
 
     def evaluate(self, mode: Mode, piece, q0: np.ndarray, taus: np.ndarray):
-        a, P, beta, res, _, _, _, _, _, _, omt, _, _, Xi, X = piece
+        a, P, beta, res, _, _, _, _, _, _, omt, _, _, _, Xi, X = piece
         qs = np.empty((taus.size, self.system.n))
         vs = np.empty_like(qs)
         for i, tau in enumerate(taus):
@@ -131,7 +133,7 @@ def _initial_key(runner: _Runner, q: np.ndarray, v: np.ndarray, t: float) -> tup
     key = (tuple(engaged), tuple(resting), tuple(motion))
     for c, contact in enumerate(system.contacts):
         g = float(contact.normal @ q) - contact.gap
-        if contact.rigid and contact.restitution < 1.0 and abs(g) <= 1e-12 * max(1.0, contact.gap) \
+        if runner.can_rest[c] and abs(g) <= 1e-12 * max(1.0, contact.gap) \
                 and float(contact.normal @ v) == 0.0:
             r = runner.residual_force(key, t, q, v)
             if float(contact.normal @ runner.minv @ r) > 0.0:  # pushed into the stop
@@ -232,7 +234,7 @@ def _compiled_pieces(runner: _Runner, mode: Mode, key: tuple, t: float, q: np.nd
         mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu,
         mode.gc, mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
         mode.guard_kind, mode.guard_index, IMPACT, runner.normals, runner.mn_array, runner.nmn_array,
-        runner.restitution, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
+        runner.restitution, runner.can_rest_array, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
         np.array(key[2], dtype=np.int64), runner.fr_kinetic, runner.f0, system.M,
         runner.f_norm + float(np.abs(mode.const).sum()), runner.k_norm(mode), runner.c_norm, _CHATTER_HEIGHT,
         _PUSH_MARGIN, t, q, v, t_end, energy, *buffers)
@@ -328,7 +330,7 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
         if on and b not in held:
             resting[b] = False
             events.append((t, "lift", b, q, v))
-    if contact.restitution < 1.0:  # with e = 1 nothing is lost: the rebounds do not accumulate
+    if runner.can_rest[c]:  # e = 1 too: damping or a slow approach leaves rebounds below the rounding
         resting, q, v = _chatter_rest(runner, key, c, t, q, v, resting, events)
     if runner.energy:
         terms["impacts"] += 0.5 * float((v_before - v) @ system.M @ (v_before + v))
@@ -381,7 +383,7 @@ def _chatter_rest(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, 
     if not _may_settle(runner, key, c, q, v):
         return resting, q, v
     others = [b for b, contact in enumerate(system.contacts)
-              if b != c and contact.rigid and contact.restitution < 1.0 and not resting[b]
+              if b != c and runner.can_rest[b] and not resting[b]
               and abs(float(contact.normal @ q) - contact.gap) <= 1e-12 * max(1.0, contact.gap)]
     candidates = [c, *others]
     while candidates:
