@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._util.jit import njit
-from ._forms import integrals, setup_piece, state_at
+from ._forms import integrals, rdot, rmv, setup_piece, state_at
 from ._guards import search
 
 __all__ = ["advance", "run_mode"]
@@ -35,7 +35,7 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const,
     q1, v1 = state_at(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau)
     work = diss = 0.0
     if energy:
-        work, diss = integrals(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)
+        work, diss = integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)
     return tau, g, status, q1, v1, work, diss
 
 
@@ -71,30 +71,30 @@ def run_mode(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const
             return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
         t1 = t + tau if g >= 0 else t_end
         if energy:
-            work += w + f0 @ (q1 - q)
+            work += w + rdot(f0, q1 - q)
             diss += d
             for i in range(fr_coord.shape[0]):
                 fric += fr_kinetic[i] * fr_motion[i] * (q1[fr_coord[i]] - q[fr_coord[i]])
-            escale = max(escale, 0.5 * abs(v1 @ (M @ v1)) + 0.5 * abs(q1 @ (kmode @ q1)))
+            escale = max(escale, 0.5 * abs(rdot(v1, rmv(M, v1))) + 0.5 * abs(rdot(q1, rmv(kmode, q1))))
         t, q, v = t1, q1, v1
         if g < 0 or guard_kind[g] != impact_kind or tau == 0.0 or any_resting or n_ev >= cap or n_pc >= cap:
             return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
         c = guard_index[g]
-        u = normals[c] @ v
+        u = rdot(normals[c], v)
         vn = v - (1.0 + restitution[c]) * u / nmn[c] * mn[c] if u > 0.0 else v.copy()
         for i in range(fr_coord.shape[0]):
             s = 1 if vn[fr_coord[i]] > 0.0 else (-1 if vn[fr_coord[i]] < 0.0 else 0)
             if s != fr_motion[i]:
                 return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
         if can_rest[c]:
-            wn = -(normals[c] @ vn)
+            wn = -rdot(normals[c], vn)
             if wn <= 0.0:
                 return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
             forces = bound_forces + k_norm * np.abs(q).sum() + c_norm * np.abs(vn).sum()
             if wn * wn <= 2.0 * push_margin * mn_norm[c] * forces * chatter_height * max(1.0, gaps[c]):
                 return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
         if energy:
-            loss += 0.5 * ((v - vn) @ (M @ (v + vn)))
+            loss += 0.5 * rdot(v - vn, rmv(M, v + vn))
         v = vn
         ev_t[n_ev] = t
         ev_index[n_ev] = c
