@@ -1,8 +1,10 @@
 """One piece, and the pieces and impacts of one mode, in one compiled call each.
 
 :func:`advance` sets a piece up (:mod:`._forms`), searches its guards (:mod:`._guards`) and
-evaluates its end; :func:`run_mode` strings pieces of one mode together with the impacts that
-keep it, so that the Python transition rule (:mod:`._run`) runs only where the mode changes.
+evaluates its end; :func:`run_modes` strings pieces together with the events that only change
+the mode (springs, lift-offs, releases) and the impacts that keep it, across the modes built so
+far, so that the Python transition rule (:mod:`._run`) runs only where it must decide (stick
+tests, rest) or build a mode.
 """
 
 from __future__ import annotations
@@ -12,8 +14,9 @@ import numpy as np
 from ..._util.jit import njit
 from ._forms import integrals, rdot, rmv, setup_piece, state_at
 from ._guards import search
+from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE
 
-__all__ = ["advance", "run_mode"]
+__all__ = ["advance", "run_modes"]
 
 
 @njit
@@ -40,20 +43,26 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const,
 
 
 @njit
-def run_mode(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
-             guard_kind, guard_index, impact_kind, normals, mn, nmn, restitution, can_rest, gaps, mn_norm, any_resting,
-             fr_coord, fr_motion, fr_kinetic, f0, M, bound_forces, k_norm, c_norm, chatter_height, push_margin,
-             t, q, v, t_end, energy, ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v):
-    """Pieces of one mode, with the impacts that keep the mode resolved here, compiled.
+def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh, csym, normals, mn, nmn,
+              restitution, can_rest, gaps, mn_norm, fr_coord, fr_kinetic, f0, M, f_norm, c_norm, chatter_height,
+              push_margin, t, q, v, t_end, energy, zero_time, max_zero, ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t,
+              pc_mode, pc_q, pc_v):
+    """Pieces and the transitions that only change the mode, compiled: one call for a run of them.
 
-    An impact on a rigid stop keeps the mode when no stop rests, the impulse reverses no
-    friction coordinate and the rebound is too fast for rest (the cheap bound of the push of
-    the Python rule): those are applied here (``v -> v - (1 + e) (n.v) M^-1 n / (n.M^-1 n)``)
-    and recorded in ``ev_*``, every piece start in ``pc_*``. Any other event, ``t_end``, a
-    full buffer or a failed search returns to the Python rule with the state at the event.
+    ``table[mi]`` is the mode (:meth:`._modes.Mode.entry`), ``index_of`` maps the code of a
+    mode (``sum engaged 2^c + sum resting 2^(nc + c) + sum (motion + 1) 3^i 2^(2 nc)``, the bits
+    and units given) to its row. Handled here: a spring contact engaging or opening, a stop
+    lifting off, a stuck coordinate released (the next mode's code, found in the table, or
+    back to Python to build it), and an impact on a rigid stop that keeps the mode (no stop
+    rests, the impulse reverses no friction coordinate and the rebound is too fast for rest:
+    ``v -> v - (1 + e) (n.v) M^-1 n / (n.M^-1 n)``). Every other event (a stick test, an impact
+    that may end in rest or that meets resting stops), ``t_end``, a full buffer, a failed
+    search or more than ``max_zero`` transitions without time passing returns to the Python
+    rule with the state at the event and the guard that fired. Events go to ``ev_*``
+    (their kinds as guard kinds), piece starts and their modes to ``pc_*``.
 
-    Returns ``(n_events, n_pieces, tau, guard, status, t, q, v, work, dissipation, friction,
-    impact_loss, energy_scale)``.
+    Returns ``(n_events, n_pieces, tau, guard, status, mi, code, zero_time, t, q, v, work,
+    dissipation, friction, impact_loss, energy_scale)``.
     """
     n_ev = 0
     n_pc = 0
@@ -61,42 +70,67 @@ def run_mode(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const
     escale = 0.0
     cap = ev_t.shape[0]
     while True:
+        (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+         guard_index, guard_sign, motion, info) = table[mi]
         tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om,
                                            fh, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy)
         pc_t[n_pc] = t
+        pc_mode[n_pc] = mi
         pc_q[n_pc] = q
         pc_v[n_pc] = v
         n_pc += 1
         if st != 0:
-            return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
+            return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
         t1 = t + tau if g >= 0 else t_end
         if energy:
             work += w + rdot(f0, q1 - q)
             diss += d
             for i in range(fr_coord.shape[0]):
-                fric += fr_kinetic[i] * fr_motion[i] * (q1[fr_coord[i]] - q[fr_coord[i]])
+                fric += fr_kinetic[i] * motion[i] * (q1[fr_coord[i]] - q[fr_coord[i]])
             escale = max(escale, 0.5 * abs(rdot(v1, rmv(M, v1))) + 0.5 * abs(rdot(q1, rmv(kmode, q1))))
         t, q, v = t1, q1, v1
-        if g < 0 or guard_kind[g] != impact_kind or tau == 0.0 or any_resting or n_ev >= cap or n_pc >= cap:
-            return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
+        if g < 0 or n_ev >= cap or n_pc >= cap:
+            return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
+        kind = guard_kind[g]
         c = guard_index[g]
-        u = rdot(normals[c], v)
-        vn = v - (1.0 + restitution[c]) * u / nmn[c] * mn[c] if u > 0.0 else v.copy()
-        for i in range(fr_coord.shape[0]):
-            s = 1 if vn[fr_coord[i]] > 0.0 else (-1 if vn[fr_coord[i]] < 0.0 else 0)
-            if s != fr_motion[i]:
-                return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
-        if can_rest[c]:
-            wn = -rdot(normals[c], vn)
-            if wn <= 0.0:
-                return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
-            forces = bound_forces + k_norm * np.abs(q).sum() + c_norm * np.abs(vn).sum()
-            if wn * wn <= 2.0 * push_margin * mn_norm[c] * forces * chatter_height * max(1.0, gaps[c]):
-                return n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale
-        if energy:
-            loss += 0.5 * rdot(v - vn, rmv(M, v + vn))
-        v = vn
+        if kind == IMPACT:
+            if tau == 0.0 or info[0] != 0.0:
+                return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
+            u = rdot(normals[c], v)
+            vn = v - (1.0 + restitution[c]) * u / nmn[c] * mn[c] if u > 0.0 else v.copy()
+            for i in range(fr_coord.shape[0]):
+                s = 1 if vn[fr_coord[i]] > 0.0 else (-1 if vn[fr_coord[i]] < 0.0 else 0)
+                if s != motion[i]:
+                    return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
+            if can_rest[c]:
+                wn = -rdot(normals[c], vn)
+                forces = f_norm + info[1] + info[2] * np.abs(q).sum() + c_norm * np.abs(vn).sum()
+                if wn <= 0.0 or wn * wn <= 2.0 * push_margin * mn_norm[c] * forces * chatter_height * max(1.0, gaps[c]):
+                    return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
+            if energy:
+                loss += 0.5 * rdot(v - vn, rmv(M, v + vn))
+            v = vn
+            zero_time = 0
+        else:
+            if kind == ENTER:
+                new = code + spring_bit[c]
+            elif kind == LEAVE:
+                new = code - spring_bit[c]
+            elif kind == LIFT:
+                new = code - rest_bit[c]
+            elif kind == RELEASE:
+                new = code + guard_sign[g] * fric_unit[c]
+            else:
+                return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
+            nxt = index_of[new] if new in index_of else -1
+            zt = zero_time + 1 if tau == 0.0 else 0
+            if nxt < 0 or zt > max_zero:
+                return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
+            zero_time = zt
+            mi = nxt
+            code = new
         ev_t[n_ev] = t
+        ev_kind[n_ev] = kind
         ev_index[n_ev] = c
         ev_q[n_ev] = q
         ev_v[n_ev] = v

@@ -60,6 +60,16 @@ class Mode:
     guard_kind: np.ndarray  # the guards' kinds and indices as arrays, for the compiled loop
     guard_index: np.ndarray
     pair: np.ndarray  # the index of each eigenvalue's complex conjugate (-1: real or unpaired)
+    guard_sign: np.ndarray
+
+    def entry(self) -> tuple:
+        """The mode as a row of the compiled loop's table (:func:`._closed.run_modes`): its arrays,
+        its friction motions and ``[resting on a stop, |const|_1, max |K_mode|]``."""
+        info = np.array([float(any(self.key[1])), float(np.abs(self.const).sum()),
+                         float(np.abs(self.kmode).max(initial=0.0))])
+        return (self.lam, self.pair, self.gin, self.gv, self.wk, self.N, self.gin0, self.gv0, self.wk0, self.ga,
+                self.gu, self.gc, self.kmode, self.const, self.vq, self.vv, self.vq0, self.vv0, self.guard_kind,
+                self.guard_index, self.guard_sign, np.array(self.key[2], dtype=np.int64), info)
 
 
 def _force_weights(system: MechanicalSystem, G: np.ndarray) -> np.ndarray:
@@ -140,7 +150,8 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
                 cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
                 re(kmode), re(const), tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), re(ga), re(gb), re(gu), re(gc),
                 weights, friction_row, np.array([k for k, _, _ in guards], dtype=np.int64),
-                np.array([i for _, i, _ in guards], dtype=np.int64), _conjugate_pairs(lam))
+                np.array([i for _, i, _ in guards], dtype=np.int64), _conjugate_pairs(lam),
+                np.array([s for _, _, s in guards], dtype=np.int64))
 
 
 def _guard_rows(system: MechanicalSystem, key: tuple, kmode: np.ndarray, weights: np.ndarray):

@@ -1,9 +1,10 @@
 """The event loop of the exact n-DOF backend: closed-form pieces, the transition rule, the records.
 
-The pieces of one mode run in one compiled call (:func:`._closed.run_mode`), which also
-applies the impacts that keep the mode (no stop resting, no friction coordinate reversed,
-a rebound too fast for rest); every other event returns here, to the transition rule of the
-model (module docstring of :mod:`impactosc.model._mechanical`): springs engage and release,
+The pieces run in one compiled call (:func:`._closed.run_modes`) across the events that only
+change the mode (springs, lift-offs, releases: every mode built so far is a row of its table)
+and the impacts that keep the mode (no stop resting, no friction coordinate reversed, a
+rebound too fast for rest); every other event, and a mode not built yet, returns here, to the
+transition rule of the model (module docstring of :mod:`impactosc.model._mechanical`): springs engage and release,
 stops rest (chatter summed once the rebounds are below the rounding of the gap, stops
 touched together resting together) and lift off, friction coordinates stick, reverse and
 release, with the constraint forces of all active constraints solved together.
@@ -15,6 +16,7 @@ import math
 
 import numpy as np
 
+from ..._util.jit import HAVE_NUMBA
 from ...model._mechanical import MechanicalSystem
 from ...results._mechanical import MechanicalSolution
 from . import _closed, _forms
@@ -73,17 +75,29 @@ class _Runner:
             if om == 0.0:
                 self.f0 += f * math.cos(ph)
         self._buffers: tuple = ()
+        # the compiled loop's table of the modes built so far, and their numbers
+        nf = len(system.friction)
+        self.coded = 2 * nc + math.log2(3.0) * nf < 62.0
+        self.spring_bit = np.array([2**c if self.coded else 0 for c in range(nc)], dtype=np.int64)
+        self.rest_bit = np.array([2 ** (nc + c) if self.coded else 0 for c in range(nc)], dtype=np.int64)
+        self.fric_unit = np.array([3**i * 2 ** (2 * nc) if self.coded else 0 for i in range(nf)], dtype=np.int64)
+        self.table, self.index_of = _table()
+        self.max_zero_time = _MAX_ZERO_TIME * (1 + nc + nf)
+        self.keys: list[tuple] = []
+        self.rows: dict[tuple, int] = {}
 
     def buffers(self, cap: int) -> tuple:
-        """Event and piece buffers of the compiled loop (reused while large enough)."""
+        """Event and piece buffers of the compiled loop (reused while large enough):
+        ``ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v``."""
         if not self._buffers or self._buffers[0].shape[0] < cap:
             n = self.system.n
-            self._buffers = (np.empty(cap), np.empty(cap, dtype=np.int64), np.empty((cap, n)), np.empty((cap, n)),
-                             np.empty(cap + 1), np.empty((cap + 1, n)), np.empty((cap + 1, n)))
+            self._buffers = (np.empty(cap), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
+                             np.empty((cap, n)), np.empty((cap, n)), np.empty(cap + 1),
+                             np.empty(cap + 1, dtype=np.int64), np.empty((cap + 1, n)), np.empty((cap + 1, n)))
         if self._buffers[0].shape[0] == cap:
             return self._buffers
         b = self._buffers
-        return (b[0][:cap], b[1][:cap], b[2][:cap], b[3][:cap], b[4][:cap + 1], b[5][:cap + 1], b[6][:cap + 1])
+        return (*(x[:cap] for x in b[:5]), *(x[:cap + 1] for x in b[5:]))
 
     def k_norm(self, mode: Mode) -> float:
         norm = self._k_norms.get(mode.key)
@@ -95,7 +109,22 @@ class _Runner:
         mode = self.modes.get(key)
         if mode is None:
             mode = self.modes[key] = build_mode(self.system, key)
+            if self.coded:
+                self.index_of[self.code(key)] = len(self.keys)
+            self.rows[key] = len(self.keys)
+            self.table.append(mode.entry())
+            self.keys.append(key)
         return mode
+
+    def code(self, key: tuple) -> int:
+        """The mode's number in the compiled loop's table (:func:`._closed.run_modes`); -1 when the
+        numbers of this system's modes do not fit in 62 bits (then every mode change returns here)."""
+        if not self.coded:
+            return -1
+        engaged, resting, motion = key
+        return (sum(int(on) * int(b) for on, b in zip(engaged, self.spring_bit, strict=True))
+                + sum(int(on) * int(b) for on, b in zip(resting, self.rest_bit, strict=True))
+                + sum((s + 1) * int(u) for s, u in zip(motion, self.fric_unit, strict=True)))
 
     def setup(self, mode: Mode, t0: float, q0: np.ndarray, v0: np.ndarray):
         return _forms.setup_piece(mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0,
@@ -189,8 +218,9 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         except ValueError as err:
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
-        tau, g, st, t, q, v = _compiled_pieces(runner, mode, key, t, q, v, t_end, energy, max_events, events,
-                                               starts, records, terms)
+        key, tau, g, st, zero_time, t, q, v = _compiled_pieces(runner, key, t, q, v, t_end, energy, max_events,
+                                                               zero_time, events, starts, records, terms)
+        mode = runner.mode(key)
         if st != 0:
             status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
                                    f"(guard {mode.guards[g]}): non-finite values or no certified bracket")
@@ -201,7 +231,7 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         if g < 0:
             break
         zero_time = zero_time + 1 if tau == 0.0 else 0
-        if zero_time > _MAX_ZERO_TIME * (1 + len(system.contacts) + len(system.friction)):
+        if zero_time > runner.max_zero_time:
             status, message = -1, (f"no consistent mode at t = {t!r}: the stick, lift-off and contact tests keep "
                                    f"switching without time passing (last mode {describe(system, key)})")
             break
@@ -223,34 +253,53 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
                               status=status, message=message, energy=terms if energy else {})
 
 
-def _compiled_pieces(runner: _Runner, mode: Mode, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
-                     energy: bool, max_events: int, events: list, starts: list, records: list, terms: dict):
-    """The pieces of ``mode`` from ``(t, q, v)`` in one compiled call, recorded; ``(tau, guard, status, t, q, v)``
-    of the last piece, whose event (if any) is left to the transition rule."""
+#: Event names of the guard kinds the compiled loop records.
+_KIND_NAMES = {IMPACT: "impact", ENTER: "contact_start", LEAVE: "contact_end", LIFT: "lift", RELEASE: "release"}
+
+
+def _table():
+    """An empty table of modes and index of their numbers: numba's typed containers when it is there."""
+    if HAVE_NUMBA:
+        from numba import types
+        from numba.typed import Dict, List
+
+        return List(), Dict.empty(types.int64, types.int64)
+    return [], {}  # pragma: no cover - plain Python runs the same loop on these
+
+
+def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
+                     energy: bool, max_events: int, zero_time: int, events: list, starts: list, records: list,
+                     terms: dict):
+    """Pieces and mode changes from ``(t, q, v)`` in ``key`` in one compiled call, recorded.
+
+    Returns ``(key, tau, guard, status, zero_time, t, q, v)``: the mode reached, the offset and
+    guard of its last piece's event (left to the Python rule when ``guard >= 0``).
+    """
     system = runner.system
     cap = max(1, min(_BUFFER, max_events - len(events)))
     buffers = runner.buffers(cap)
-    (n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale) = _closed.run_mode(
-        mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu,
-        mode.gc, mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
-        mode.guard_kind, mode.guard_index, IMPACT, runner.normals, runner.mn_array, runner.nmn_array,
-        runner.restitution, runner.can_rest_array, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
-        np.array(key[2], dtype=np.int64), runner.fr_kinetic, runner.f0, system.M,
-        runner.f_norm + float(np.abs(mode.const).sum()), runner.k_norm(mode), runner.c_norm, _CHATTER_HEIGHT,
-        _PUSH_MARGIN, t, q, v, t_end, energy, *buffers)
-    ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v = buffers
+    mi = runner.rows[key]
+    (n_ev, n_pc, tau, g, st, mi, _, zero_time, t, q, v, work, diss, fric, loss, escale) = _closed.run_modes(
+        runner.table, runner.index_of, mi, runner.code(key), runner.spring_bit, runner.rest_bit, runner.fric_unit,
+        runner.om, runner.fh, runner.csym, runner.normals, runner.mn_array, runner.nmn_array, runner.restitution,
+        runner.can_rest_array, runner.gaps, runner.mn_norm_array, runner.fr_coord, runner.fr_kinetic, runner.f0,
+        system.M, runner.f_norm, runner.c_norm, _CHATTER_HEIGHT, _PUSH_MARGIN, t, q, v, t_end, energy, zero_time,
+        runner.max_zero_time, *buffers)
+    ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v = buffers
+    keys = runner.keys
     for k in range(n_pc):
         starts.append(float(pc_t[k]))
-        records.append((key, pc_q[k].copy(), pc_v[k].copy()))
+        records.append((keys[pc_mode[k]], pc_q[k].copy(), pc_v[k].copy()))
     for k in range(n_ev):
-        events.append((float(ev_t[k]), "impact", int(ev_index[k]), ev_q[k].copy(), ev_v[k].copy()))
+        events.append((float(ev_t[k]), _KIND_NAMES[int(ev_kind[k])], int(ev_index[k]), ev_q[k].copy(),
+                       ev_v[k].copy()))
     if energy:
         terms["work"] += work
         terms["damping"] += diss
         terms["friction"] += fric
         terms["impacts"] += loss
         terms["energy_max"] = max(terms["energy_max"], escale)
-    return tau, g, st, t, q, v
+    return keys[mi], tau, g, st, zero_time, t, q, v
 
 
 def _with(key: tuple, part: int, index: int, value) -> tuple:
