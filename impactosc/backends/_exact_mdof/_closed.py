@@ -11,12 +11,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._util.jit import njit
+from ..._util.jit import HAVE_NUMBA, njit
 from ._forms import integrals, rdot, rmv, setup_piece, state_at
 from ._guards import search
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE
 
-__all__ = ["advance", "run_modes"]
+if HAVE_NUMBA:
+    from numba.typed import List
+else:  # pragma: no cover - plain Python: a list holds the rows
+    List = list
+
+__all__ = ["advance", "run_modes", "new_table", "push_mode"]
 
 
 @njit
@@ -40,6 +45,24 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const,
     if energy:
         work, diss = integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)
     return tau, g, status, q1, v1, work, diss
+
+
+@njit
+def new_table(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+              guard_index, guard_sign, motion, info):
+    """A typed list of mode rows holding this first one (built here: typing the row in Python costs ms)."""
+    table = List()
+    table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+                  guard_index, guard_sign, motion, info))
+    return table
+
+
+@njit
+def push_mode(table, lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0,
+              guard_kind, guard_index, guard_sign, motion, info):
+    """Append a mode row to ``table`` (:func:`new_table`)."""
+    table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+                  guard_index, guard_sign, motion, info))
 
 
 @njit

@@ -13,12 +13,13 @@ release, with the constraint forces of all active constraints solved together.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
 from ..._util.jit import HAVE_NUMBA
 from ...model._mechanical import MechanicalSystem
-from ...results._mechanical import MechanicalSolution
+from ...results._mechanical import MechanicalSolution, event_dtype
 from . import _closed, _forms
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, Mode, build_mode, describe
 
@@ -81,7 +82,8 @@ class _Runner:
         self.spring_bit = np.array([2**c if self.coded else 0 for c in range(nc)], dtype=np.int64)
         self.rest_bit = np.array([2 ** (nc + c) if self.coded else 0 for c in range(nc)], dtype=np.int64)
         self.fric_unit = np.array([3**i * 2 ** (2 * nc) if self.coded else 0 for i in range(nf)], dtype=np.int64)
-        self.table, self.index_of = _table()
+        self.table = None  # a typed list of Mode.entry() rows, made at the first mode
+        self.index_of = _index()
         self.max_zero_time = _MAX_ZERO_TIME * (1 + nc + nf)
         self.keys: list[tuple] = []
         self.rows: dict[tuple, int] = {}
@@ -112,7 +114,10 @@ class _Runner:
             if self.coded:
                 self.index_of[self.code(key)] = len(self.keys)
             self.rows[key] = len(self.keys)
-            self.table.append(mode.entry())
+            if self.table is None:
+                self.table = _closed.new_table(*mode.entry())
+            else:
+                _closed.push_mode(self.table, *mode.entry())
             self.keys.append(key)
         return mode
 
@@ -195,7 +200,7 @@ def _stick_test(runner: _Runner, key: tuple, i: int, t: float, q: np.ndarray, v:
 
 def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, energy: bool) -> MechanicalSolution:
     """Run ``system`` from ``(q0, v0)`` at ``t = 0`` to ``t_end`` (see :func:`simulate_mechanical`)."""
-    runner = _Runner(system, energy)
+    runner = _runner(system, energy)
     n = system.n
     q = np.array(q0, dtype=float)
     v = np.array(v0, dtype=float)
@@ -204,9 +209,8 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
     for s, fr in zip(key[2], system.friction, strict=True):
         if s == 0:
             v[fr.coordinate] = 0.0
-    events: list[tuple] = []
-    starts: list[float] = []
-    records: list[tuple] = []
+    events = _Log(n)
+    pieces: list[tuple] = []  # chunks (start times, mode rows, q, v) of the compiled loop's piece records
     e0 = float(system.energy(q, v))
     terms = {"work": 0.0, "damping": 0.0, "friction": 0.0, "impacts": 0.0, "energy_max": abs(e0)}
     status, message = 0, "reached t_end"
@@ -219,7 +223,7 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
         key, tau, g, st, zero_time, t, q, v = _compiled_pieces(runner, key, t, q, v, t_end, energy, max_events,
-                                                               zero_time, events, starts, records, terms)
+                                                               zero_time, events, pieces, terms)
         mode = runner.mode(key)
         if st != 0:
             status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
@@ -242,34 +246,89 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
             break
     if energy:
         terms["delta_energy"] = float(system.energy(q, v)) - e0
-    pieces = np.array(starts)
+    starts, rows, pq, pv = (np.concatenate([c[i] for c in pieces]) for i in range(4))
+    keys = list(runner.keys)
 
     def evaluator(index: int, taus: np.ndarray):
-        k, qs, vs = records[index]
-        mode = runner.mode(k)
-        return runner.evaluate(mode, runner.setup(mode, starts[index], qs, vs), qs, taus)
+        mode = runner.mode(keys[rows[index]])
+        return runner.evaluate(mode, runner.setup(mode, starts[index], pq[index], pv[index]), pq[index], taus)
 
-    return MechanicalSolution(n=n, t_end=t_end, events=events, pieces=pieces, evaluator=evaluator, t=t, q=q, v=v,
-                              status=status, message=message, energy=terms if energy else {})
-
-
-#: Event names of the guard kinds the compiled loop records.
-_KIND_NAMES = {IMPACT: "impact", ENTER: "contact_start", LEAVE: "contact_end", LIFT: "lift", RELEASE: "release"}
+    return MechanicalSolution(n=n, t_end=t_end, events=events.array(), pieces=starts, evaluator=evaluator, t=t, q=q,
+                              v=v, status=status, message=message, energy=terms if energy else {})
 
 
-def _table():
-    """An empty table of modes and index of their numbers: numba's typed containers when it is there."""
+class _Log:
+    """The events of a run: single ones from the Python rule, blocks from the compiled loop, in order."""
+
+    def __init__(self, n: int):
+        self.dtype = event_dtype(n)
+        self.items: list = []  # event tuples and structured arrays
+        self.count = 0
+
+    def __len__(self) -> int:
+        return self.count
+
+    def append(self, event: tuple) -> None:
+        self.items.append(event)
+        self.count += 1
+
+    def block(self, t, kinds, index, q, v) -> None:
+        block = np.empty(t.shape[0], dtype=self.dtype)
+        block["t"], block["kind"], block["index"], block["q"], block["v"] = t, kinds, index, q, v
+        self.items.append(block)
+        self.count += t.shape[0]
+
+    def array(self) -> np.ndarray:
+        out, singles = [], []
+        for item in self.items:
+            if isinstance(item, np.ndarray):
+                if singles:
+                    out.append(np.array(singles, dtype=self.dtype))
+                    singles = []
+                out.append(item)
+            else:
+                singles.append(tuple(item))
+        if singles:
+            out.append(np.array(singles, dtype=self.dtype))
+        return np.concatenate(out) if out else np.empty(0, dtype=self.dtype)
+
+
+#: Event names of the guard kinds the compiled loop records (indexed by the kind).
+_KIND_NAMES = np.array([{IMPACT: "impact", ENTER: "contact_start", LEAVE: "contact_end", LIFT: "lift",
+                         RELEASE: "release"}.get(k, "") for k in range(6)])
+
+
+def _index():
+    """An empty index of the modes' numbers: numba's typed dict when it is there."""
     if HAVE_NUMBA:
         from numba import types
-        from numba.typed import Dict, List
+        from numba.typed import Dict
 
-        return List(), Dict.empty(types.int64, types.int64)
-    return [], {}  # pragma: no cover - plain Python runs the same loop on these
+        return Dict.empty(types.int64, types.int64)
+    return {}  # pragma: no cover - plain Python runs the same loop on it
+
+
+#: Runners of the systems simulated last (their mode tables), reused by later runs of the same object.
+_RUNNERS: dict[int, tuple[weakref.ref, _Runner]] = {}
+_KEEP_RUNNERS = 8
+
+
+def _runner(system: MechanicalSystem, energy: bool) -> _Runner:
+    """The runner of ``system``: the one of its last run (modes already built) or a new one."""
+    held = _RUNNERS.get(id(system))
+    if held is not None and held[0]() is system:
+        runner = held[1]
+    else:
+        runner = _Runner(system, energy)
+        if len(_RUNNERS) >= _KEEP_RUNNERS:
+            _RUNNERS.pop(next(iter(_RUNNERS)))
+        _RUNNERS[id(system)] = (weakref.ref(system), runner)
+    runner.energy = energy
+    return runner
 
 
 def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
-                     energy: bool, max_events: int, zero_time: int, events: list, starts: list, records: list,
-                     terms: dict):
+                     energy: bool, max_events: int, zero_time: int, events: _Log, pieces: list, terms: dict):
     """Pieces and mode changes from ``(t, q, v)`` in ``key`` in one compiled call, recorded.
 
     Returns ``(key, tau, guard, status, zero_time, t, q, v)``: the mode reached, the offset and
@@ -286,20 +345,16 @@ def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np
         system.M, runner.f_norm, runner.c_norm, _CHATTER_HEIGHT, _PUSH_MARGIN, t, q, v, t_end, energy, zero_time,
         runner.max_zero_time, *buffers)
     ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v = buffers
-    keys = runner.keys
-    for k in range(n_pc):
-        starts.append(float(pc_t[k]))
-        records.append((keys[pc_mode[k]], pc_q[k].copy(), pc_v[k].copy()))
-    for k in range(n_ev):
-        events.append((float(ev_t[k]), _KIND_NAMES[int(ev_kind[k])], int(ev_index[k]), ev_q[k].copy(),
-                       ev_v[k].copy()))
+    pieces.append((pc_t[:n_pc].copy(), pc_mode[:n_pc].copy(), pc_q[:n_pc].copy(), pc_v[:n_pc].copy()))
+    if n_ev:
+        events.block(ev_t[:n_ev], _KIND_NAMES[ev_kind[:n_ev]], ev_index[:n_ev], ev_q[:n_ev], ev_v[:n_ev])
     if energy:
         terms["work"] += work
         terms["damping"] += diss
         terms["friction"] += fric
         terms["impacts"] += loss
         terms["energy_max"] = max(terms["energy_max"], escale)
-    return keys[mi], tau, g, st, zero_time, t, q, v
+    return runner.keys[mi], tau, g, st, zero_time, t, q, v
 
 
 def _with(key: tuple, part: int, index: int, value) -> tuple:
