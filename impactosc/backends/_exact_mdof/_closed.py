@@ -9,19 +9,21 @@ tests, rest) or build a mode.
 
 from __future__ import annotations
 
+import cmath
+
 import numpy as np
 
 from ..._util.jit import HAVE_NUMBA, njit
 from ._forms import integrals, rdot, rmv, setup_piece, state_at
 from ._guards import search
-from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE
+from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, STICK
 
 if HAVE_NUMBA:
     from numba.typed import List
 else:  # pragma: no cover - plain Python: a list holds the rows
     List = list
 
-__all__ = ["advance", "run_modes", "new_table", "push_mode"]
+__all__ = ["advance", "run_modes", "new_table", "push_mode", "holding_force"]
 
 
 @njit
@@ -48,26 +50,50 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const,
 
 
 @njit
+def _holding_force(row, i, om, fh, C, t, q, v):
+    """The force that holds friction entry ``i``'s coordinate at rest in the stuck mode ``row``:
+    its row of the constraint-force weights times ``f(t) + const - K_mode q - C v``."""
+    kmode, const, weights, friction_row = row[12], row[13], row[23], row[24]
+    w = weights[friction_row[i]]
+    push = 0.0
+    for k in range(q.shape[0]):
+        r = const[k]
+        for j in range(om.shape[0]):
+            r += (fh[j, k] * cmath.exp(1j * om[j] * t)).real
+        for m in range(q.shape[0]):
+            r -= kmode[k, m] * q[m] + C[k, m] * v[m]
+        push += w[k] * r
+    return push
+
+
+@njit
+def holding_force(table, row, i, om, fh, C, t, q, v):
+    """:func:`_holding_force` of the mode ``table[row]``: the stick test of the Python rule, the same code."""
+    return _holding_force(table[row], i, om, fh, C, t, q, v)
+
+
+@njit
 def new_table(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-              guard_index, guard_sign, motion, info):
+              guard_index, guard_sign, motion, info, weights, friction_row):
     """A typed list of mode rows holding this first one (built here: typing the row in Python costs ms)."""
     table = List()
     table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-                  guard_index, guard_sign, motion, info))
+                  guard_index, guard_sign, motion, info, weights, friction_row))
     return table
 
 
 @njit
 def push_mode(table, lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0,
-              guard_kind, guard_index, guard_sign, motion, info):
+              guard_kind, guard_index, guard_sign, motion, info, weights, friction_row):
     """Append a mode row to ``table`` (:func:`new_table`)."""
     table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-                  guard_index, guard_sign, motion, info))
+                  guard_index, guard_sign, motion, info, weights, friction_row))
 
 
 @njit
 def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh, csym, normals, mn, nmn,
-              restitution, can_rest, gaps, mn_norm, fr_coord, fr_kinetic, f0, M, f_norm, c_norm, chatter_height,
+              restitution, can_rest, gaps, mn_norm, fr_coord, fr_kinetic, fr_static, f0, M, C, f_norm, c_norm,
+              chatter_height,
               push_margin, t, q, v, t_end, energy, zero_time, max_zero, ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t,
               pc_mode, pc_q, pc_v):
     """Pieces and the transitions that only change the mode, compiled: one call for a run of them.
@@ -75,14 +101,15 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
     ``table[mi]`` is the mode (:meth:`._modes.Mode.entry`), ``index_of`` maps the code of a
     mode (``sum engaged 2^c + sum resting 2^(nc + c) + sum (motion + 1) 3^i 2^(2 nc)``, the bits
     and units given) to its row. Handled here: a spring contact engaging or opening, a stop
-    lifting off, a stuck coordinate released (the next mode's code, found in the table, or
-    back to Python to build it), and an impact on a rigid stop that keeps the mode (no stop
+    lifting off, a stuck coordinate released, a slip ending (the stick test with the forces of
+    the stuck mode's constraints, :func:`_holding_force`) (the next mode's code, found in the
+    table, or back to Python to build it), and an impact on a rigid stop that keeps the mode (no stop
     rests, the impulse reverses no friction coordinate and the rebound is too fast for rest:
-    ``v -> v - (1 + e) (n.v) M^-1 n / (n.M^-1 n)``). Every other event (a stick test, an impact
-    that may end in rest or that meets resting stops), ``t_end``, a full buffer, a failed
+    ``v -> v - (1 + e) (n.v) M^-1 n / (n.M^-1 n)``). Every other event (an impact that may end
+    in rest or that meets resting stops), ``t_end``, a full buffer, a failed
     search or more than ``max_zero`` transitions without time passing returns to the Python
     rule with the state at the event and the guard that fired. Events go to ``ev_*``
-    (their kinds as guard kinds), piece starts and their modes to ``pc_*``.
+    (their kinds as guard kinds, a stick as ``STICK``), piece starts and their modes to ``pc_*``.
 
     Returns ``(n_events, n_pieces, tau, guard, status, mi, code, zero_time, t, q, v, work,
     dissipation, friction, impact_loss, energy_scale)``.
@@ -94,7 +121,7 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
     cap = ev_t.shape[0]
     while True:
         (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-         guard_index, guard_sign, motion, info) = table[mi]
+         guard_index, guard_sign, motion, info, _, _) = table[mi]
         tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om,
                                            fh, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy)
         pc_t[n_pc] = t
@@ -143,6 +170,18 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
                 new = code - rest_bit[c]
             elif kind == RELEASE:
                 new = code + guard_sign[g] * fric_unit[c]
+            elif kind == SLIP_END:
+                # the stick test (Filippov) with the forces of every constraint of the stuck mode
+                stuck = code - motion[c] * fric_unit[c]
+                if stuck not in index_of:
+                    return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
+                v = v.copy()
+                v[fr_coord[c]] = 0.0
+                push = _holding_force(table[index_of[stuck]], c, om, fh, C, t, q, v)
+                s_new = 0 if abs(push) <= fr_static[c] else (1 if push > 0.0 else -1)
+                new = stuck + s_new * fric_unit[c]
+                if s_new == 0:
+                    kind = STICK
             else:
                 return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
             nxt = index_of[new] if new in index_of else -1

@@ -21,7 +21,7 @@ from ..._util.jit import HAVE_NUMBA
 from ...model._mechanical import MechanicalSystem
 from ...results._mechanical import MechanicalSolution, event_dtype
 from . import _closed, _forms
-from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, Mode, build_mode, describe
+from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, STICK, Mode, build_mode, describe
 
 __all__ = ["run"]
 
@@ -71,6 +71,7 @@ class _Runner:
         self.gaps = np.array([c.gap for c in system.contacts], dtype=float)
         self.fr_coord = np.array([f.coordinate for f in system.friction], dtype=np.int64)
         self.fr_kinetic = np.array([f.kinetic for f in system.friction], dtype=float)
+        self.fr_static = np.array([f.static for f in system.friction], dtype=float)
         self.f0 = np.zeros(n)
         for f, om, ph in system.harmonics:
             if om == 0.0:
@@ -191,8 +192,8 @@ def _stick_test(runner: _Runner, key: tuple, i: int, t: float, q: np.ndarray, v:
     motion = list(key[2])
     motion[i] = 0
     stuck = (key[0], key[1], tuple(motion))
-    mode = runner.mode(stuck)
-    push = float(mode.weights[mode.friction_row[i]] @ runner.residual_force(stuck, t, q, v))
+    runner.mode(stuck)
+    push = _closed.holding_force(runner.table, runner.rows[stuck], i, runner.om, runner.fh, runner.system.C, t, q, v)
     if abs(push) <= fr.static:
         return 0
     return 1 if push > 0.0 else -1
@@ -295,7 +296,7 @@ class _Log:
 
 #: Event names of the guard kinds the compiled loop records (indexed by the kind).
 _KIND_NAMES = np.array([{IMPACT: "impact", ENTER: "contact_start", LEAVE: "contact_end", LIFT: "lift",
-                         RELEASE: "release"}.get(k, "") for k in range(6)])
+                         RELEASE: "release", SLIP_END: "reversal", STICK: "stick"}.get(k, "") for k in range(7)])
 
 
 def _index():
@@ -341,9 +342,9 @@ def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np
     (n_ev, n_pc, tau, g, st, mi, _, zero_time, t, q, v, work, diss, fric, loss, escale) = _closed.run_modes(
         runner.table, runner.index_of, mi, runner.code(key), runner.spring_bit, runner.rest_bit, runner.fric_unit,
         runner.om, runner.fh, runner.csym, runner.normals, runner.mn_array, runner.nmn_array, runner.restitution,
-        runner.can_rest_array, runner.gaps, runner.mn_norm_array, runner.fr_coord, runner.fr_kinetic, runner.f0,
-        system.M, runner.f_norm, runner.c_norm, _CHATTER_HEIGHT, _PUSH_MARGIN, t, q, v, t_end, energy, zero_time,
-        runner.max_zero_time, *buffers)
+        runner.can_rest_array, runner.gaps, runner.mn_norm_array, runner.fr_coord, runner.fr_kinetic,
+        runner.fr_static, runner.f0, system.M, system.C, runner.f_norm, runner.c_norm, _CHATTER_HEIGHT, _PUSH_MARGIN,
+        t, q, v, t_end, energy, zero_time, runner.max_zero_time, *buffers)
     ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v = buffers
     pieces.append((pc_t[:n_pc].copy(), pc_mode[:n_pc].copy(), pc_q[:n_pc].copy(), pc_v[:n_pc].copy()))
     if n_ev:
