@@ -130,6 +130,35 @@ def _slacks(st, a, b):
     return s2 * (1.0 + 1e-12), s3 * (1.0 + 1e-12)
 
 
+@njit
+def _ceiling(st, a, b):
+    """An upper bound of guard ``st[0]`` on ``[a, b]``: its constant plus the size of every other term.
+
+    Below zero, the guard cannot cross in ``[a, b]`` and is not evaluated there at all (a stop
+    the motion stays clear of, a spring contact far from closing).
+    """
+    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
+    top = c0[g] + poly[g, 0]  # the constant part
+    size = abs(c0[g]) + abs(poly[g, 0])
+    moving = 0.0  # the other terms at their largest on [a, b]
+    x = max(abs(a), abs(b))
+    for p in range(1, poly.shape[1]):
+        moving += abs(poly[g, p]) * x**p
+    for k in range(lam.shape[0]):
+        if W[g, k] != 0j:
+            moving += abs(W[g, k]) * math.exp(max(lam[k].real * a, lam[k].real * b))
+    for j in range(omt.shape[0]):
+        if omt[j] == 0.0:
+            top += D[g, j].real
+            size += abs(D[g, j].real)
+        else:
+            moving += abs(D[g, j])
+    for r in range(rk.shape[0]):
+        moving += abs(RG[g, r]) * b * math.exp(max(lam[rk[r]].real, 0.0) * b)
+    # with the rounding of every term, as in the search's start band
+    return top + moving + _START_ULPS * _EPS * (size + moving)
+
+
 #: Depth of the bisection stack of :func:`_first_rising` (a window halved down to a few ulps of
 #: ``t`` needs well under 100 levels; deeper is a failed search, never an overrun).
 _STACK = 160
@@ -287,6 +316,7 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, T):
             continue
         ha[g], da[g] = h0, d0
     T_search = min(T, cand_tau)
+    known = np.ones(ng, dtype=np.bool_)  # ha, da hold h, h' at the start of the guard's next interval
     a = 0.0
     while a < T_search:
         b = min(T_search, a + window)
@@ -297,8 +327,17 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, T):
             if not armed[g] or start[g] >= b:
                 continue
             lo_g = max(a, start[g])
+            hi_g = min(b, best)  # a crossing after the best one so far cannot win
+            if hi_g <= lo_g:
+                continue
             st = (g, lam, W, omt, D, rk, rj, RG, c0, poly)
-            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(st, lo_g, ha[g], da[g], b, hmin)
+            if _ceiling(st, lo_g, hi_g) < 0.0:
+                known[g] = False  # below zero all the way: nothing to evaluate
+                continue
+            if not known[g]:
+                ha[g], da[g] = _h(st, lo_g)
+                known[g] = True
+            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(st, lo_g, ha[g], da[g], hi_g, hmin)
             if status == SEARCH_FAILED:
                 return lo_g, g, status
             if hit:
