@@ -122,12 +122,28 @@ def setup_piece(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, co
     jt = nh + 1
     omt = np.zeros(jt)
     omt[1:] = om
+    n = q0.shape[0]
     eta0 = cmv(gv, v0)
-    f0 = const - rmv(kmode, q0)
+    f0 = np.empty(n)
+    for i in range(n):
+        s = const[i]
+        for m in range(n):
+            s -= kmode[i, m] * q0[m]
+        f0[i] = s
     beta = np.empty((m2, jt), dtype=np.complex128)
-    beta[:, 0] = cmv(gin, f0)
+    phase = np.empty(nh, dtype=np.complex128)
     for j in range(nh):
-        beta[:, j + 1] = cmv(gin, fh[j]) * cmath.exp(1j * om[j] * t0)
+        phase[j] = cmath.exp(1j * om[j] * t0)
+    for k in range(m2):
+        b = 0j
+        for i in range(n):
+            b += gin[k, i] * f0[i]
+        beta[k, 0] = b
+        for j in range(nh):
+            b = 0j
+            for i in range(n):
+                b += gin[k, i] * fh[j, i]
+            beta[k, j + 1] = b * phase[j]
     P = np.zeros((m2, jt), dtype=np.complex128)
     res = np.zeros((m2, jt), dtype=np.bool_)
     a = eta0.copy()
@@ -144,7 +160,12 @@ def setup_piece(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, co
                 a[k] -= P[k, j]
     W, D, RG, rk, rj = _guard_terms(lam, pair, wk, gu, om, fh, t0, a, P, beta, res, nres)
     ng = wk.shape[0]
-    c0 = rmv(ga, q0) + gc
+    c0 = np.empty(ng)
+    for g in range(ng):
+        s = gc[g]
+        for i in range(n):
+            s += ga[g, i] * q0[i]
+        c0[g] = s
     cscale, dscale = _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, res)
     Xi, X = _zero_block(N, gin0, gv0, om, fh, t0, q0, v0, const, kmode)
     k0 = N.shape[0]
@@ -175,15 +196,23 @@ def _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, re
     ng = wk.shape[0]
     jt = omt.shape[0]
     n = q0.shape[0]
-    qabs = np.abs(q0)
-    f0abs = np.abs(const) + rmv(np.abs(kmode), qabs)
-    vabs = np.abs(v0)
-    cscale = rmv(np.abs(ga), qabs) + np.abs(gc)
+    f0abs = np.empty(n)  # the size of the terms of const - K q0
+    for i in range(n):
+        s = abs(const[i])
+        for m in range(n):
+            s += abs(kmode[i, m] * q0[m])
+        f0abs[i] = s
+    cscale = np.empty(ng)
+    for g in range(ng):
+        s = abs(gc[g])
+        for i in range(n):
+            s += abs(ga[g, i] * q0[i])
+        cscale[g] = s
     dscale = np.zeros(ng)
     for k in range(m2):
         eta_abs = 0.0
         for i in range(n):
-            eta_abs += abs(gv[k, i]) * vabs[i]
+            eta_abs += abs(gv[k, i]) * abs(v0[i])
         vk = eta_abs
         dk = abs(lam[k]) * eta_abs
         for j in range(jt):

@@ -86,77 +86,77 @@ def _h(st, tau):
 
 
 @njit
-def _slacks(st, a, b):
-    """How far ``h`` and ``h'`` of guard ``st[0]`` can stray from their chords on ``[a, b]``: ``(s2, s3)``.
+def _window_terms(st, a, b, mags, rates):
+    """Guard ``st[0]``'s terms on the window ``[a, b]``, for :func:`_slacks` and the ceiling test.
 
-    Term by term, the smaller of the curvature bound ``max|f''| w^2 / 8`` (``w = b - a``) and the
-    magnitude bound ``2 max|f|`` (a term and its chord both stay within ``max|f|``); the same
-    for the derivative, with ``max|f'''|`` and ``max|f'|``. A fast, small term (a stiff flange's
-    mode decayed to a ripple) thus costs its amplitude, not its curvature, and long intervals
-    of a slow guard are decided at once. The maxima are the derivative bounds of the module
-    docstring.
-    """
-    g, lam, W, omt, D, rk, rj, RG, c0, poly = st
-    w2 = 0.125 * (b - a) * (b - a)
-    s2 = 0.0
-    s3 = 0.0
-    x = max(abs(a), abs(b))
-    for p in range(2, poly.shape[1]):
-        s2 += abs(poly[g, p]) * p * (p - 1) * x ** (p - 2) * w2
-        if p >= 3:
-            s3 += abs(poly[g, p]) * p * (p - 1) * (p - 2) * x ** (p - 3) * w2
-    for k in range(lam.shape[0]):
-        if W[g, k] == 0j:
-            continue
-        r = abs(lam[k])
-        m = abs(W[g, k]) * math.exp(max(lam[k].real * a, lam[k].real * b))
-        s2 += min(m * r * r * w2, 2.0 * m)
-        s3 += min(m * r * r * r * w2, 2.0 * m * r)
-    for j in range(omt.shape[0]):
-        om = omt[j]
-        if om == 0.0:
-            continue  # a constant: its chord is exact
-        m = abs(D[g, j])
-        s2 += min(m * om * om * w2, 2.0 * m)
-        s3 += min(m * om * om * om * w2, 2.0 * m * om)
-    for r in range(rk.shape[0]):
-        lk = lam[rk[r]]
-        rho = max(abs(lk), omt[rj[r]])
-        m = abs(RG[g, r]) * math.exp(max(lk.real, 0.0) * b)
-        # E is an integral of exponentials: |E| <= tau e^{max(Re lambda, 0) tau}, |E'| <= (1 + rho tau) e^{...}
-        s2 += min(m * (2.0 * rho + b * rho * rho) * w2, 2.0 * m * b)
-        s3 += min(m * (3.0 * rho * rho + b * rho * rho * rho) * w2, 2.0 * m * (1.0 + rho * b))
-    # the rounding of the sums: a relative margin
-    return s2 * (1.0 + 1e-12), s3 * (1.0 + 1e-12)
-
-
-@njit
-def _ceiling(st, a, b):
-    """An upper bound of guard ``st[0]`` on ``[a, b]``: its constant plus the size of every other term.
-
-    Below zero, the guard cannot cross in ``[a, b]`` and is not evaluated there at all (a stop
-    the motion stays clear of, a spring contact far from closing).
+    Fills ``mags`` (each oscillating term's largest size on the window: ``|W| e^{max(Re lambda a,
+    Re lambda b)}``, ``|D|``) and ``rates`` (its ``|lambda|`` or ``omega``) and returns
+    ``(count, c2, c3, ceiling)``: the curvature bounds of the terms kept as curvature only
+    (rigid-body polynomial, resonant terms; module docstring), and an upper bound of the guard
+    on the window: its constant part plus every other term at its largest plus the rounding
+    of them all. A ceiling below zero proves the guard does not cross in the window.
     """
     g, lam, W, omt, D, rk, rj, RG, c0, poly = st
     top = c0[g] + poly[g, 0]  # the constant part
     size = abs(c0[g]) + abs(poly[g, 0])
     moving = 0.0  # the other terms at their largest on [a, b]
+    c2 = 0.0
+    c3 = 0.0
     x = max(abs(a), abs(b))
     for p in range(1, poly.shape[1]):
         moving += abs(poly[g, p]) * x**p
+        if p >= 2:
+            c2 += abs(poly[g, p]) * p * (p - 1) * x ** (p - 2)
+        if p >= 3:
+            c3 += abs(poly[g, p]) * p * (p - 1) * (p - 2) * x ** (p - 3)
+    count = 0
     for k in range(lam.shape[0]):
         if W[g, k] != 0j:
-            moving += abs(W[g, k]) * math.exp(max(lam[k].real * a, lam[k].real * b))
+            m = abs(W[g, k]) * math.exp(max(lam[k].real * a, lam[k].real * b))
+            mags[count] = m
+            rates[count] = abs(lam[k])
+            count += 1
+            moving += m
     for j in range(omt.shape[0]):
         if omt[j] == 0.0:
             top += D[g, j].real
             size += abs(D[g, j].real)
         else:
-            moving += abs(D[g, j])
+            m = abs(D[g, j])
+            mags[count] = m
+            rates[count] = omt[j]
+            count += 1
+            moving += m
     for r in range(rk.shape[0]):
-        moving += abs(RG[g, r]) * b * math.exp(max(lam[rk[r]].real, 0.0) * b)
-    # with the rounding of every term, as in the search's start band
-    return top + moving + _START_ULPS * _EPS * (size + moving)
+        lk = lam[rk[r]]
+        rho = max(abs(lk), omt[rj[r]])
+        m = abs(RG[g, r]) * math.exp(max(lk.real, 0.0) * b)
+        moving += m * b
+        c2 += m * (2.0 * rho + b * rho * rho)
+        c3 += m * (3.0 * rho * rho + b * rho * rho * rho)
+    ceiling = top + moving + _START_ULPS * _EPS * (size + moving)
+    return count, c2, c3, ceiling
+
+
+@njit
+def _slacks(count, c2, c3, mags, rates, width):
+    """How far ``h`` and ``h'`` can stray from their chords on an interval of ``width`` in the window
+    of :func:`_window_terms`: ``(s2, s3)``.
+
+    Term by term, the smaller of the curvature bound ``max|f''| w^2 / 8`` and the magnitude bound
+    ``2 max|f|`` (a term and its chord both stay within ``max|f|``); the same for the derivative.
+    A fast, small term (a stiff flange's mode decayed to a ripple) thus costs its amplitude, not
+    its curvature, and long intervals of a slow guard are decided at once.
+    """
+    w2 = 0.125 * width * width
+    s2 = c2 * w2
+    s3 = c3 * w2
+    for i in range(count):
+        m, r = mags[i], rates[i]
+        s2 += min(m * r * r * w2, 2.0 * m)
+        s3 += min(m * r * r * r * w2, 2.0 * m * r)
+    # the rounding of the sums: a relative margin
+    return s2 * (1.0 + 1e-12), s3 * (1.0 + 1e-12)
 
 
 #: Depth of the bisection stack of :func:`_first_rising` (a window halved down to a few ulps of
@@ -165,28 +165,27 @@ _STACK = 160
 
 
 @njit
-def _first_rising(st, a, ha, da, b, hmin):
+def _first_rising(st, a, ha, da, b, hmin, sb, sh, sd, terms):
     """First crossing of guard ``st[0]`` from negative to non-negative in ``(a, b]``.
 
     The bracketing of :func:`impactosc._util.roots.first_rising`, with the chord slacks of every
-    interval from :func:`_slacks` on that interval (decaying terms and small fast ones shrink
-    them as the bisection proceeds) instead of one pair of derivative bounds for the whole
-    window. Returns ``(found, lo, hi, h(lo), h(hi), h(b), h'(b), status)`` as that function
-    does; ``status`` is ``SEARCH_FAILED`` on non-finite values, more than ``MAX_BRACKET_STEPS``
-    intervals or a stack deeper than :data:`_STACK` (never a hang).
+    interval from :func:`_slacks` (small fast terms bounded by their size) instead of one pair of
+    derivative bounds for the whole window. Returns ``(found, lo, hi, h(lo), h(hi), h(b), h'(b),
+    status)`` as that function does; ``status`` is ``SEARCH_FAILED`` on non-finite values, more
+    than ``MAX_BRACKET_STEPS`` intervals or a stack deeper than :data:`_STACK` (never a hang). ``sb, sh, sd``: the stack
+    (right ends of the intervals to come, their ``h`` and ``h'``), arrays of length
+    :data:`_STACK` the caller lends; ``terms``: the window's terms (:func:`_window_terms`).
     """
+    count, c2, c3, mags, rates = terms
     hb, db = _h(st, b)
     end_h, end_d = hb, db
-    sb = np.empty(_STACK)
-    sh = np.empty(_STACK)
-    sd = np.empty(_STACK)
     top = 0
     sb[0], sh[0], sd[0] = b, hb, db
     evaluations = 0
     while top >= 0:
         b, hb, db = sb[top], sh[top], sd[top]
         evaluations += 1
-        s2, s3 = _slacks(st, a, b)
+        s2, s3 = _slacks(count, c2, c3, mags, rates, b - a)
         if evaluations > MAX_BRACKET_STEPS or not math.isfinite(ha + hb + da + db + s2 + s3):
             return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
         decided = False
@@ -317,6 +316,11 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, T):
         ha[g], da[g] = h0, d0
     T_search = min(T, cand_tau)
     known = np.ones(ng, dtype=np.bool_)  # ha, da hold h, h' at the start of the guard's next interval
+    sb = np.empty(_STACK)
+    sh = np.empty(_STACK)
+    sd = np.empty(_STACK)
+    mags = np.empty(lam.shape[0] + omt.shape[0])
+    rates = np.empty(lam.shape[0] + omt.shape[0])
     a = 0.0
     while a < T_search:
         b = min(T_search, a + window)
@@ -331,13 +335,15 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, T):
             if hi_g <= lo_g:
                 continue
             st = (g, lam, W, omt, D, rk, rj, RG, c0, poly)
-            if _ceiling(st, lo_g, hi_g) < 0.0:
+            count, c2, c3, ceiling = _window_terms(st, lo_g, hi_g, mags, rates)
+            if ceiling < 0.0:
                 known[g] = False  # below zero all the way: nothing to evaluate
                 continue
             if not known[g]:
                 ha[g], da[g] = _h(st, lo_g)
                 known[g] = True
-            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(st, lo_g, ha[g], da[g], hi_g, hmin)
+            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(st, lo_g, ha[g], da[g], hi_g, hmin, sb, sh,
+                                                                  sd, (count, c2, c3, mags, rates))
             if status == SEARCH_FAILED:
                 return lo_g, g, status
             if hit:
