@@ -209,16 +209,18 @@ def _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, re
             s += abs(ga[g, i] * q0[i])
         cscale[g] = s
     dscale = np.zeros(ng)
+    # |re| + |im| for the size of a complex number: within sqrt(2) of it, and no square root
     for k in range(m2):
         eta_abs = 0.0
         for i in range(n):
-            eta_abs += abs(gv[k, i]) * abs(v0[i])
+            eta_abs += (abs(gv[k, i].real) + abs(gv[k, i].imag)) * abs(v0[i])
         vk = eta_abs
         dk = abs(lam[k]) * eta_abs
         for j in range(jt):
             babs = 0.0
             for i in range(n):
-                babs += abs(gin[k, i]) * (f0abs[i] if j == 0 else abs(fh[j - 1, i]))
+                gki = abs(gin[k, i].real) + abs(gin[k, i].imag)
+                babs += gki * (f0abs[i] if j == 0 else abs(fh[j - 1, i].real) + abs(fh[j - 1, i].imag))
             if res[k, j]:
                 dk += babs
             else:
@@ -226,7 +228,7 @@ def _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, re
                 vk += babs / d
                 dk += babs * (abs(lam[k]) + omt[j]) / d
         for g in range(ng):
-            w = abs(wk[g, k])
+            w = abs(wk[g, k].real) + abs(wk[g, k].imag)
             cscale[g] += w * vk
             dscale[g] += w * dk
     return cscale, dscale
