@@ -280,7 +280,8 @@ class _Log:
         self.count += t.shape[0]
 
     def array(self) -> np.ndarray:
-        out, singles = [], []
+        out: list[np.ndarray] = []
+        singles: list[tuple] = []
         for item in self.items:
             if isinstance(item, np.ndarray):
                 if singles:
@@ -367,7 +368,7 @@ def _with(key: tuple, part: int, index: int, value) -> tuple:
 
 
 def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np.ndarray, v: np.ndarray,
-                events: list, terms: dict):
+                events: _Log, terms: dict):
     """The next mode and state after guard ``g`` of ``mode`` fired at ``(t, q, v)``; events appended."""
     system = runner.system
     kind, index, sign = mode.guards[g]
@@ -395,7 +396,7 @@ def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np
     return key, q, v
 
 
-def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: list,
+def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: _Log,
             terms: dict):
     """An impact on the rigid stop ``c``, then rest if the rebounds accumulate.
 
@@ -476,7 +477,7 @@ def _settles(runner: _Runner, b: int, q: np.ndarray, v: np.ndarray, push: float)
 
 
 def _chatter_rest(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, resting: list,
-                  events: list):
+                  events: _Log):
     """Rest on stop ``c`` (and on any other stop touched with it) once the rebounds are below the rounding.
 
     The push into each candidate stop is its force in the rest mode of all of them (solved
