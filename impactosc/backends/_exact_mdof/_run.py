@@ -13,6 +13,7 @@ release, with the constraint forces of all active constraints solved together.
 from __future__ import annotations
 
 import math
+import threading
 import weakref
 
 import numpy as np
@@ -41,9 +42,8 @@ _MAX_ZERO_TIME = 4
 
 
 class _Runner:
-    def __init__(self, system: MechanicalSystem, energy: bool):
+    def __init__(self, system: MechanicalSystem):
         self.system = system
-        self.energy = energy
         self.modes: dict[tuple, Mode] = {}
         n = system.n
         harm = [(f, om, ph) for f, om, ph in system.harmonics if om > 0.0]
@@ -76,7 +76,7 @@ class _Runner:
         for f, om, ph in system.harmonics:
             if om == 0.0:
                 self.f0 += f * math.cos(ph)
-        self._buffers: tuple = ()
+        self.lock = threading.Lock()
         # the compiled loop's table of the modes built so far, and their numbers
         nf = len(system.friction)
         self.coded = 2 * nc + math.log2(3.0) * nf < 62.0
@@ -89,18 +89,6 @@ class _Runner:
         self.keys: list[tuple] = []
         self.rows: dict[tuple, int] = {}
 
-    def buffers(self, cap: int) -> tuple:
-        """Event and piece buffers of the compiled loop (reused while large enough):
-        ``ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v``."""
-        if not self._buffers or self._buffers[0].shape[0] < cap:
-            n = self.system.n
-            self._buffers = (np.empty(cap), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64),
-                             np.empty((cap, n)), np.empty((cap, n)), np.empty(cap + 1),
-                             np.empty(cap + 1, dtype=np.int64), np.empty((cap + 1, n)), np.empty((cap + 1, n)))
-        if self._buffers[0].shape[0] == cap:
-            return self._buffers
-        b = self._buffers
-        return (*(x[:cap] for x in b[:5]), *(x[:cap + 1] for x in b[5:]))
 
     def k_norm(self, mode: Mode) -> float:
         norm = self._k_norms.get(mode.key)
@@ -111,15 +99,24 @@ class _Runner:
     def mode(self, key: tuple) -> Mode:
         mode = self.modes.get(key)
         if mode is None:
-            mode = self.modes[key] = build_mode(self.system, key)
-            if self.coded:
-                self.index_of[self.code(key)] = len(self.keys)
-            self.rows[key] = len(self.keys)
+            with self.lock:  # runs of one system in threads share its table: rows and numbers must match
+                return self._add(key)
+        return mode
+
+    def _add(self, key: tuple) -> Mode:
+        mode = self.modes.get(key)
+        if mode is None:
+            mode = build_mode(self.system, key)
+            # the row first, then its numbers: a run in another thread never finds a number without its row
             if self.table is None:
                 self.table = _closed.new_table(*mode.entry())
             else:
                 _closed.push_mode(self.table, *mode.entry())
             self.keys.append(key)
+            self.rows[key] = len(self.keys) - 1
+            if self.coded:
+                self.index_of[self.code(key)] = len(self.keys) - 1
+            self.modes[key] = mode
         return mode
 
     def code(self, key: tuple) -> int:
@@ -201,7 +198,8 @@ def _stick_test(runner: _Runner, key: tuple, i: int, t: float, q: np.ndarray, v:
 
 def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, energy: bool) -> MechanicalSolution:
     """Run ``system`` from ``(q0, v0)`` at ``t = 0`` to ``t_end`` (see :func:`simulate_mechanical`)."""
-    runner = _runner(system, energy)
+    runner = _runner(system)
+    buffers: list = []  # this run's buffers of the compiled loop (a runner may serve several runs at once)
     n = system.n
     q = np.array(q0, dtype=float)
     v = np.array(v0, dtype=float)
@@ -224,7 +222,7 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
         key, tau, g, st, zero_time, t, q, v = _compiled_pieces(runner, key, t, q, v, t_end, energy, max_events,
-                                                               zero_time, events, pieces, terms)
+                                                               zero_time, events, pieces, terms, buffers)
         mode = runner.mode(key)
         if st != 0:
             status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
@@ -240,7 +238,7 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
             status, message = -1, (f"no consistent mode at t = {t!r}: the stick, lift-off and contact tests keep "
                                    f"switching without time passing (last mode {describe(system, key)})")
             break
-        key, q, v = _transition(runner, mode, g, key, t, q, v, events, terms)
+        key, q, v = _transition(runner, mode, g, key, t, q, v, events, terms, energy)
         n_events = len(events)
         if n_events >= max_events:
             status, message = 1, f"stopped after max_events = {max_events} events at t = {t!r}"
@@ -315,22 +313,32 @@ _RUNNERS: dict[int, tuple[weakref.ref, _Runner]] = {}
 _KEEP_RUNNERS = 8
 
 
-def _runner(system: MechanicalSystem, energy: bool) -> _Runner:
+def _runner(system: MechanicalSystem) -> _Runner:
     """The runner of ``system``: the one of its last run (modes already built) or a new one."""
     held = _RUNNERS.get(id(system))
     if held is not None and held[0]() is system:
         runner = held[1]
     else:
-        runner = _Runner(system, energy)
+        runner = _Runner(system)
         if len(_RUNNERS) >= _KEEP_RUNNERS:
             _RUNNERS.pop(next(iter(_RUNNERS)))
         _RUNNERS[id(system)] = (weakref.ref(system), runner)
-    runner.energy = energy
     return runner
 
 
+def _buffers(held: list, n: int, cap: int) -> tuple:
+    """Event and piece buffers of the compiled loop, kept in ``held`` and reused while large enough:
+    ``ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v``."""
+    if not held or held[0].shape[0] < cap:
+        held[:] = (np.empty(cap), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty((cap, n)),
+                   np.empty((cap, n)), np.empty(cap + 1), np.empty(cap + 1, dtype=np.int64), np.empty((cap + 1, n)),
+                   np.empty((cap + 1, n)))
+    return (*(x[:cap] for x in held[:5]), *(x[:cap + 1] for x in held[5:]))
+
+
 def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
-                     energy: bool, max_events: int, zero_time: int, events: _Log, pieces: list, terms: dict):
+                     energy: bool, max_events: int, zero_time: int, events: _Log, pieces: list, terms: dict,
+                     held: list):
     """Pieces and mode changes from ``(t, q, v)`` in ``key`` in one compiled call, recorded.
 
     Returns ``(key, tau, guard, status, zero_time, t, q, v)``: the mode reached, the offset and
@@ -338,7 +346,7 @@ def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np
     """
     system = runner.system
     cap = max(1, min(_BUFFER, max_events - len(events)))
-    buffers = runner.buffers(cap)
+    buffers = _buffers(held, system.n, cap)
     mi = runner.rows[key]
     (n_ev, n_pc, tau, g, st, mi, _, zero_time, t, q, v, work, diss, fric, loss, escale) = _closed.run_modes(
         runner.table, runner.index_of, mi, runner.code(key), runner.spring_bit, runner.rest_bit, runner.fric_unit,
@@ -368,7 +376,7 @@ def _with(key: tuple, part: int, index: int, value) -> tuple:
 
 
 def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np.ndarray, v: np.ndarray,
-                events: _Log, terms: dict):
+                events: _Log, terms: dict, energy: bool):
     """The next mode and state after guard ``g`` of ``mode`` fired at ``(t, q, v)``; events appended."""
     system = runner.system
     kind, index, sign = mode.guards[g]
@@ -392,12 +400,12 @@ def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np
         key = _with(key, 2, index, sign)
         events.append((t, "release", index, q, v))
     elif kind == IMPACT:
-        key, q, v = _impact(runner, key, index, t, q, v, events, terms)
+        key, q, v = _impact(runner, key, index, t, q, v, events, terms, energy)
     return key, q, v
 
 
 def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: _Log,
-            terms: dict):
+            terms: dict, energy: bool):
     """An impact on the rigid stop ``c``, then rest if the rebounds accumulate.
 
     Alone, the impulse acts along ``M^-1 n_c`` (module docstring of the model). While other
@@ -438,7 +446,7 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
             events.append((t, "lift", b, q, v))
     if runner.can_rest[c]:  # e = 1 too: damping or a slow approach leaves rebounds below the rounding
         resting, q, v = _chatter_rest(runner, key, c, t, q, v, resting, events)
-    if runner.energy:
+    if energy:
         terms["impacts"] += 0.5 * float((v_before - v) @ system.M @ (v_before + v))
     # Friction coordinates that the impulse set moving (or reversed) slip the new way.
     motion = list(key[2])
