@@ -20,9 +20,10 @@ import numpy as np
 
 from ..._util.jit import HAVE_NUMBA
 from ...model._mechanical import MechanicalSystem
-from ...results._mechanical import MechanicalSolution, event_dtype
-from . import _closed, _forms
-from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, STICK, Mode, build_mode, describe
+from ...results._mechanical import MechanicalSolution
+from . import _closed, _forms, _records
+from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, Mode, build_mode, describe
+from ._records import KIND_NAMES, EventLog
 
 __all__ = ["run"]
 
@@ -208,7 +209,7 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
     for s, fr in zip(key[2], system.friction, strict=True):
         if s == 0:
             v[fr.coordinate] = 0.0
-    events = _Log(n)
+    events = EventLog(n)
     pieces: list[tuple] = []  # chunks (start times, mode rows, q, v) of the compiled loop's piece records
     e0 = float(system.energy(q, v))
     terms = {"work": 0.0, "damping": 0.0, "friction": 0.0, "impacts": 0.0, "energy_max": abs(e0)}
@@ -256,48 +257,6 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
                               v=v, status=status, message=message, energy=terms if energy else {})
 
 
-class _Log:
-    """The events of a run: single ones from the Python rule, blocks from the compiled loop, in order."""
-
-    def __init__(self, n: int):
-        self.dtype = event_dtype(n)
-        self.items: list = []  # event tuples and structured arrays
-        self.count = 0
-
-    def __len__(self) -> int:
-        return self.count
-
-    def append(self, event: tuple) -> None:
-        self.items.append(event)
-        self.count += 1
-
-    def block(self, t, kinds, index, q, v) -> None:
-        block = np.empty(t.shape[0], dtype=self.dtype)
-        block["t"], block["kind"], block["index"], block["q"], block["v"] = t, kinds, index, q, v
-        self.items.append(block)
-        self.count += t.shape[0]
-
-    def array(self) -> np.ndarray:
-        out: list[np.ndarray] = []
-        singles: list[tuple] = []
-        for item in self.items:
-            if isinstance(item, np.ndarray):
-                if singles:
-                    out.append(np.array(singles, dtype=self.dtype))
-                    singles = []
-                out.append(item)
-            else:
-                singles.append(tuple(item))
-        if singles:
-            out.append(np.array(singles, dtype=self.dtype))
-        return np.concatenate(out) if out else np.empty(0, dtype=self.dtype)
-
-
-#: Event names of the guard kinds the compiled loop records (indexed by the kind).
-_KIND_NAMES = np.array([{IMPACT: "impact", ENTER: "contact_start", LEAVE: "contact_end", LIFT: "lift",
-                         RELEASE: "release", SLIP_END: "reversal", STICK: "stick"}.get(k, "") for k in range(7)])
-
-
 def _index():
     """An empty index of the modes' numbers: numba's typed dict when it is there."""
     if HAVE_NUMBA:
@@ -326,18 +285,8 @@ def _runner(system: MechanicalSystem) -> _Runner:
     return runner
 
 
-def _buffers(held: list, n: int, cap: int) -> tuple:
-    """Event and piece buffers of the compiled loop, kept in ``held`` and reused while large enough:
-    ``ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v``."""
-    if not held or held[0].shape[0] < cap:
-        held[:] = (np.empty(cap), np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64), np.empty((cap, n)),
-                   np.empty((cap, n)), np.empty(cap + 1), np.empty(cap + 1, dtype=np.int64), np.empty((cap + 1, n)),
-                   np.empty((cap + 1, n)))
-    return (*(x[:cap] for x in held[:5]), *(x[:cap + 1] for x in held[5:]))
-
-
 def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
-                     energy: bool, max_events: int, zero_time: int, events: _Log, pieces: list, terms: dict,
+                     energy: bool, max_events: int, zero_time: int, events: EventLog, pieces: list, terms: dict,
                      held: list):
     """Pieces and mode changes from ``(t, q, v)`` in ``key`` in one compiled call, recorded.
 
@@ -346,7 +295,7 @@ def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np
     """
     system = runner.system
     cap = max(1, min(_BUFFER, max_events - len(events)))
-    buffers = _buffers(held, system.n, cap)
+    buffers = _records.buffers(held, system.n, cap)
     mi = runner.rows[key]
     (n_ev, n_pc, tau, g, st, mi, _, zero_time, t, q, v, work, diss, fric, loss, escale) = _closed.run_modes(
         runner.table, runner.index_of, mi, runner.code(key), runner.spring_bit, runner.rest_bit, runner.fric_unit,
@@ -357,7 +306,7 @@ def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np
     ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v = buffers
     pieces.append((pc_t[:n_pc].copy(), pc_mode[:n_pc].copy(), pc_q[:n_pc].copy(), pc_v[:n_pc].copy()))
     if n_ev:
-        events.block(ev_t[:n_ev], _KIND_NAMES[ev_kind[:n_ev]], ev_index[:n_ev], ev_q[:n_ev], ev_v[:n_ev])
+        events.block(ev_t[:n_ev], KIND_NAMES[ev_kind[:n_ev]], ev_index[:n_ev], ev_q[:n_ev], ev_v[:n_ev])
     if energy:
         terms["work"] += work
         terms["damping"] += diss
@@ -376,7 +325,7 @@ def _with(key: tuple, part: int, index: int, value) -> tuple:
 
 
 def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np.ndarray, v: np.ndarray,
-                events: _Log, terms: dict, energy: bool):
+                events: EventLog, terms: dict, energy: bool):
     """The next mode and state after guard ``g`` of ``mode`` fired at ``(t, q, v)``; events appended."""
     system = runner.system
     kind, index, sign = mode.guards[g]
@@ -404,7 +353,7 @@ def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np
     return key, q, v
 
 
-def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: _Log,
+def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: EventLog,
             terms: dict, energy: bool):
     """An impact on the rigid stop ``c``, then rest if the rebounds accumulate.
 
@@ -485,7 +434,7 @@ def _settles(runner: _Runner, b: int, q: np.ndarray, v: np.ndarray, push: float)
 
 
 def _chatter_rest(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, resting: list,
-                  events: _Log):
+                  events: EventLog):
     """Rest on stop ``c`` (and on any other stop touched with it) once the rebounds are below the rounding.
 
     The push into each candidate stop is its force in the rest mode of all of them (solved
