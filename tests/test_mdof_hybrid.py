@@ -72,12 +72,33 @@ def exact_events(sol) -> list[tuple[float, str, int]]:
     return [(float(t), str(k), int(i)) for t, k, i in zip(ev["t"], ev["kind"], ev["index"], strict=True)]
 
 
-def assert_agree(reference, other, tol: float, *, label: str):
-    """``other``'s events are ``reference``'s, one by one, times within ``tol``."""
+#: Rounding of a position of order one (a gap, a coordinate at an impact) that the backends may differ by.
+POSITION_ROUNDING = 1e-15
+
+
+def impact_tolerances(ms: MechanicalSystem, sol, tol: float) -> list[float]:
+    """Per event of the exact run ``sol``: ``tol``, or for an impact at approach speed ``u`` at least
+    ``POSITION_ROUNDING / u``, the time in which the rounding of the gap is crossed at that speed. A
+    chatter's last impacts come at speeds of 1e-6 and below, where the backends' last-bit differences
+    of the state move the impact times by ~1e-10 (seen: 1.6e-10 at an approach speed of 2.3e-6)."""
+    out = []
+    for e in sol.events:
+        if e["kind"] == "impact":
+            contact = ms.contacts[int(e["index"])]
+            u = abs(float(contact.normal @ e["v"])) / max(contact.restitution, 1e-300)
+            out.append(max(tol, POSITION_ROUNDING * max(1.0, contact.gap) / u) if u > 0.0 else tol)
+        else:
+            out.append(tol)
+    return out
+
+
+def assert_agree(reference, other, tol, *, label: str):
+    """``other``'s events are ``reference``'s, one by one, times within ``tol`` (a float, or one per event)."""
     assert len(other) == len(reference), f"{label}: {len(other)} events against {len(reference)}"
+    tols = [tol] * len(reference) if isinstance(tol, float) else tol
     for k, (a, b) in enumerate(zip(reference, other, strict=True)):
         assert a[1:] == b[1:], f"{label}: event {k} is {b} against {a}"
-        assert abs(a[0] - b[0]) <= tol, f"{label}: event {k} ({a[1]}) at {b[0]!r} against {a[0]!r}"
+        assert abs(a[0] - b[0]) <= tols[k], f"{label}: event {k} ({a[1]}) at {b[0]!r} against {a[0]!r}"
 
 
 def three_way(ms: MechanicalSystem, t_end: float, q0, v0, *, min_events: int = 1,
@@ -112,7 +133,7 @@ def three_way(ms: MechanicalSystem, t_end: float, q0, v0, *, min_events: int = 1
             assert all(e[1:] == ("impact", stop) and t_rest - tol <= e[0] <= sol.accumulation_time for e in tail), \
                 f"{backend}: after the rest at {t_rest!r} on stop {stop}: {tail}"
             events = events[:len(reference)]
-        assert_agree(reference, events, tol, label=backend)
+        assert_agree(reference, events, impact_tolerances(ms, exact, tol)[:len(reference)], label=backend)
         runs[backend] = sol
     return runs
 

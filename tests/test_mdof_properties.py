@@ -20,7 +20,8 @@ systems = st.tuples(st.integers(0, 10_000), st.integers(2, 7), st.sampled_from([
                     st.integers(0, 2))
 
 
-@settings(max_examples=25, deadline=None)
+# 25 cases in CI; the dev profile (HYPOTHESIS_PROFILE=dev) runs 200
+@settings(max_examples=25 if settings().max_examples <= 40 else 200, deadline=None)
 @given(systems)
 def test_energy_identity_and_dense_output(case):
     seed, n, laws, friction = case

@@ -280,8 +280,6 @@ def test_multi_guide_runs_find_contact_where_the_quasi_static_runout_exceeds_the
     assert sol.energy_balance()["relative"] < 1e-9
 
 
-@pytest.mark.xfail(strict=True, reason="the n-DOF exact backend loops on reversals (no consistent mode) when a "
-                                       "guide with friction presses a spring flange and a neighbour moves")
 def test_two_guide_run_with_friction_reaches_its_end():
     path = TapePath(TapeDrive(clearance=30e-6, friction=0.2), [Guide(0.01), Guide(0.03, friction=0.0)])
     sol = simulate_mechanical(path.mechanical_system(), path.seconds_to_time(2e-3), [0.0, 0.0], [0.0, 0.0])

@@ -30,11 +30,12 @@ except ImportError:  # pragma: no cover - exercised only where numba is absent
     _numba = None
     HAVE_NUMBA = False
 
-#: The modules whose functions numba compiles and caches; they call one another.
+#: The modules whose functions numba compiles and caches; they call one another (and the modules
+#: whose constants they bake in: the n-DOF mode's guard kinds).
 COMPILED_MODULES = ("model/_rule.py", "model/_wall.py", "engine/_stuck.py", "engine/_chatter.py", "_util/roots.py",
                     "backends/exact/_piece.py", "backends/exact/_family.py", "backends/exact/_loop.py",
                     "backends/_exact_mdof/_forms.py", "backends/_exact_mdof/_guards.py",
-                    "backends/_exact_mdof/_closed.py")
+                    "backends/_exact_mdof/_closed.py", "backends/_exact_mdof/_modes.py")
 
 
 def _drop_stale_caches() -> None:

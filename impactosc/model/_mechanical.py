@@ -19,7 +19,10 @@ Equation of motion between events, for the coordinates ``q`` (``n`` of them)::
     and the kinetic energy drops by ``(1 - e_c^2) (n_c . q'-)^2 / (2 n_c . M^-1 n_c)``. When the
     rebounds accumulate (chatter) the coordinates come to rest on the stop: the constraint
     ``g_c = 0`` holds with a contact force ``-lambda_c n_c``, ``lambda_c >= 0``, until
-    ``lambda_c`` falls to zero (lift-off), as in the one-degree-of-freedom engine.
+    ``lambda_c`` falls to zero (lift-off), as in the one-degree-of-freedom engine. An elastic
+    stop (``e_c = 1``) comes to rest too once its rebounds are below the rounding of the gap
+    (damping, or a slow approach under a static push, leaves them that small), unless a
+    friction coordinate lies along its normal (:attr:`MechanicalSystem.can_rest`).
 
 * Coulomb friction on a coordinate ``j``: ``R_j = -mu_k sgn(q_j')`` while it slips; it sticks
   (``q_j' = 0`` held) when its velocity reaches zero and the force that holds it,
@@ -308,6 +311,35 @@ class MechanicalSystem:
             if c.rigid and c.restitution < 1.0:
                 out.append((f"contacts[{i}] (a rigid stop that can rest)", c.normal))
         return out
+
+    @property
+    def can_rest(self) -> tuple[bool, ...]:
+        """Per contact: True for a rigid stop the coordinates can come to rest on.
+
+        Every rigid stop can, once its rebounds fall below the rounding of its gap, except an
+        elastic one (``e = 1``) whose normal lies along a friction coordinate: resting, it would
+        be a second constraint on that line (the pair this class refuses for ``e < 1``); such a
+        stop keeps its rebounds, as they keep the energy.
+
+        Examples
+        --------
+        >>> from impactosc.model import Contact, Friction, MechanicalSystem
+        >>> stop = Contact([1.0, 0.0], 1.0, law="rigid", restitution=1.0)
+        >>> MechanicalSystem(M=np.eye(2), contacts=[stop]).can_rest
+        (True,)
+        >>> MechanicalSystem(M=np.eye(2), contacts=[stop], friction=[Friction(0, 0.1)]).can_rest
+        (False,)
+        """
+        frictional = [f.coordinate for f in self.friction]
+        out = []
+        for c in self.contacts:
+            if not c.rigid:
+                out.append(False)
+                continue
+            along = np.flatnonzero(c.normal)
+            parallel = along.size == 1 and int(along[0]) in frictional
+            out.append(c.restitution < 1.0 or not parallel)
+        return tuple(out)
 
     def _check_coupling(self) -> None:
         """Refuse pairs of constraints that can hold together and are parallel (their forces are not unique)."""

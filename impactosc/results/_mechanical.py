@@ -12,12 +12,17 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["MechanicalSolution", "MECHANICAL_EVENT_KINDS"]
+__all__ = ["MechanicalSolution", "MECHANICAL_EVENT_KINDS", "event_dtype"]
 
 #: Event kinds: a spring contact closes / opens, an impact on a rigid stop, the rebounds on a
 #: stop accumulate and the system comes to rest on it, it lifts off, a friction coordinate
 #: sticks, reverses its slip, or is released.
 MECHANICAL_EVENT_KINDS = ("contact_start", "contact_end", "impact", "rest", "lift", "stick", "reversal", "release")
+
+def event_dtype(n: int) -> np.dtype:
+    """The record of one event of an ``n``-coordinate run: ``t``, ``kind``, ``index``, ``q``, ``v``."""
+    return np.dtype([("t", float), ("kind", "U13"), ("index", int), ("q", float, (n,)), ("v", float, (n,))])
+
 
 #: A piece evaluator: ``(piece index, offsets from its start) -> (q, v)`` of shapes ``(len, n)``.
 PieceEvaluator = Callable[[int, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -54,13 +59,16 @@ class MechanicalSolution:
     (2, 1)
     """
 
-    def __init__(self, *, n: int, t_end: float, events: Sequence[tuple], pieces: np.ndarray,
+    def __init__(self, *, n: int, t_end: float, events: Sequence[tuple] | np.ndarray, pieces: np.ndarray,
                  evaluator: PieceEvaluator, t: float, q: np.ndarray, v: np.ndarray, status: int, message: str,
                  energy: dict[str, float]):
         self.n = n
         self.t_end = float(t_end)
-        dtype = [("t", float), ("kind", "U13"), ("index", int), ("q", float, (n,)), ("v", float, (n,))]
-        self._events = np.array([tuple(e) for e in events], dtype=dtype).view(np.recarray)
+        dtype = event_dtype(n)
+        if isinstance(events, np.ndarray):  # records the backend made in bulk
+            self._events = events.astype(dtype, copy=False).view(np.recarray)
+        else:
+            self._events = np.array([tuple(e) for e in events], dtype=dtype).view(np.recarray)
         self._pieces = pieces  # start times, sorted
         self._evaluator = evaluator
         self.t = float(t)

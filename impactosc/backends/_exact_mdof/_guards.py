@@ -14,11 +14,18 @@ On ``[a, b]`` each term's derivatives are bounded in closed form:
 ``|D (i omega)^p|`` and, for a resonant term (``E^(p)`` is a divided difference of
 ``z^p e^{z tau}`` over the segment ``[lambda, mu]``, so the mean-value theorem bounds it by the
 derivative in ``z``), ``|R| (p rho^{p-1} + b rho^p) e^{max(Re lambda, 0) b}`` with
-``rho = max(|lambda|, |mu|)``. With ``M2 >= |h''|`` and ``M3 >= |h'''|`` the bracketing of
-:func:`impactosc._util.roots.first_rising` proves that an interval holds no root, or exactly
-one simple crossing (``h'`` of one sign), and bisects otherwise; a tangency (a grazing) is
-bisected until its extremum is separated from zero or the interval is a few ulps wide. So
-no crossing is missed and none is reported twice.
+``rho = max(|lambda|, |mu|)``; each term's own size bounds it too. On every interval the
+smaller of the two bounds per term limits how far ``h`` and ``h'`` stray from their chords
+(:func:`_slacks`), and the bracketing of :func:`impactosc._util.roots.first_rising` (here
+:func:`_first_rising`, with these per-interval slacks) proves that an interval holds no root,
+or exactly one simple crossing (``h'`` of one sign), and bisects otherwise; a tangency (a
+grazing) is bisected until its extremum is separated from zero or the interval is a few ulps
+wide. So no crossing is missed and none is reported twice.
+
+The guards are searched window by window, so that a guard crossing early spares the search of
+the others beyond it; a window starts at half the shortest period of the piece and doubles
+while no guard crosses (long quiet pieces: a tape resting on a stiff flange for half a turn of
+the reel).
 """
 
 from __future__ import annotations
@@ -29,8 +36,7 @@ import math
 import numpy as np
 
 from ..._util.jit import njit
-from ..._util.roots import SEARCH_FAILED
-from ..._util.roots import first_rising_jit as first_rising
+from ..._util.roots import MAX_BRACKET_STEPS, SEARCH_FAILED
 from ..._util.roots import refine_jit as refine
 from ._forms import E
 
@@ -63,6 +69,9 @@ def _h(st, tau):
         h += e
         dh += lam[k] * e
     for j in range(omt.shape[0]):
+        if omt[j] == 0.0:
+            h += D[g, j]
+            continue
         mu = 1j * omt[j]
         e = D[g, j] * cmath.exp(mu * tau)
         h += e
@@ -77,35 +86,134 @@ def _h(st, tau):
 
 
 @njit
-def _bounds(st, a, b):
-    """``M2 >= |h''|`` and ``M3 >= |h'''|`` of guard ``st[0]`` on ``[a, b]`` (module docstring)."""
+def _window_terms(st, a, b, mags, rates):
+    """Guard ``st[0]``'s terms on the window ``[a, b]``, for :func:`_slacks` and the ceiling test.
+
+    Fills ``mags`` (each oscillating term's largest size on the window: ``|W| e^{max(Re lambda a,
+    Re lambda b)}``, ``|D|``) and ``rates`` (its ``|lambda|`` or ``omega``) and returns
+    ``(count, c2, c3, ceiling)``: the curvature bounds of the terms kept as curvature only
+    (rigid-body polynomial, resonant terms; module docstring), and an upper bound of the guard
+    on the window: its constant part plus every other term at its largest plus the rounding
+    of them all. A ceiling below zero proves the guard does not cross in the window.
+    """
     g, lam, W, omt, D, rk, rj, RG, c0, poly = st
-    m2 = 0.0
-    m3 = 0.0
+    top = c0[g] + poly[g, 0]  # the constant part
+    size = abs(c0[g]) + abs(poly[g, 0])
+    moving = 0.0  # the other terms at their largest on [a, b]
+    c2 = 0.0
+    c3 = 0.0
     x = max(abs(a), abs(b))
-    for p in range(2, poly.shape[1]):
-        m2 += abs(poly[g, p]) * p * (p - 1) * x ** (p - 2)
+    for p in range(1, poly.shape[1]):
+        moving += abs(poly[g, p]) * x**p
+        if p >= 2:
+            c2 += abs(poly[g, p]) * p * (p - 1) * x ** (p - 2)
         if p >= 3:
-            m3 += abs(poly[g, p]) * p * (p - 1) * (p - 2) * x ** (p - 3)
+            c3 += abs(poly[g, p]) * p * (p - 1) * (p - 2) * x ** (p - 3)
+    count = 0
     for k in range(lam.shape[0]):
-        r = abs(lam[k])
-        grow = math.exp(max(lam[k].real * a, lam[k].real * b))
-        w = abs(W[g, k]) * grow * r * r
-        m2 += w
-        m3 += w * r
+        if W[g, k] != 0j:
+            m = abs(W[g, k]) * math.exp(max(lam[k].real * a, lam[k].real * b))
+            mags[count] = m
+            rates[count] = abs(lam[k])
+            count += 1
+            moving += m
     for j in range(omt.shape[0]):
-        w = abs(D[g, j]) * omt[j] * omt[j]
-        m2 += w
-        m3 += w * omt[j]
+        if omt[j] == 0.0:
+            top += D[g, j].real
+            size += abs(D[g, j].real)
+        else:
+            m = abs(D[g, j])
+            mags[count] = m
+            rates[count] = omt[j]
+            count += 1
+            moving += m
     for r in range(rk.shape[0]):
         lk = lam[rk[r]]
         rho = max(abs(lk), omt[rj[r]])
-        grow = math.exp(max(lk.real, 0.0) * b)
-        w = abs(RG[g, r]) * grow
-        m2 += w * (2.0 * rho + b * rho * rho)
-        m3 += w * (3.0 * rho * rho + b * rho * rho * rho)
+        m = abs(RG[g, r]) * math.exp(max(lk.real, 0.0) * b)
+        moving += m * b
+        c2 += m * (2.0 * rho + b * rho * rho)
+        c3 += m * (3.0 * rho * rho + b * rho * rho * rho)
+    ceiling = top + moving + _START_ULPS * _EPS * (size + moving)
+    return count, c2, c3, ceiling
+
+
+@njit
+def _slacks(count, c2, c3, mags, rates, width):
+    """How far ``h`` and ``h'`` can stray from their chords on an interval of ``width`` in the window
+    of :func:`_window_terms`: ``(s2, s3)``.
+
+    Term by term, the smaller of the curvature bound ``max|f''| w^2 / 8`` and the magnitude bound
+    ``2 max|f|`` (a term and its chord both stay within ``max|f|``); the same for the derivative.
+    A fast, small term (a stiff flange's mode decayed to a ripple) thus costs its amplitude, not
+    its curvature, and long intervals of a slow guard are decided at once.
+    """
+    w2 = 0.125 * width * width
+    s2 = c2 * w2
+    s3 = c3 * w2
+    for i in range(count):
+        m, r = mags[i], rates[i]
+        s2 += min(m * r * r * w2, 2.0 * m)
+        s3 += min(m * r * r * r * w2, 2.0 * m * r)
     # the rounding of the sums: a relative margin
-    return m2 * (1.0 + 1e-12), m3 * (1.0 + 1e-12)
+    return s2 * (1.0 + 1e-12), s3 * (1.0 + 1e-12)
+
+
+#: Depth of the bisection stack of :func:`_first_rising` (a window halved down to a few ulps of
+#: ``t`` needs well under 100 levels; deeper is a failed search, never an overrun).
+_STACK = 160
+
+
+@njit
+def _first_rising(st, a, ha, da, b, hmin, sb, sh, sd, terms):
+    """First crossing of guard ``st[0]`` from negative to non-negative in ``(a, b]``.
+
+    The bracketing of :func:`impactosc._util.roots.first_rising`, with the chord slacks of every
+    interval from :func:`_slacks` (small fast terms bounded by their size) instead of one pair of
+    derivative bounds for the whole window. Returns ``(found, lo, hi, h(lo), h(hi), h(b), h'(b),
+    status)`` as that function does; ``status`` is ``SEARCH_FAILED`` on non-finite values, more
+    than ``MAX_BRACKET_STEPS`` intervals or a stack deeper than :data:`_STACK` (never a hang). ``sb, sh, sd``: the stack
+    (right ends of the intervals to come, their ``h`` and ``h'``), arrays of length
+    :data:`_STACK` the caller lends; ``terms``: the window's terms (:func:`_window_terms`).
+    """
+    count, c2, c3, mags, rates = terms
+    hb, db = _h(st, b)
+    end_h, end_d = hb, db
+    top = 0
+    sb[0], sh[0], sd[0] = b, hb, db
+    evaluations = 0
+    while top >= 0:
+        b, hb, db = sb[top], sh[top], sd[top]
+        evaluations += 1
+        s2, s3 = _slacks(count, c2, c3, mags, rates, b - a)
+        if evaluations > MAX_BRACKET_STEPS or not math.isfinite(ha + hb + da + db + s2 + s3):
+            return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
+        decided = False
+        if ha >= 0.0 and hb >= 0.0 and min(ha, hb) > s2:
+            decided = True  # h > 0 on [a, b]
+        elif ha < 0.0 and hb < 0.0 and max(ha, hb) < -s2:
+            decided = True  # h < 0 on [a, b]
+        elif min(da, db) > s3:  # h increasing: one crossing at most
+            if ha < 0.0 <= hb:
+                return True, a, b, ha, hb, end_h, end_d, 0
+            decided = True
+        elif max(da, db) < -s3:  # h decreasing: it cannot rise through 0
+            decided = True
+        elif b - a <= hmin:
+            if ha < 0.0 <= hb:
+                return True, a, b, ha, hb, end_h, end_d, 0
+            decided = True
+        if decided:
+            top -= 1
+            a, ha, da = b, hb, db
+        else:
+            if top + 1 >= _STACK:
+                return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
+            mid = a + 0.5 * (b - a)
+            hm, dm = _h(st, mid)
+            top += 1
+            sb[top], sh[top], sd[top] = mid, hm, dm
+    return False, a, a, ha, ha, end_h, end_d, 0
 
 
 @njit
@@ -165,7 +273,7 @@ def _leave_band(st, tol, t0, T):
 
 
 @njit
-def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
+def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, T):
     """The first armed guard that rises through zero in ``(0, T]``: ``(tau, guard, status)``.
 
     ``guard`` is -1 when none does before ``T``. A guard that starts on its zero (within
@@ -195,7 +303,7 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
         h0, d0 = _h(st, 0.0)
         size, dsize = _size(st)
         tol = _START_ULPS * _EPS * (size + cscale[g])
-        dtol = _START_ULPS * _EPS * dsize
+        dtol = _START_ULPS * _EPS * (dsize + dscale[g])
         if h0 >= -tol and (d0 > dtol or h0 > tol):
             return 0.0, g, 0
         if h0 >= -tol:
@@ -207,6 +315,12 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
             continue
         ha[g], da[g] = h0, d0
     T_search = min(T, cand_tau)
+    known = np.ones(ng, dtype=np.bool_)  # ha, da hold h, h' at the start of the guard's next interval
+    sb = np.empty(_STACK)
+    sh = np.empty(_STACK)
+    sd = np.empty(_STACK)
+    mags = np.empty(lam.shape[0] + omt.shape[0])
+    rates = np.empty(lam.shape[0] + omt.shape[0])
     a = 0.0
     while a < T_search:
         b = min(T_search, a + window)
@@ -217,9 +331,19 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
             if not armed[g] or start[g] >= b:
                 continue
             lo_g = max(a, start[g])
+            hi_g = min(b, best)  # a crossing after the best one so far cannot win
+            if hi_g <= lo_g:
+                continue
             st = (g, lam, W, omt, D, rk, rj, RG, c0, poly)
-            M2, M3 = _bounds(st, lo_g, b)
-            hit, lo, hi, hlo, hhi, hb, db, status = first_rising(_h, st, lo_g, ha[g], da[g], b, M2, M3, hmin)
+            count, c2, c3, ceiling = _window_terms(st, lo_g, hi_g, mags, rates)
+            if ceiling < 0.0:
+                known[g] = False  # below zero all the way: nothing to evaluate
+                continue
+            if not known[g]:
+                ha[g], da[g] = _h(st, lo_g)
+                known[g] = True
+            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(st, lo_g, ha[g], da[g], hi_g, hmin, sb, sh,
+                                                                  sd, (count, c2, c3, mags, rates))
             if status == SEARCH_FAILED:
                 return lo_g, g, status
             if hit:
@@ -230,6 +354,7 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, poly, armed, t0, T):
         if best_g >= 0:
             return best, best_g, 0
         a = b
+        window *= 2.0
     if cand_g >= 0:
         return cand_tau, cand_g, 0
     return T, -1, 0

@@ -19,11 +19,13 @@ import numpy as np
 
 from ...model._mechanical import MechanicalSystem
 
-__all__ = ["Mode", "build_mode", "ENTER", "LEAVE", "IMPACT", "LIFT", "SLIP_END", "RELEASE", "GUARD_NAMES"]
+__all__ = ["Mode", "build_mode", "ENTER", "LEAVE", "IMPACT", "LIFT", "SLIP_END", "RELEASE", "STICK", "GUARD_NAMES"]
 
 #: Guard kinds: a spring contact closes / opens, a rigid stop is hit, a resting stop lets go,
 #: a slipping coordinate's velocity reaches zero, a stuck coordinate's holding force reaches mu_s.
 ENTER, LEAVE, IMPACT, LIFT, SLIP_END, RELEASE = range(6)
+#: Event code of a slip ending in a stick (a slip end that goes on, reversed, is a ``SLIP_END``).
+STICK = 6
 GUARD_NAMES = ("enter", "leave", "impact", "lift", "slip_end", "release")
 
 #: Condition number of the eigenvectors above which a mode counts as defective.
@@ -60,6 +62,19 @@ class Mode:
     guard_kind: np.ndarray  # the guards' kinds and indices as arrays, for the compiled loop
     guard_index: np.ndarray
     pair: np.ndarray  # the index of each eigenvalue's complex conjugate (-1: real or unpaired)
+    guard_sign: np.ndarray
+
+    def entry(self) -> tuple:
+        """The mode as a row of the compiled loop's table (:func:`._closed.run_modes`): its arrays,
+        its friction motions, ``[resting on a stop, |const|_1, max |K_mode|]``, its constraint-force
+        weights and each friction entry's row of them (-1: slipping)."""
+        info = np.array([float(any(self.key[1])), float(np.abs(self.const).sum()),
+                         float(np.abs(self.kmode).max(initial=0.0))])
+        rows = np.array([self.friction_row.get(i, -1) for i in range(len(self.key[2]))], dtype=np.int64)
+        return (self.lam, self.pair, self.gin, self.gv, self.wk, self.N, self.gin0, self.gv0, self.wk0, self.ga,
+                self.gu, self.gc, self.kmode, self.const, self.vq, self.vv, self.vq0, self.vv0, self.guard_kind,
+                self.guard_index, self.guard_sign, np.array(self.key[2], dtype=np.int64), info,
+                np.ascontiguousarray(self.weights, dtype=float), rows)
 
 
 def _force_weights(system: MechanicalSystem, G: np.ndarray) -> np.ndarray:
@@ -140,7 +155,8 @@ def build_mode(system: MechanicalSystem, key: tuple) -> Mode:
                 cx(N), cx(gin[r:]), cx(gv[r:]), cx(vq[:, r:]), cx(vv[:, r:]),
                 re(kmode), re(const), tuple(guards), cx(wk[:, :r]), cx(wk[:, r:]), re(ga), re(gb), re(gu), re(gc),
                 weights, friction_row, np.array([k for k, _, _ in guards], dtype=np.int64),
-                np.array([i for _, i, _ in guards], dtype=np.int64), _conjugate_pairs(lam))
+                np.array([i for _, i, _ in guards], dtype=np.int64), _conjugate_pairs(lam),
+                np.array([s for _, _, s in guards], dtype=np.int64))
 
 
 def _guard_rows(system: MechanicalSystem, key: tuple, kmode: np.ndarray, weights: np.ndarray):

@@ -1,9 +1,10 @@
 """The event loop of the exact n-DOF backend: closed-form pieces, the transition rule, the records.
 
-The pieces of one mode run in one compiled call (:func:`._closed.run_mode`), which also
-applies the impacts that keep the mode (no stop resting, no friction coordinate reversed,
-a rebound too fast for rest); every other event returns here, to the transition rule of the
-model (module docstring of :mod:`impactosc.model._mechanical`): springs engage and release,
+The pieces run in one compiled call (:func:`._closed.run_modes`) across the events that only
+change the mode (springs, lift-offs, releases: every mode built so far is a row of its table)
+and the impacts that keep the mode (no stop resting, no friction coordinate reversed, a
+rebound too fast for rest); every other event, and a mode not built yet, returns here, to the
+transition rule of the model (module docstring of :mod:`impactosc.model._mechanical`): springs engage and release,
 stops rest (chatter summed once the rebounds are below the rounding of the gap, stops
 touched together resting together) and lift off, friction coordinates stick, reverse and
 release, with the constraint forces of all active constraints solved together.
@@ -12,13 +13,17 @@ release, with the constraint forces of all active constraints solved together.
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 
 import numpy as np
 
+from ..._util.jit import HAVE_NUMBA
 from ...model._mechanical import MechanicalSystem
 from ...results._mechanical import MechanicalSolution
-from . import _closed, _forms
+from . import _closed, _forms, _records
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, Mode, build_mode, describe
+from ._records import KIND_NAMES, EventLog
 
 __all__ = ["run"]
 
@@ -38,9 +43,8 @@ _MAX_ZERO_TIME = 4
 
 
 class _Runner:
-    def __init__(self, system: MechanicalSystem, energy: bool):
+    def __init__(self, system: MechanicalSystem):
         self.system = system
-        self.energy = energy
         self.modes: dict[tuple, Mode] = {}
         n = system.n
         harm = [(f, om, ph) for f, om, ph in system.harmonics if om > 0.0]
@@ -63,25 +67,29 @@ class _Runner:
         self.nmn_array = np.array(self.nmn, dtype=float)
         self.mn_norm_array = np.array(self.mn_norm, dtype=float)
         self.restitution = np.array([c.restitution if c.rigid else 1.0 for c in system.contacts], dtype=float)
+        self.can_rest = system.can_rest
+        self.can_rest_array = np.array(self.can_rest, dtype=np.bool_)
         self.gaps = np.array([c.gap for c in system.contacts], dtype=float)
         self.fr_coord = np.array([f.coordinate for f in system.friction], dtype=np.int64)
         self.fr_kinetic = np.array([f.kinetic for f in system.friction], dtype=float)
+        self.fr_static = np.array([f.static for f in system.friction], dtype=float)
         self.f0 = np.zeros(n)
         for f, om, ph in system.harmonics:
             if om == 0.0:
                 self.f0 += f * math.cos(ph)
-        self._buffers: tuple = ()
+        self.lock = threading.Lock()
+        # the compiled loop's table of the modes built so far, and their numbers
+        nf = len(system.friction)
+        self.coded = 2 * nc + math.log2(3.0) * nf < 62.0
+        self.spring_bit = np.array([2**c if self.coded else 0 for c in range(nc)], dtype=np.int64)
+        self.rest_bit = np.array([2 ** (nc + c) if self.coded else 0 for c in range(nc)], dtype=np.int64)
+        self.fric_unit = np.array([3**i * 2 ** (2 * nc) if self.coded else 0 for i in range(nf)], dtype=np.int64)
+        self.table = None  # a typed list of Mode.entry() rows, made at the first mode
+        self.index_of = _index()
+        self.max_zero_time = _MAX_ZERO_TIME * (1 + nc + nf)
+        self.keys: list[tuple] = []
+        self.rows: dict[tuple, int] = {}
 
-    def buffers(self, cap: int) -> tuple:
-        """Event and piece buffers of the compiled loop (reused while large enough)."""
-        if not self._buffers or self._buffers[0].shape[0] < cap:
-            n = self.system.n
-            self._buffers = (np.empty(cap), np.empty(cap, dtype=np.int64), np.empty((cap, n)), np.empty((cap, n)),
-                             np.empty(cap + 1), np.empty((cap + 1, n)), np.empty((cap + 1, n)))
-        if self._buffers[0].shape[0] == cap:
-            return self._buffers
-        b = self._buffers
-        return (b[0][:cap], b[1][:cap], b[2][:cap], b[3][:cap], b[4][:cap + 1], b[5][:cap + 1], b[6][:cap + 1])
 
     def k_norm(self, mode: Mode) -> float:
         norm = self._k_norms.get(mode.key)
@@ -92,8 +100,35 @@ class _Runner:
     def mode(self, key: tuple) -> Mode:
         mode = self.modes.get(key)
         if mode is None:
-            mode = self.modes[key] = build_mode(self.system, key)
+            with self.lock:  # runs of one system in threads share its table: rows and numbers must match
+                return self._add(key)
         return mode
+
+    def _add(self, key: tuple) -> Mode:
+        mode = self.modes.get(key)
+        if mode is None:
+            mode = build_mode(self.system, key)
+            # the row first, then its numbers: a run in another thread never finds a number without its row
+            if self.table is None:
+                self.table = _closed.new_table(*mode.entry())
+            else:
+                _closed.push_mode(self.table, *mode.entry())
+            self.keys.append(key)
+            self.rows[key] = len(self.keys) - 1
+            if self.coded:
+                self.index_of[self.code(key)] = len(self.keys) - 1
+            self.modes[key] = mode
+        return mode
+
+    def code(self, key: tuple) -> int:
+        """The mode's number in the compiled loop's table (:func:`._closed.run_modes`); -1 when the
+        numbers of this system's modes do not fit in 62 bits (then every mode change returns here)."""
+        if not self.coded:
+            return -1
+        engaged, resting, motion = key
+        return (sum(int(on) * int(b) for on, b in zip(engaged, self.spring_bit, strict=True))
+                + sum(int(on) * int(b) for on, b in zip(resting, self.rest_bit, strict=True))
+                + sum((s + 1) * int(u) for s, u in zip(motion, self.fric_unit, strict=True)))
 
     def setup(self, mode: Mode, t0: float, q0: np.ndarray, v0: np.ndarray):
         return _forms.setup_piece(mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0,
@@ -101,7 +136,7 @@ class _Runner:
                                    q0, v0)
 
     def evaluate(self, mode: Mode, piece, q0: np.ndarray, taus: np.ndarray):
-        a, P, beta, res, _, _, _, _, _, _, omt, _, _, Xi, X = piece
+        a, P, beta, res, _, _, _, _, _, _, omt, _, _, _, Xi, X = piece
         qs = np.empty((taus.size, self.system.n))
         vs = np.empty_like(qs)
         for i, tau in enumerate(taus):
@@ -131,7 +166,7 @@ def _initial_key(runner: _Runner, q: np.ndarray, v: np.ndarray, t: float) -> tup
     key = (tuple(engaged), tuple(resting), tuple(motion))
     for c, contact in enumerate(system.contacts):
         g = float(contact.normal @ q) - contact.gap
-        if contact.rigid and contact.restitution < 1.0 and abs(g) <= 1e-12 * max(1.0, contact.gap) \
+        if runner.can_rest[c] and abs(g) <= 1e-12 * max(1.0, contact.gap) \
                 and float(contact.normal @ v) == 0.0:
             r = runner.residual_force(key, t, q, v)
             if float(contact.normal @ runner.minv @ r) > 0.0:  # pushed into the stop
@@ -155,8 +190,8 @@ def _stick_test(runner: _Runner, key: tuple, i: int, t: float, q: np.ndarray, v:
     motion = list(key[2])
     motion[i] = 0
     stuck = (key[0], key[1], tuple(motion))
-    mode = runner.mode(stuck)
-    push = float(mode.weights[mode.friction_row[i]] @ runner.residual_force(stuck, t, q, v))
+    runner.mode(stuck)
+    push = _closed.holding_force(runner.table, runner.rows[stuck], i, runner.om, runner.fh, runner.system.C, t, q, v)
     if abs(push) <= fr.static:
         return 0
     return 1 if push > 0.0 else -1
@@ -164,7 +199,8 @@ def _stick_test(runner: _Runner, key: tuple, i: int, t: float, q: np.ndarray, v:
 
 def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, energy: bool) -> MechanicalSolution:
     """Run ``system`` from ``(q0, v0)`` at ``t = 0`` to ``t_end`` (see :func:`simulate_mechanical`)."""
-    runner = _Runner(system, energy)
+    runner = _runner(system)
+    buffers: list = []  # this run's buffers of the compiled loop (a runner may serve several runs at once)
     n = system.n
     q = np.array(q0, dtype=float)
     v = np.array(v0, dtype=float)
@@ -173,9 +209,8 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
     for s, fr in zip(key[2], system.friction, strict=True):
         if s == 0:
             v[fr.coordinate] = 0.0
-    events: list[tuple] = []
-    starts: list[float] = []
-    records: list[tuple] = []
+    events = EventLog(n)
+    pieces: list[tuple] = []  # chunks (start times, mode rows, q, v) of the compiled loop's piece records
     e0 = float(system.energy(q, v))
     terms = {"work": 0.0, "damping": 0.0, "friction": 0.0, "impacts": 0.0, "energy_max": abs(e0)}
     status, message = 0, "reached t_end"
@@ -187,8 +222,9 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         except ValueError as err:
             status, message = -1, f"no closed form at t = {t!r} in the mode {describe(system, key)}: {err}"
             break
-        tau, g, st, t, q, v = _compiled_pieces(runner, mode, key, t, q, v, t_end, energy, max_events, events,
-                                               starts, records, terms)
+        key, tau, g, st, zero_time, t, q, v = _compiled_pieces(runner, key, t, q, v, t_end, energy, max_events,
+                                                               zero_time, events, pieces, terms, buffers)
+        mode = runner.mode(key)
         if st != 0:
             status, message = -1, (f"the guard search failed at t = {t + tau!r} in the mode {describe(system, key)} "
                                    f"(guard {mode.guards[g]}): non-finite values or no certified bracket")
@@ -199,56 +235,85 @@ def run(system: MechanicalSystem, t_end: float, q0, v0, *, max_events: int, ener
         if g < 0:
             break
         zero_time = zero_time + 1 if tau == 0.0 else 0
-        if zero_time > _MAX_ZERO_TIME * (1 + len(system.contacts) + len(system.friction)):
+        if zero_time > runner.max_zero_time:
             status, message = -1, (f"no consistent mode at t = {t!r}: the stick, lift-off and contact tests keep "
                                    f"switching without time passing (last mode {describe(system, key)})")
             break
-        key, q, v = _transition(runner, mode, g, key, t, q, v, events, terms)
+        key, q, v = _transition(runner, mode, g, key, t, q, v, events, terms, energy)
         n_events = len(events)
         if n_events >= max_events:
             status, message = 1, f"stopped after max_events = {max_events} events at t = {t!r}"
             break
     if energy:
         terms["delta_energy"] = float(system.energy(q, v)) - e0
-    pieces = np.array(starts)
+    starts, rows, pq, pv = (np.concatenate([c[i] for c in pieces]) for i in range(4))
+    keys = list(runner.keys)
 
     def evaluator(index: int, taus: np.ndarray):
-        k, qs, vs = records[index]
-        mode = runner.mode(k)
-        return runner.evaluate(mode, runner.setup(mode, starts[index], qs, vs), qs, taus)
+        mode = runner.mode(keys[rows[index]])
+        return runner.evaluate(mode, runner.setup(mode, starts[index], pq[index], pv[index]), pq[index], taus)
 
-    return MechanicalSolution(n=n, t_end=t_end, events=events, pieces=pieces, evaluator=evaluator, t=t, q=q, v=v,
-                              status=status, message=message, energy=terms if energy else {})
+    return MechanicalSolution(n=n, t_end=t_end, events=events.array(), pieces=starts, evaluator=evaluator, t=t, q=q,
+                              v=v, status=status, message=message, energy=terms if energy else {})
 
 
-def _compiled_pieces(runner: _Runner, mode: Mode, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
-                     energy: bool, max_events: int, events: list, starts: list, records: list, terms: dict):
-    """The pieces of ``mode`` from ``(t, q, v)`` in one compiled call, recorded; ``(tau, guard, status, t, q, v)``
-    of the last piece, whose event (if any) is left to the transition rule."""
+def _index():
+    """An empty index of the modes' numbers: numba's typed dict when it is there."""
+    if HAVE_NUMBA:
+        from numba import types
+        from numba.typed import Dict
+
+        return Dict.empty(types.int64, types.int64)
+    return {}  # pragma: no cover - plain Python runs the same loop on it
+
+
+#: Runners of the systems simulated last (their mode tables), reused by later runs of the same object.
+_RUNNERS: dict[int, tuple[weakref.ref, _Runner]] = {}
+_KEEP_RUNNERS = 8
+
+
+def _runner(system: MechanicalSystem) -> _Runner:
+    """The runner of ``system``: the one of its last run (modes already built) or a new one."""
+    held = _RUNNERS.get(id(system))
+    if held is not None and held[0]() is system:
+        runner = held[1]
+    else:
+        runner = _Runner(system)
+        if len(_RUNNERS) >= _KEEP_RUNNERS:
+            _RUNNERS.pop(next(iter(_RUNNERS)))
+        _RUNNERS[id(system)] = (weakref.ref(system), runner)
+    return runner
+
+
+def _compiled_pieces(runner: _Runner, key: tuple, t: float, q: np.ndarray, v: np.ndarray, t_end: float,
+                     energy: bool, max_events: int, zero_time: int, events: EventLog, pieces: list, terms: dict,
+                     held: list):
+    """Pieces and mode changes from ``(t, q, v)`` in ``key`` in one compiled call, recorded.
+
+    Returns ``(key, tau, guard, status, zero_time, t, q, v)``: the mode reached, the offset and
+    guard of its last piece's event (left to the Python rule when ``guard >= 0``).
+    """
     system = runner.system
     cap = max(1, min(_BUFFER, max_events - len(events)))
-    buffers = runner.buffers(cap)
-    (n_ev, n_pc, tau, g, st, t, q, v, work, diss, fric, loss, escale) = _closed.run_mode(
-        mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0, mode.wk0, mode.ga, mode.gu,
-        mode.gc, mode.kmode, mode.const, runner.om, runner.fh, mode.vq, mode.vv, mode.vq0, mode.vv0, runner.csym,
-        mode.guard_kind, mode.guard_index, IMPACT, runner.normals, runner.mn_array, runner.nmn_array,
-        runner.restitution, runner.gaps, runner.mn_norm_array, any(key[1]), runner.fr_coord,
-        np.array(key[2], dtype=np.int64), runner.fr_kinetic, runner.f0, system.M,
-        runner.f_norm + float(np.abs(mode.const).sum()), runner.k_norm(mode), runner.c_norm, _CHATTER_HEIGHT,
-        _PUSH_MARGIN, t, q, v, t_end, energy, *buffers)
-    ev_t, ev_index, ev_q, ev_v, pc_t, pc_q, pc_v = buffers
-    for k in range(n_pc):
-        starts.append(float(pc_t[k]))
-        records.append((key, pc_q[k].copy(), pc_v[k].copy()))
-    for k in range(n_ev):
-        events.append((float(ev_t[k]), "impact", int(ev_index[k]), ev_q[k].copy(), ev_v[k].copy()))
+    buffers = _records.buffers(held, system.n, cap)
+    mi = runner.rows[key]
+    (n_ev, n_pc, tau, g, st, mi, _, zero_time, t, q, v, work, diss, fric, loss, escale) = _closed.run_modes(
+        runner.table, runner.index_of, mi, runner.code(key), runner.spring_bit, runner.rest_bit, runner.fric_unit,
+        runner.om, runner.fh, runner.csym, runner.normals, runner.mn_array, runner.nmn_array, runner.restitution,
+        runner.can_rest_array, runner.gaps, runner.mn_norm_array, runner.fr_coord, runner.fr_kinetic,
+        runner.fr_static, runner.f0, system.M, system.C, runner.f_norm, runner.c_norm, _CHATTER_HEIGHT, _PUSH_MARGIN,
+        t, q, v, t_end, energy, zero_time, runner.max_zero_time, *buffers)
+    ev_t, ev_kind, ev_index, ev_q, ev_v, pc_t, pc_mode, pc_q, pc_v = buffers
+    pieces.append((pc_t[:n_pc].copy(), pc_mode[:n_pc].copy(), pc_q[:n_pc].copy(), pc_v[:n_pc].copy()))
+    if n_ev:
+        events.block(ev_t[:n_ev], KIND_NAMES[ev_kind[:n_ev]], ev_index[:n_ev], ev_q[:n_ev], ev_v[:n_ev])
     if energy:
         terms["work"] += work
         terms["damping"] += diss
         terms["friction"] += fric
         terms["impacts"] += loss
         terms["energy_max"] = max(terms["energy_max"], escale)
-    return tau, g, st, t, q, v
+    return runner.keys[mi], tau, g, st, zero_time, t, q, v
 
 
 def _with(key: tuple, part: int, index: int, value) -> tuple:
@@ -260,7 +325,7 @@ def _with(key: tuple, part: int, index: int, value) -> tuple:
 
 
 def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np.ndarray, v: np.ndarray,
-                events: list, terms: dict):
+                events: EventLog, terms: dict, energy: bool):
     """The next mode and state after guard ``g`` of ``mode`` fired at ``(t, q, v)``; events appended."""
     system = runner.system
     kind, index, sign = mode.guards[g]
@@ -284,12 +349,12 @@ def _transition(runner: _Runner, mode: Mode, g: int, key: tuple, t: float, q: np
         key = _with(key, 2, index, sign)
         events.append((t, "release", index, q, v))
     elif kind == IMPACT:
-        key, q, v = _impact(runner, key, index, t, q, v, events, terms)
+        key, q, v = _impact(runner, key, index, t, q, v, events, terms, energy)
     return key, q, v
 
 
-def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: list,
-            terms: dict):
+def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, events: EventLog,
+            terms: dict, energy: bool):
     """An impact on the rigid stop ``c``, then rest if the rebounds accumulate.
 
     Alone, the impulse acts along ``M^-1 n_c`` (module docstring of the model). While other
@@ -328,9 +393,9 @@ def _impact(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.
         if on and b not in held:
             resting[b] = False
             events.append((t, "lift", b, q, v))
-    if contact.restitution < 1.0:  # with e = 1 nothing is lost: the rebounds do not accumulate
+    if runner.can_rest[c]:  # e = 1 too: damping or a slow approach leaves rebounds below the rounding
         resting, q, v = _chatter_rest(runner, key, c, t, q, v, resting, events)
-    if runner.energy:
+    if energy:
         terms["impacts"] += 0.5 * float((v_before - v) @ system.M @ (v_before + v))
     # Friction coordinates that the impulse set moving (or reversed) slip the new way.
     motion = list(key[2])
@@ -369,7 +434,7 @@ def _settles(runner: _Runner, b: int, q: np.ndarray, v: np.ndarray, push: float)
 
 
 def _chatter_rest(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, v: np.ndarray, resting: list,
-                  events: list):
+                  events: EventLog):
     """Rest on stop ``c`` (and on any other stop touched with it) once the rebounds are below the rounding.
 
     The push into each candidate stop is its force in the rest mode of all of them (solved
@@ -381,7 +446,7 @@ def _chatter_rest(runner: _Runner, key: tuple, c: int, t: float, q: np.ndarray, 
     if not _may_settle(runner, key, c, q, v):
         return resting, q, v
     others = [b for b, contact in enumerate(system.contacts)
-              if b != c and contact.rigid and contact.restitution < 1.0 and not resting[b]
+              if b != c and runner.can_rest[b] and not resting[b]
               and abs(float(contact.normal @ q) - contact.gap) <= 1e-12 * max(1.0, contact.gap)]
     candidates = [c, *others]
     while candidates:
