@@ -274,10 +274,10 @@ class PeriodicOrbit:
         """The built-in family's orbit over one period in the phase plane ``(X, V)``, events marked."""
         from .._util.optional import require_matplotlib
 
+        plt = require_matplotlib()  # first: without matplotlib the install hint, whatever the orbit
         if self.solution is None or self.events is None:
             raise ValueError("this orbit keeps no run to plot (a user system's orbit: simulate it from z for one "
                              "period and plot the run)")
-        plt = require_matplotlib()
         if ax is None:
             _, ax = plt.subplots(figsize=(5, 4))
         sol = self.solution
