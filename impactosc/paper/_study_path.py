@@ -40,9 +40,8 @@ PATH_CANDIDATES: dict[str, dict] = {
         "title": "tape path: flanged guides at 50 and 90 mm from the pack (L = 30 um), a 30 mm span to a "
                  "fixed head; no friction",
         "source": "spans 10-100 mm as the long-span candidate (assumption: a cartridge drive's reel-to-guide "
-                  "and guide-to-guide distances); friction left out because the n-DOF exact backend stops "
-                  "('no consistent mode') when a guide with friction sticks and releases while a guide presses "
-                  "a spring flange (itself or its neighbour: see tape_path_friction)"},
+                  "and guide-to-guide distances); no friction, to see the chain's own response (tape_path_friction "
+                  "adds it on a post)"},
     "tape_path_friction": {
         "fields": {"clearance": 30e-6, "friction": 0.2,
                    "guides": [{"position": 50e-3, "friction": 0.0},

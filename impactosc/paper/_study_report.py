@@ -134,9 +134,9 @@ def _path_section(s: dict) -> list[str]:
     lines += ["", "Without friction the tension enters a tape path nowhere (eq. 5's normal force acts only through "
               "friction; the spans of eq. 4 do not depend on T), so its observables are the same at every tension "
               "(the change above is zero) and the tension and doubling trends cannot hold. With friction on a "
-              "guide, the n-DOF exact backend stops with 'no consistent mode' (the stick, lift-off and contact "
-              "tests keep switching) on the points counted as failed: those trends are then not decided by this "
-              "study.", ""]
+              "guide the tension acts through that guide's friction (eq. 5). A point counted as failed is a run "
+              "that did not reach its end (its message is in the JSON): the trends it would decide are not "
+              "decided by this study.", ""]
     return lines
 
 
