@@ -145,5 +145,5 @@ ax.axis("off")
 # tape cannot show all four trends with margin; the simulated candidates and the search
 # say which trends each observable does give. Two of the candidates are tape paths of two
 # guides (`impactosc.TapePath`, the flanged guide nearest the pack as the sensor): without
-# friction a path does not see the tension at all, and with friction on a guide the n-DOF
-# exact backend could not run many of the low-tension points (the report counts them).
+# friction a path does not see the tension at all; with friction on a post the tension acts
+# through it, and the path's impact rate falls with tension, but no curve peaks mid pack.
