@@ -39,7 +39,7 @@ of its definition (:mod:`.hybrid_map`).
 
 from ._common import OSCILLATOR_PARAMETERS, TAPE_PARAMETERS, forcing_period, parameter_names
 from ._map import MapValue, PoincareMap
-from ._newton import Shot, shoot
+from ._newton import PeriodicOrbit, Shot, floquet_multipliers, shoot
 from .bifurcation import bifurcation_diagram, load_bifurcation, plot_bifurcation
 from .chart import onset_chart, plot_onset_chart
 from .closed_form import (
@@ -56,7 +56,7 @@ from .onset import ContactOnset, contact_margin, contact_onset
 from .oscillator_map import OscillatorMap, OscillatorMapValue
 from .poincare import Section, detect_period, event_section, stroboscopic_section
 from .saltation import Saltation, saltation_matrix
-from .shooting import Monodromy, PeriodicOrbit, floquet_multipliers, monodromy, periodic_orbit
+from .shooting import Monodromy, monodromy, periodic_orbit
 
 __all__ = [
     "stroboscopic_section",

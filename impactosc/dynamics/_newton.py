@@ -169,8 +169,8 @@ class PeriodicOrbit:
         and ``v`` are its two components for the built-in family.
     state_names : tuple of str
         The names of the components of ``z``.
-    monodromy : ndarray (d, d)
-        ``dP^n / dz`` at that point, from the saltation product.
+    monodromy : ndarray
+        ``dP^n / dz`` at that point (square, one row per state), from the saltation product.
     multipliers : ndarray of complex
         Floquet multipliers, largest modulus first.
     stability : str

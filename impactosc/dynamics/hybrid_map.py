@@ -10,7 +10,7 @@ rule::
 
     J+ = R_y J + [0 | R_p] + (f+ - R_y f- - R_t) (n^T J + [0 | h_p]) / (n . f- + h_t)
 
-(the one saltation formula of every system, :func:`._jump.saltation_nd`) with ``n = dh/dy``,
+(the one saltation formula of every system, ``_jump.saltation_nd``) with ``n = dh/dy``,
 ``h_t``, ``h_p`` the guard's derivatives and ``R_y``, ``R_t``, ``R_p`` the reset's, all
 symbolic derivatives of the definition, ``f-``/``f+`` the vector fields before and after.
 Without parameters and time dependence this is ``S = R + (f+ - R f-) n^T / (n . f-)``.
@@ -387,7 +387,7 @@ def _compose(piece: np.ndarray, J: np.ndarray, n_all: int) -> np.ndarray:
 def periodic_orbit_of(hmap: HybridMap, guess, *, tol: float = 1e-11, max_iter: int = 30) -> PeriodicOrbit:
     """A fixed point of ``hmap`` by Newton's method from ``guess``, with its Floquet multipliers.
 
-    The one shooting (:func:`._newton.shoot`, which the built-in family's
+    The one shooting (``_newton.shoot``, which the built-in family's
     :func:`~impactosc.dynamics.periodic_orbit` calls too): Newton's step solves
     ``(M - I) dz = -(P(z) - z)`` (least squares when ``M - I`` is singular), halving while
     the residual does not fall; convergence when ``|P(z) - z| <= tol max(1, |z|)``.

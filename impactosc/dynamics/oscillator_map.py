@@ -4,7 +4,7 @@
 an :class:`~impactosc.Oscillator`, or a :class:`~impactosc.TapeDrive` through its
 oscillator) over ``n`` forcing periods from a section phase, with ``dP/dz`` from the
 saltation product. It is what :func:`~impactosc.dynamics.periodic_orbit`,
-:func:`~impactosc.dynamics.monodromy` and the shooting (:func:`._newton.shoot`) evaluate:
+:func:`~impactosc.dynamics.monodromy` and the shooting (``_newton.shoot``) evaluate:
 
 * ``backend="exact"`` (the compiled closed form of linear members: the fast path) and
   ``"scipy"`` (the cross-check) run the built-in engine with the tangent recorder

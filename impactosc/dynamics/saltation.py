@@ -17,7 +17,7 @@ Everything here comes from the model's definition: ``f`` from :meth:`Oscillator.
 (its scalar twin), ``n`` and ``h_t`` from :func:`impactosc.engine.guard_gradient`, the modes
 before and after from the engine's transition rule. A new member of the model family
 therefore gets its saltation matrices without new code here. The formula itself is the
-one every system shares (:func:`._jump.saltation_nd`, n-dimensional; a user system's map
+one every system shares (``_jump.saltation_nd``, n-dimensional; a user system's map
 calls it too); what is the built-in family's own is what it is given: the 2-D fields, the
 guard gradient from the rule, the reset ``diag(1, -e)`` and the grazing bounds below.
 Special cases follow from the formula, they are not coded:

@@ -7,7 +7,7 @@ state-transition matrices (:mod:`.flow`) and the saltation matrix of every event
 (:mod:`.saltation`), gathered by one run (:func:`.tangent.tangent_run`). Its eigenvalues are
 the orbit's Floquet multipliers: the orbit is stable when they all lie inside the unit circle.
 
-The Newton iteration and the result type are the ones every map shares (:mod:`._newton`:
+The Newton iteration and the result type are the ones every map shares (``_newton``:
 :func:`shoot`, :class:`PeriodicOrbit`); the map is :class:`~.oscillator_map.OscillatorMap`.
 What is the built-in family's own here: the transient that gives the first iterate, the
 section phase, the period as a multiple of the forcing period, the run of one period kept
@@ -36,7 +36,7 @@ from .oscillator_map import OscillatorMap, OscillatorMapValue
 from .saltation import Saltation
 from .tangent import TangentRecorder, check_start
 
-__all__ = ["PeriodicOrbit", "Monodromy", "periodic_orbit", "monodromy", "floquet_multipliers", "MARGINAL"]
+__all__ = ["Monodromy", "periodic_orbit", "monodromy", "MARGINAL"]
 
 
 class Monodromy(NamedTuple):
@@ -53,7 +53,7 @@ class Monodromy(NamedTuple):
     jacobian : ndarray (2, 2)
         ``dP^n / d(X, V)`` from the saltation product; NaN where no Jacobian exists
         (``singular``).
-    recorder : TangentRecorder or OscillatorMapValue
+    recorder : object
         The run's tangent recorder (:mod:`.tangent`) where the built-in engine ran; the map's
         value (:class:`~.oscillator_map.OscillatorMapValue`) where heyoka ran the member as a
         user system (:class:`~.oscillator_map.OscillatorMap`).
@@ -171,7 +171,7 @@ def periodic_orbit(osc, n: int = 1, *, period: float | None = None, guess=None, 
                    **options) -> PeriodicOrbit:
     """Find a period-``n`` orbit by Newton shooting on the stroboscopic map.
 
-    The front end of the one shooting (:func:`._newton.shoot`, which user systems share
+    The front end of the one shooting (``_newton.shoot``, which user systems share
     through :func:`~impactosc.dynamics.periodic_orbit_of`) for the built-in family: the map is
     :class:`~.oscillator_map.OscillatorMap`, the first iterate the end of a transient (or
     ``guess``). Newton's step solves ``(M - I) dz = -(P^n(z) - z)`` with the monodromy

@@ -21,8 +21,8 @@ from .._common import (
     parameter_value,
     with_parameter,
 )
+from .._newton import PeriodicOrbit
 from ..hybrid_map import HybridMap
-from ..shooting import PeriodicOrbit
 from ..tangent import check_backend, check_start
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
@@ -82,7 +82,7 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
           boundary of that point in two parameters (grazing, stick onset, fold, period
           doubling); with ``parameter`` one name and the point a period doubling: the
           period-``2n`` branch that bifurcates there (branch switching);
-        * a user system's orbit: a converged :class:`~impactosc.dynamics.HybridOrbit` (from
+        * a user system's orbit: a converged :class:`~impactosc.dynamics.PeriodicOrbit` (from
           :func:`~impactosc.dynamics.periodic_orbit_of`) or a guess of its state on the section,
           with ``base`` its :class:`~impactosc.dynamics.HybridMap` (or the
           :class:`~impactosc.HybridSystem`: the map of one forcing period from ``t = 0``); or
@@ -96,7 +96,7 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     base : Oscillator, TapeDrive, HybridMap or HybridSystem, optional
         The model whose fields are the parameters. Default: the orbit's oscillator. Give a
         :class:`TapeDrive` to continue in its SI fields (its :meth:`~TapeDrive.oscillator` must be the orbit's).
-        For a user system, its map (required with a :class:`HybridOrbit`, which does not carry it).
+        For a user system, its map (required with a user system's :class:`PeriodicOrbit`, which does not carry it).
     backend : {"exact", "heyoka", "scipy"}, optional
         Default ``"exact"`` where it runs the member, else ``"heyoka"``.
     direction : {"both", "forward", "backward"}

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...results._solution import Solution
-from ..shooting import floquet_multipliers
+from .._newton import floquet_multipliers
 from ._problem import MARGIN_TESTS, MapEvaluation, MapProblem
 from ._sensitivity import flange_gap
 
