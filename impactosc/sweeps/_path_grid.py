@@ -20,10 +20,10 @@ import xarray as xr
 from .._util import validation as _v
 from ..model._tape_path import TapePath
 from ..model._tape_path_file import check_parameter, parameter_units, set_parameter
-from ..runner import PointStore, check_executor, check_store_path, point_key, run_points
+from ..runner import PointStore, check_executor, check_store_path, point_key
 from ._path_point import PATH_CODEC
-from ._point import STATUS_EXCEPTION, STATUS_LOST, STATUS_NOT_COMPUTED
-from ._sweep import _STATUS_DOC, _point_label, _version, _warn_failures
+from ._point import STATUS_EXCEPTION, STATUS_NOT_COMPUTED
+from ._sweep import _STATUS_DOC, _point_label, _version, _warn_failures, run_stored
 
 __all__ = ["check_path_grid", "plan_paths", "run_paths", "assemble_paths", "read_paths", "STORE_FORMAT"]
 
@@ -93,26 +93,8 @@ def run_paths(plan: dict, fn, args: tuple, failure, *, kind: str, executor, prog
                                extra={"grid": {k: v.tolist() for k, v in plan["grid"].items()},
                                       "base": plan["base"].to_dict()}, version=_version())
     results = {key: failure(r["status"], r["message"]) for key, r in plan["invalid"].items()}
-    todo = []
-    for key, fields in plan["unique"].items():
-        stored = st.load(key) if st is not None else None
-        if stored is None:
-            todo.append((key, fields))
-        else:
-            results[key] = stored
-    if st is not None:
-        st.warn_unusable(stacklevel=3)
-
-    def on_result(key: str, result: dict) -> None:
-        results[key] = result
-        if st is not None and result["status"] != STATUS_LOST:
-            st.save(key, plan["unique"][key], result)
-
-    if todo:
-        run_points(fn, todo, args, executor=executor, on_result=on_result,
-                   on_lost=lambda key, message: on_result(key, failure(STATUS_LOST, message)), progress=progress,
-                   desc=kind, unit="point", initial=len(plan["unique"]) - len(todo), what=kind, batch=batch)
-    return results
+    return run_stored(plan["unique"], results, st, fn, args, failure, executor=executor, progress=progress, what=kind,
+                      stacklevel=4, batch=batch)
 
 
 def assemble_paths(plan: dict, results: dict, guide_vars: dict, point_vars: dict, attrs: dict, *,

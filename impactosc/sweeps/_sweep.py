@@ -300,31 +300,42 @@ def sweep(base: TapeDrive, grid: Mapping, *, duration: float = 1.0, backend: str
     st = create_store(store, plan["settings"], plan["grid"], _version()) if store is not None else None
 
     results: dict[str, dict] = dict(plan["invalid"])
+    args = (plan["duration"], backend, plan["x0"], plan["v0"], plan["options"])
+    run_stored(plan["unique"], results, st, run_point, args, failure, executor=executor, progress=progress,
+               what="sweep", stacklevel=3)
+    ds = _assemble(plan, results)
+    _warn_failures(plan, ds)
+    return ds
+
+
+def run_stored(unique: dict, results: dict, st, fn, args: tuple, failure, *, executor, progress: bool, what: str,
+               stacklevel: int, batch: bool = True) -> dict:
+    """Run ``fn(fields, *args)`` at every point of ``unique`` (key -> fields) that store ``st`` does not hold.
+
+    The stored points are read into ``results``, the others computed and saved as they arrive
+    (a lost point's ``failure(STATUS_LOST, message)`` is not saved, so a rerun tries it again);
+    ``st`` may be None (nothing stored). Returns ``results``.
+    """
     todo = []
-    for key, fields in plan["unique"].items():
+    for key, fields in unique.items():
         stored = st.load(key) if st is not None else None
         if stored is None:
             todo.append((key, fields))
         else:
             results[key] = stored
     if st is not None:
-        st.warn_unusable(stacklevel=2)
+        st.warn_unusable(stacklevel=stacklevel)
 
     def on_result(key: str, result: dict) -> None:
         results[key] = result
         if st is not None and result["status"] != STATUS_LOST:
-            st.save(key, plan["unique"][key], result)
+            st.save(key, unique[key], result)
 
     if todo:
-        n_total = len(plan["unique"])
-        args = (plan["duration"], backend, plan["x0"], plan["v0"], plan["options"])
-        run_points(run_point, todo, args, executor=executor, on_result=on_result,
+        run_points(fn, todo, args, executor=executor, on_result=on_result,
                    on_lost=lambda key, message: on_result(key, failure(STATUS_LOST, message)), progress=progress,
-                   desc="sweep", unit="point", initial=n_total - len(todo), what="sweep")
-
-    ds = _assemble(plan, results)
-    _warn_failures(plan, ds)
-    return ds
+                   desc=what, unit="point", initial=len(unique) - len(todo), what=what, batch=batch)
+    return results
 
 
 def load_sweep(store) -> xr.Dataset:
