@@ -32,7 +32,25 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["MapValue", "PoincareMap"]
+__all__ = ["MapValue", "PoincareMap", "ImageAndResidual"]
+
+
+class ImageAndResidual:
+    """``ok`` and ``residual`` of a map value from its ``image`` and ``z``, written once for every kind of map."""
+
+    image: np.ndarray | None
+    z: np.ndarray
+
+    @property
+    def ok(self) -> bool:
+        """The run finished (the map has a value)."""
+        return self.image is not None
+
+    @property
+    def residual(self) -> np.ndarray:
+        """``P(z) - z``."""
+        assert self.image is not None, "a failed run has no residual"
+        return self.image - self.z
 
 
 @runtime_checkable

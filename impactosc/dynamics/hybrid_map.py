@@ -40,6 +40,7 @@ from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import gated_sum, numeric, rules
 from ._guard_extrema import crossing_rate, guard_extrema
 from ._jump import saltation_nd
+from ._map import ImageAndResidual
 from ._newton import PeriodicOrbit, orbit_of, shoot
 
 __all__ = ["HybridMap", "HybridMapValue", "periodic_orbit_of"]
@@ -51,7 +52,7 @@ GRAZING_RATIO = 1e-7
 
 
 @dataclass(frozen=True, eq=False)
-class HybridMapValue:
+class HybridMapValue(ImageAndResidual):
     """``P(z; p)`` with ``dP/dz``, ``dP/dp``, the event signature, or why not."""
 
     z: np.ndarray
@@ -78,13 +79,6 @@ class HybridMapValue:
         """
         return () if self.extrema_of is None else self.extrema_of()
 
-    @property
-    def ok(self) -> bool:
-        return self.image is not None
-
-    @property
-    def residual(self) -> np.ndarray:
-        return self.image - self.z
 
 
 class _Tangent:

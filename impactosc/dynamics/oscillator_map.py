@@ -34,6 +34,7 @@ import numpy as np
 
 from ..engine._driver import initial_mode
 from ._common import advanced, check_base, oscillator_of, periods_in, section_offset
+from ._map import ImageAndResidual
 from .hybrid_map import HybridMap
 from .tangent import check_backend, held_by_static_friction, tangent_run
 
@@ -41,7 +42,7 @@ __all__ = ["OscillatorMap", "OscillatorMapValue"]
 
 
 @dataclass(frozen=True, eq=False)
-class OscillatorMapValue:
+class OscillatorMapValue(ImageAndResidual):
     """``P^n(z)`` of a built-in member with ``dP/dz``, or why not (a :class:`~._map.MapValue`)."""
 
     z: np.ndarray
@@ -56,13 +57,6 @@ class OscillatorMapValue:
     recorder: Any = None  #: the engine's :class:`~.tangent.TangentRecorder` (None on the user-system route)
     hybrid: Any = None  #: the :class:`~impactosc.dynamics.HybridMapValue` of the user-system route
 
-    @property
-    def ok(self) -> bool:
-        return self.image is not None
-
-    @property
-    def residual(self) -> np.ndarray:
-        return self.image - self.z
 
 
 class OscillatorMap:

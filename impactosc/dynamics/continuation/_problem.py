@@ -21,6 +21,7 @@ from ...backends._simulate import DEFAULT_MAX_EVENTS
 from ...engine._driver import drive
 from ...model._oscillator import Oscillator
 from .._common import advanced, check_parameter, oscillator_of, parameter_value, periods_in, with_parameter
+from .._map import ImageAndResidual
 from ..saltation import vector_field
 from ..tangent import check_backend, piece_stepper
 from ._sensitivity import SensitivityRecorder, Stencil, flange_gap
@@ -36,7 +37,7 @@ UNSUPPORTED = "a member the backend does not run"
 
 
 @dataclass(frozen=True, eq=False)
-class MapEvaluation:
+class MapEvaluation(ImageAndResidual):
     """The map at one ``(z, p)``: ``P^n(z)``, ``dP/dz``, ``dP/dp`` and what the run saw."""
 
     z: np.ndarray
@@ -48,11 +49,6 @@ class MapEvaluation:
     failure: str = ""  #: why the run failed ("" when it ran)
 
     @property
-    def ok(self) -> bool:
-        """The run finished (the map has a value)."""
-        return self.image is not None
-
-    @property
     def singular(self) -> str:
         """Why the map is not differentiable here ("" when it is)."""
         rec = self.recorder
@@ -60,9 +56,6 @@ class MapEvaluation:
             return ""
         return rec.singular.reason
 
-    @property
-    def residual(self) -> np.ndarray:
-        return self.image - self.z
 
 
 class MapProblem:
