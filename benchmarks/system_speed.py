@@ -6,7 +6,11 @@ side in one run (interleaved repeats, medians): the user system on its heyoka lo
 (``impactosc.model.hybrid.oscillator_system``), the built-in heyoka path, the compiled RK4 at its
 default step, and the user system on the scipy loop (the cross-check, a few repeats).
 Targets: the user system within 1.5x of the built-in heyoka path per event; its ratio to the RK4.
-A fourth row runs the user system's compiled integrator with callbacks that only switch the
+The built-in heyoka path is the user system's run on the same loop (``oscillator_system(osc,
+energy=True)``, its integrals ``Q, Q2, W``) replayed into the built-in ``Solution``; the row
+"piece loop" runs the engine's piece-by-piece loop that members not yet on the hybrid loop use
+(a ``max_wall_time`` sends a member there).
+A further row runs the user system's compiled integrator with callbacks that only switch the
 mode (no resets, records or checks): the loop's Python cost per event is the difference.
 The compile of the user system's integrator is timed once (cold, in this process).
 """
@@ -83,6 +87,7 @@ def main(argv=None) -> int:
         "user system (heyoka loop)": lambda: io.simulate(system, T_END, [0.95, 0.0]),
         "user system's integrator, raw callbacks": lambda: raw_run(system, comp),
         "built-in heyoka path": lambda: io.simulate(CONTACT, T_END),
+        "built-in heyoka, piece loop (max_wall_time set)": lambda: io.simulate(CONTACT, T_END, max_wall_time=1e9),
         "built-in compiled RK4 (default dt)": lambda: io.simulate(CONTACT, T_END, backend="rk4"),
     }
     events = {}
