@@ -12,7 +12,11 @@ modes map onto the engine's ``Mode(region, motion)`` and its guards onto the bui
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
 What the hybrid loop does not express stays on the piece loop of this package
-(:func:`piece_loop_reason` says which and why, in one place).
+(:func:`piece_loop_reason` says which and why, in one place). For now that is every member:
+the hybrid loop steps through a stuck phase with heyoka (the release guards on the forcing's
+Taylor polynomials), which for a mass stuck for a very long time costs a step per fraction of
+a forcing period, where the piece loop solves the release in closed form
+(:mod:`impactosc.engine._stuck`). :func:`run_on_hybrid_loop` runs the replay path directly.
 """
 
 from __future__ import annotations
@@ -30,6 +34,10 @@ from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_system
 
 __all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
 
+#: True until the hybrid loop resolves a stuck mode's release in closed form: until then every member
+#: stays on the piece loop (run_on_hybrid_loop runs the replay path on request).
+_STUCK_PHASES_STEPPED = True
+
 _REGIONS = {"free": 0, "upper": 1, "lower": -1}
 _MOTIONS = {"0": 0, "+": 1, "-": -1}
 
@@ -39,6 +47,10 @@ def piece_loop_reason(osc: Oscillator, max_wall_time) -> str | None:
 
     The one place that decides the dispatch of the heyoka backend.
     """
+    if _STUCK_PHASES_STEPPED:
+        return ("a stuck phase: the hybrid loop integrates it step by step (its release guards over the "
+                "forcing's Taylor polynomials), where the piece loop solves its release in closed form; a mass "
+                "stuck for 1e12 time units would take ~1e11 steps")
     if osc.rigid:
         return "a rigid flange: its chatter and rest on the wall are the engine's local model"
     if osc.exponent != 1.0:
@@ -85,7 +97,7 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     hybrid = run_system(system, t_end, [x0, v0], mode=name, max_events=max_events, tol=tol)
     rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
     _replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
-    if sample_at:
+    if len(sample_at):
         _samples(hybrid, rec, modes, sample_at)
     return Solution(rec, t_end)
 
