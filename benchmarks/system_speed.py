@@ -6,7 +6,11 @@ side in one run (interleaved repeats, medians): the user system on its heyoka lo
 (``impactosc.model.hybrid.oscillator_system``), the built-in heyoka path, the compiled RK4 at its
 default step, and the user system on the scipy loop (the cross-check, a few repeats).
 Targets: the user system within 1.5x of the built-in heyoka path per event; its ratio to the RK4.
-A fourth row runs the user system's compiled integrator with callbacks that only switch the
+The built-in heyoka path is the engine's piece loop; the row "hybrid loop + replay" runs the
+member as a user system on the user systems' loop (``oscillator_system(osc, energy=True)``,
+its integrals ``Q, Q2, W``) and replays it into the built-in ``Solution``
+(``impactosc.backends.heyoka._replay``), the path the built-in is to move to.
+A further row runs the user system's compiled integrator with callbacks that only switch the
 mode (no resets, records or checks): the loop's Python cost per event is the difference.
 The compile of the user system's integrator is timed once (cold, in this process).
 """
@@ -20,6 +24,7 @@ import time
 
 import impactosc as io
 from impactosc.backends._hybrid_heyoka import compiled
+from impactosc.backends.heyoka._replay import run_on_hybrid_loop
 from impactosc.model.hybrid import oscillator_system
 from impactosc.model.hybrid._numeric import numeric
 
@@ -83,6 +88,8 @@ def main(argv=None) -> int:
         "user system (heyoka loop)": lambda: io.simulate(system, T_END, [0.95, 0.0]),
         "user system's integrator, raw callbacks": lambda: raw_run(system, comp),
         "built-in heyoka path": lambda: io.simulate(CONTACT, T_END),
+        "built-in on the hybrid loop + replay": lambda: run_on_hybrid_loop(CONTACT, T_END, 0.95, 0.0, record="full",
+                                                                           max_events=10**6, tol=2.0**-52),
         "built-in compiled RK4 (default dt)": lambda: io.simulate(CONTACT, T_END, backend="rk4"),
     }
     events = {}

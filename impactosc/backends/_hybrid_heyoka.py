@@ -55,7 +55,7 @@ from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import Numeric, gated_sum, numeric
 from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 
-__all__ = ["run_system", "compiled", "CompiledSystem"]
+__all__ = ["run_system", "compiled", "CompiledSystem", "dense_states"]
 
 DEFAULT_TOL = 2.0**-52
 #: The usable tolerances (those of the built-in heyoka backend: below eps nothing improves while
@@ -503,6 +503,16 @@ class _Dense:
     def __call__(self, mode: int, t_start: float, state, times) -> np.ndarray:
         return _dense(self.system, self.tol, self.cooldown, self.system.parameter_values, mode, t_start, state,
                       times)
+
+
+def dense_states(system: HybridSystem, tol: float, cooldown: float, mode: int, t_start: float, state,
+                 times) -> np.ndarray:
+    """The states (then integrals) at ``times`` of a piece of ``system`` in ``mode`` from ``(t_start, state)``.
+
+    Dense output from the system's cached integrator with its events off; a time before
+    ``t_start`` gets ``state``. One row per time.
+    """
+    return _dense(system, tol, cooldown, system.parameter_values, mode, t_start, state, times)
 
 
 def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,

@@ -144,6 +144,7 @@ from ._ode import (
     parameter_values,
     shape_of,
 )
+from ._replay import piece_loop_reason, run_on_hybrid_loop
 
 __all__ = ["run", "integrator", "check_tol", "shape_of", "layer_thickness", "Shape", "Integrators", "EQ3",
            "DEFAULT_TOL", "MIN_TOL", "MAX_TOL"]
@@ -499,6 +500,9 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     Solution
     """
     tol = check_tol(tol)
+    if piece_loop_reason(osc, max_wall_time) is None:
+        return run_on_hybrid_loop(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=sample_at,
+                                  tol=tol)
     deadline = None
     if max_wall_time is not None:
         deadline = time.monotonic() + _v.positive("max_wall_time", max_wall_time)

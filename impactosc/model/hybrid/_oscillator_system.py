@@ -11,7 +11,7 @@ from ._friction import stick_slip
 __all__ = ["oscillator_system"]
 
 
-def oscillator_system(osc: Oscillator) -> HybridSystem:
+def oscillator_system(osc: Oscillator, *, energy: bool = False) -> HybridSystem:
     """The member ``osc`` of the family as a :class:`HybridSystem` (paper eq. 3 and its family).
 
     ``X'' + 2 zeta X' + X + beta sgn(X') = sum_i F_i cos(Omega_i t + phase_i) - flange(X)``
@@ -24,6 +24,11 @@ def oscillator_system(osc: Oscillator) -> HybridSystem:
     oscillator's names (``F, Omega, phase, beta, beta_s, K, zeta, e, gap_upper,
     gap_lower``, and ``F2, Omega2, phase2, ...`` for the harmonics); the forcing period
     is ``2 pi / Omega``.
+
+    With ``energy=True`` the system also integrates what the built-in :class:`~impactosc.Solution`
+    reports (its rms flange force and energy balance): ``Q2 = int (K d)^2 dt`` (spring flanges),
+    ``W = int V f dt`` (the forcing's work) and, with damping, ``VV = int V^2 dt`` (the damping
+    loss is ``2 zeta VV``).
 
     Raises
     ------
@@ -78,7 +83,14 @@ def oscillator_system(osc: Oscillator) -> HybridSystem:
                             [side * x - gaps[side]]))
     for prefix, force, impulse, region in regions:
         ints: dict = {"Q": impulse} if impulse is not None else {}
-        m, g = stick_slip(prefix, v, force, beta, beta_s, rates={x: v}, integrands=ints, stick_integrands=ints,
+        stuck = dict(ints)
+        if energy:
+            if impulse is not None:
+                ints["Q2"] = stuck["Q2"] = impulse * impulse
+            ints["W"] = v * forcing  # 0 while stuck (V = 0)
+            if osc.zeta != 0.0:
+                ints["VV"] = v * v
+        m, g = stick_slip(prefix, v, force, beta, beta_s, rates={x: v}, integrands=ints, stick_integrands=stuck,
                           entry=region)
         modes += m
         guards += g
@@ -96,5 +108,8 @@ def oscillator_system(osc: Oscillator) -> HybridSystem:
             guards.append(Guard(f"enter {name}", surface, side, armed=f"free{into}", to=f"{name}{into}"))
             guards.append(Guard(f"leave {name}", surface, -side, armed=f"{name}{out}", to=f"free{out}"))
     period = 2.0 * math.pi / symbols("Omega") if osc.Omega > 0.0 else None
-    return HybridSystem("x v", params, modes, guards, integrals=() if osc.rigid else "Q", period=period,
+    integrals = [] if osc.rigid else ["Q"]
+    if energy:
+        integrals += ([] if osc.rigid else ["Q2"]) + ["W"] + (["VV"] if osc.zeta != 0.0 else [])
+    return HybridSystem("x v", params, modes, guards, integrals=integrals, period=period,
                         name="eq3" if not osc.rigid else "eq3 rigid")

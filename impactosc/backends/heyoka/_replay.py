@@ -1,0 +1,185 @@
+"""The built-in family on the one heyoka event loop: a user-system run replayed into a :class:`Solution`.
+
+A member that :func:`~impactosc.model.hybrid.oscillator_system` writes (spring flanges,
+kinetic and static friction, damping, harmonics, one or two flanges at any gaps) runs as
+that hybrid system on the user systems' heyoka loop (:mod:`impactosc.backends._hybrid_heyoka`),
+with the integrals the built-in :class:`~impactosc.Solution` reports (``Q``, ``Q2``, ``W``,
+``VV``: ``oscillator_system(osc, energy=True)``). The run's events then feed the built-in
+recorder (:class:`~impactosc.results._solution._Recorder`) in the order the engine's
+``drive`` feeds it: ``begin``, then per smooth piece ``piece`` (the integrals' increments
+between two events) and per event ``event`` and ``segment``, then ``finish``. The hybrid
+modes map onto the engine's ``Mode(region, motion)`` and its guards onto the built-in
+event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
+
+What the hybrid loop does not express stays on the piece loop of this package
+(:func:`piece_loop_reason` says which and why, in one place). For now that is every member:
+the hybrid loop steps through a stuck phase with heyoka (the release guards on the forcing's
+Taylor polynomials), which for a mass stuck for a very long time costs a step per fraction of
+a forcing period, where the piece loop solves the release in closed form
+(:mod:`impactosc.engine._stuck`). :func:`run_on_hybrid_loop` runs the replay path directly.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from ...engine._driver import CONTACT_END, CONTACT_START, RELEASE, REVERSAL, STICK, Mode, initial_mode
+from ...engine._hybrid import CROSSING
+from ...model._oscillator import Oscillator
+from ...model.hybrid import oscillator_system
+from ...results._solution import Solution, _Recorder
+from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_system
+
+__all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
+
+#: True until the hybrid loop resolves a stuck mode's release in closed form: until then every member
+#: stays on the piece loop (run_on_hybrid_loop runs the replay path on request).
+_STUCK_PHASES_STEPPED = True
+
+_REGIONS = {"free": 0, "upper": 1, "lower": -1}
+_MOTIONS = {"0": 0, "+": 1, "-": -1}
+
+
+def piece_loop_reason(osc: Oscillator, max_wall_time) -> str | None:
+    """Why ``osc`` runs on the piece loop rather than the one hybrid loop, or None when it does not.
+
+    The one place that decides the dispatch of the heyoka backend.
+    """
+    if _STUCK_PHASES_STEPPED:
+        return ("a stuck phase: the hybrid loop integrates it step by step (its release guards over the "
+                "forcing's Taylor polynomials), where the piece loop solves its release in closed form; a mass "
+                "stuck for 1e12 time units would take ~1e11 steps")
+    if osc.rigid:
+        return "a rigid flange: its chatter and rest on the wall are the engine's local model"
+    if osc.exponent != 1.0:
+        return "a power-law flange: d^p needs the boundary layer of the piece stepper"
+    if max_wall_time is not None:
+        return "max_wall_time: the hybrid loop has no wall-time limit yet"
+    return None
+
+
+@lru_cache(maxsize=64)
+def _system(osc: Oscillator):
+    """``oscillator_system(osc, energy=True)`` and the built-in mode and event kind of each hybrid mode and guard."""
+    system = oscillator_system(osc, energy=True)
+    modes = []
+    for name in system.mode_names:
+        modes.append(Mode(_REGIONS[name[:-1]], _MOTIONS[name[-1]], True))
+    index = {(m.region, m.motion): i for i, m in enumerate(modes)}
+    # guard -> (kind, side) by name: "enter upper", "leave lower", "free+ stop", "upper release-"
+    guards: list[tuple[str | None, int]] = []
+    for name in system.guard_names:
+        if name.startswith("enter "):
+            guards.append((CONTACT_START, _REGIONS[name[6:]]))
+        elif name.startswith("leave "):
+            guards.append((CONTACT_END, _REGIONS[name[6:]]))
+        elif name.endswith(" stop"):
+            guards.append((None, 0))  # stick or reversal: decided by the mode after it
+        else:
+            guards.append((RELEASE, 0))
+    slots = {q: 2 + i for i, q in enumerate(system.integrals)}
+    return system, tuple(modes), index, tuple(guards), slots
+
+
+def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
+                       sample_at=(), tol: float) -> Solution:
+    """Run ``osc`` on the one heyoka event loop and replay the run into the built-in :class:`Solution`.
+
+    The arguments are those of :func:`impactosc.backends.heyoka.run` (already checked);
+    ``osc`` must be a member that :func:`piece_loop_reason` accepts.
+    """
+    system, modes, index, guards, slots = _system(osc)
+    v0 = 0.0 if abs(v0) <= 5e-324 else v0
+    start = initial_mode(osc, 0.0, x0, v0)
+    name = system.mode_names[index[(start.region, start.motion)]]
+    hybrid = run_system(system, t_end, [x0, v0], mode=name, max_events=max_events, tol=tol)
+    rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
+    _replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
+    if len(sample_at):
+        _samples(hybrid, rec, modes, sample_at)
+    return Solution(rec, t_end)
+
+
+def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int, t_end: float) -> None:
+    """Feed ``rec`` with the pieces and events of ``hybrid`` as the engine's ``drive`` would."""
+    events = [e for e in hybrid._raw_events if e[2] == CROSSING]
+    n = len(events)
+    y0 = hybrid._pieces[0][2]
+    rec.begin(osc, 0.0, y0[0], y0[1], start)
+    # the integrals at each event (before it) and at the end: piece increments as differences
+    cols = [slots.get(q, -1) for q in ("Q", "Q2", "W", "VV")]
+    ends = np.empty((n + 1, len(y0)))
+    if n:
+        ends[:n] = [e[5] for e in events]
+    ends[n] = hybrid.state_final
+    after = np.empty((n + 1, len(y0)))
+    after[0] = y0
+    if n:
+        after[1:] = [e[6] for e in events]
+    incr = np.zeros((n + 1, 4))
+    for k, c in enumerate(cols):
+        if c >= 0:
+            incr[:, k] = ends[:, c] - after[:, c]
+    increments = incr.tolist()
+    walls = {1: osc.gap_upper, -1: -osc.gap_lower}
+    t_prev, x_prev, mode = 0.0, float(y0[0]), start
+    for k in range(n):
+        t, g, _, _, b, before, state = events[k]
+        if t > t_prev:  # not a second event at one instant (the engine records no piece between them)
+            dq, dq2, dw, dvv = increments[k]
+            rec.piece(mode, t_prev, x_prev, t, before[0], dq, dq2, dw, dvv, 0)
+        kind, side = guards[g]
+        mode = modes[b]
+        if kind is None:
+            kind = STICK if mode.motion == 0 else REVERSAL
+        # a flange crossing is recorded on the flange's surface, as the engine snaps it (the hybrid
+        # run keeps the located state, within rounding of it, so that its Jacobians stay those of the flow)
+        x = walls[side] if side else state[0]
+        rec.event(t, kind, x, state[1], side, 1, mode.motion)
+        if k + 1 == n or events[k + 1][0] != t:
+            rec.segment(t, x, state[1], mode)
+        t_prev, x_prev = t, x
+    t_final = hybrid.t_final
+    y1 = hybrid.state_final
+    dq, dq2, dw, dvv = increments[n]
+    if t_final > t_prev or n == 0:
+        rec.piece(mode, t_prev, x_prev, t_final, float(y1[0]), dq, dq2, dw, dvv, 0)
+    status, message = hybrid.status, hybrid.message
+    if status == 0:
+        message = "The end time was reached."
+    elif status == 1:
+        message = (f"The event limit max_events={max_events} was reached at t={t_final!r}; "
+                   "results up to that time are kept.")
+    else:
+        status, message = -1, f"the heyoka backend failed after t={t_final!r}: {message}"
+    rec.finish(t_final, float(y1[0]), float(y1[1]), mode, status, message)
+
+
+def _samples(hybrid, rec: _Recorder, modes, sample_at) -> None:
+    """The states at the sample times up to where the run got (dense output of its pieces)."""
+    times = np.asarray([t for t in sample_at if t <= hybrid.t_final], dtype=float)
+    if not times.size:
+        return
+    states = hybrid.sample(times)
+    starts = np.array([p[0] for p in hybrid._pieces])
+    which = np.searchsorted(starts, times, side="right") - 1
+    for t, y, k in zip(times.tolist(), states[:, :2].tolist(), which.tolist(), strict=True):
+        rec.sample(t, y[0], y[1], modes[hybrid._pieces[k][1]])
+
+
+class _Evaluator:
+    """Dense output of the built-in :class:`Solution` from the hybrid system's integrator (picklable)."""
+
+    def __init__(self, osc: Oscillator, tol: float):
+        self.osc = osc
+        self.tol = tol
+
+    def __call__(self, mode: Mode, t0: float, x: float, v: float, times: np.ndarray):
+        system, _, index, _, slots = _system(self.osc)
+        state = [x, v] + [0.0] * len(system.integrals)
+        times = np.asarray(times, dtype=float)
+        out = dense_states(system, self.tol, DEFAULT_COOLDOWN, index[(mode.region, mode.motion)], t0, state, times)
+        q = out[:, slots["Q"]] if "Q" in slots else np.zeros(times.shape)
+        return out[:, 0].copy(), out[:, 1].copy(), np.asarray(q, dtype=float).copy()
