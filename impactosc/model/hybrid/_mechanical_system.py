@@ -147,10 +147,12 @@ def mechanical_system(ms: MechanicalSystem, *, energy: bool = True) -> HybridSys
 
     Notes
     -----
-    Rigid stops: the rebounds of a stop with restitution ``e < 1`` that the forcing holds
-    against it accumulate; the hybrid loops end such a run with status 2 and the estimated
-    accumulation time, where the exact backend sums the chatter and lets the system rest on
-    the stop (the resting contact is a constraint the modes here do not write).
+    Rigid stops: the rebounds of a stop that the forcing holds against it accumulate; the
+    hybrid loops end such a run with status 2 and the estimated accumulation time, where the
+    exact backend sums the chatter and lets the system rest on the stop (for ``e < 1``, and for
+    an elastic stop once its rebounds fall below the gap's rounding: ``MechanicalSystem.can_rest``).
+    The resting contact is a constraint the modes here do not write (``Guard.rest`` is the
+    building block for it).
 
     Examples
     --------
