@@ -77,3 +77,20 @@ def test_workers_of_a_killed_bifurcation_diagram_exit():
     for p in left:  # leave nothing running on the machine, whatever the outcome
         os.kill(p, signal.SIGKILL)
     assert not left, f"{len(left)} of {len(workers)} worker processes outlived their killed parent"
+
+
+@pytest.mark.slow
+def test_no_loky_teardown_noise_after_the_pool_served_a_test_session():
+    """The pool is let go at exit, not collected during the interpreter's teardown.
+
+    Collected then, loky's weak-reference callback found ``multiprocessing.util`` half gone and
+    printed "Exception ignored in ... weakref_cb" after the last test (exit code 0, but on every
+    run of these two files together, and at the end of ``make test``).
+    """
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    out = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                          "tests/test_sweep_store.py", "tests/test_sweep.py", "-k", "pool or store"],
+                         cwd=root, env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stdout[-2000:]
+    assert "Exception ignored" not in out.stderr + out.stdout, out.stderr[-2000:]

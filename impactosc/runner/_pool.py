@@ -22,6 +22,7 @@ import signal
 import sys
 import threading
 import time
+import weakref
 
 #: Idle workers of the default pool exit after this long (the next run starts new ones).
 WORKER_IDLE_SECONDS = 300
@@ -83,7 +84,22 @@ def default_pool():
             _WORKERS = loky.cpu_count()
             _POOL = loky.ProcessPoolExecutor(max_workers=_WORKERS, timeout=WORKER_IDLE_SECONDS,
                                              initializer=_worker_init, initargs=(os.getpid(),))
+            atexit.register(_forget_pool, weakref.ref(_POOL))
         return _POOL
+
+
+def _forget_pool(pool_ref) -> None:
+    """At exit, after loky's own handler has shut the pool down: let it go while the interpreter is whole.
+
+    loky's manager thread watches the executor through a weak reference whose callback logs
+    through ``multiprocessing.util``; collected during the interpreter's teardown (the module
+    global still holding it), that callback found the module half gone and printed "Exception
+    ignored in ... weakref_cb". Dropping the last references here collects it now.
+    """
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is not None and _POOL is pool_ref():
+            _POOL = None
 
 
 def pool_alive() -> bool:
