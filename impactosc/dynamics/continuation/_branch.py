@@ -29,8 +29,32 @@ LABELS = {"fold": "LP", "branch_point": "BP", "period_doubling": "PD", "neimark_
           "fold_grazing": "FG", "period_doubling_grazing": "PDG", "grazing_stick": "GS"}
 
 
+class _OnTheSection:
+    """What a point of a branch and a special point derive alike from their fields."""
+
+    parameters: dict
+    state: Any
+    x: float
+    v: float
+
+    @property
+    def parameter(self) -> float:
+        """The value of the first free parameter."""
+        return next(iter(self.parameters.values()))
+
+    @property
+    def z(self) -> np.ndarray:
+        """The orbit's state on the section: ``state``, or ``(x, v)`` of a point loaded from a file."""
+        return np.array(self.state if self.state is not None else (self.x, self.v), dtype=float)
+
+    @property
+    def norm(self) -> float:
+        """``|z|`` of the orbit's point on the section (the norm column of :meth:`Branch.table`)."""
+        return float(np.linalg.norm(self.z))
+
+
 @dataclass(frozen=True, eq=False)
-class BranchPoint:
+class BranchPoint(_OnTheSection):
     """One periodic orbit on a branch.
 
     Attributes
@@ -77,21 +101,6 @@ class BranchPoint:
     state: Any = field(default=None, repr=False, compare=False)
 
     @property
-    def parameter(self) -> float:
-        """The value of the first free parameter."""
-        return next(iter(self.parameters.values()))
-
-    @property
-    def z(self) -> np.ndarray:
-        """The orbit's state on the section: ``state``, or ``(x, v)`` of a point loaded from a file."""
-        return np.array(self.state if self.state is not None else (self.x, self.v), dtype=float)
-
-    @property
-    def norm(self) -> float:
-        """``|z|`` of the orbit's point on the section (the norm column of :meth:`Branch.table`)."""
-        return float(np.linalg.norm(self.z))
-
-    @property
     def stable(self) -> bool:
         return self.stability == "stable"
 
@@ -100,7 +109,7 @@ class BranchPoint:
 
 
 @dataclass(frozen=True, eq=False)
-class SpecialPoint:
+class SpecialPoint(_OnTheSection):
     """A located special point of a branch.
 
     Attributes
@@ -143,20 +152,6 @@ class SpecialPoint:
     branch: Any = field(default=None, repr=False, compare=False)
     #: The whole state on the section (see :attr:`BranchPoint.state`).
     state: Any = field(default=None, repr=False, compare=False)
-
-    @property
-    def parameter(self) -> float:
-        return next(iter(self.parameters.values()))
-
-    @property
-    def z(self) -> np.ndarray:
-        """The orbit's state on the section (see :attr:`BranchPoint.z`)."""
-        return np.array(self.state if self.state is not None else (self.x, self.v), dtype=float)
-
-    @property
-    def norm(self) -> float:
-        """``|z|`` of the orbit's point on the section."""
-        return float(np.linalg.norm(self.z))
 
     @property
     def guard(self) -> str:
