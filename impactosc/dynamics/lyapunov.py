@@ -193,26 +193,37 @@ def lyapunov_exponent(osc, periods: int = 1000, *, transient_periods: int = 100,
     times[-1] = span
     hook = _Renormaliser()
     sol, rec = tangent_run(sec, span, x0, v0, backend=backend, options=options, sample_at=times, on_sample=hook)
-    t = np.array(hook.times)
-    growth = np.array(hook.growth)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        history = np.cumsum(growth) / t if t.size else np.array([])
-    exponent = float(history[-1]) if history.size else math.nan
-    status, message = 0, f"{t.size} renormalisations over {t[-1] if t.size else 0:.6g} time units"
+    status, message = 0, ""
     # A start at rest held by static friction alone (rec.held_start) does not count: the exponent
     # is a rate along the trajectory, which reached that rest (after the transient) by a stick
     # whose neighbours stick too, and one instant at the start does not change a mean rate.
     if rec.tangential is not None:
-        s = rec.tangential
-        status, message = 2, f"{s.reason}: the tangent dynamics are undefined there (grazing); no exponent"
-        exponent = math.nan
+        status, message = 2, f"{rec.tangential.reason}: the tangent dynamics are undefined there (grazing); no exponent"
     elif hook.dead_at is not None:
         status, message = 3, (f"the tangent vector was annihilated before t={hook.dead_at:.12g} (a chatter, or a "
                               "stick along it): every perturbation dies in finite time, the exponent is -inf")
-        exponent = -math.inf
     elif sol.status != 0:
         status, message = -1, f"the run stopped early ({sol.message}); the estimate so far is kept"
-    return LyapunovResult(exponent, t, history, growth, status, message, renormalise_every)
+    return _result(hook.times, hook.growth, status, message, renormalise_every)
+
+
+def _result(times: list, growth: list, status: int, message: str, every: int) -> LyapunovResult:
+    """The exponent, its running estimate and the status of either driver (a flow's or a map's tangent products).
+
+    ``status`` 0 (done: the message is made here), -1 (stopped early: the estimate so far),
+    2 (a grazing: no exponent), 3 (the tangent vector annihilated: ``-inf``).
+    """
+    t, g = np.array(times, dtype=float), np.array(growth, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        history = np.cumsum(g) / t if t.size else np.array([])
+    exponent = float(history[-1]) if history.size else math.nan
+    if status == 0:
+        message = f"{t.size} renormalisations over {t[-1] if t.size else 0:.6g} time units"
+    elif status == 2:
+        exponent = math.nan
+    elif status == 3:
+        exponent = -math.inf
+    return LyapunovResult(exponent, t, history, g, status, message, every)
 
 
 def _counts(periods, transient_periods, renormalise_every) -> tuple[int, int, int]:
@@ -295,18 +306,7 @@ def map_lyapunov_exponent(pmap, periods: int = 1000, *, state0=None, transient_p
                 z = np.asarray(value.image)
         if not ok:
             return LyapunovResult(math.nan, empty, empty, empty, -1, f"the transient failed: {why}", renormalise_every)
-    times, growth, status, message = _tangent_products(pmap, z, periods, renormalise_every, T)
-    t, g = np.array(times), np.array(growth)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        history = np.cumsum(g) / t if t.size else empty
-    exponent = float(history[-1]) if history.size else math.nan
-    if status == 0:
-        message = f"{t.size} renormalisations over {t[-1] if t.size else 0:.6g} time units"
-    elif status == 2:
-        exponent = math.nan
-    elif status == 3:
-        exponent = -math.inf
-    return LyapunovResult(exponent, t, history, g, status, message, renormalise_every)
+    return _result(*_tangent_products(pmap, z, periods, renormalise_every, T), renormalise_every)
 
 
 def _tangent_products(pmap, z, periods: int, every: int, T: float) -> tuple[list, list, int, str]:
