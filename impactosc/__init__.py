@@ -29,12 +29,12 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names are lazy
     from .model import Contact, Friction, Guide, MechanicalSystem, Oscillator, TapeDrive, TapePath
     from .model.hybrid import Guard, HybridMode, HybridSystem, stick_slip, symbols
     from .results import MechanicalSolution, Solution, TapePathRun
-    from .sweeps import load_sweep, sweep
+    from .sweeps import load_path_sweep, load_sweep, simulate_path, sweep, sweep_path
 
 __all__ = ["Oscillator", "TapeDrive", "simulate", "sweep", "load_sweep", "Solution", "Mode", "EVENT_KINDS",
            "HybridSystem", "HybridMode", "Guard", "symbols", "stick_slip",
            "MechanicalSystem", "Contact", "Friction", "simulate_mechanical", "MechanicalSolution", "TapePath", "Guide",
-           "TapePathRun"]
+           "TapePathRun", "simulate_path", "sweep_path", "load_path_sweep"]
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -59,6 +59,9 @@ _LAZY = {
     "TapePath": "model",
     "Guide": "model",
     "TapePathRun": "results",
+    "simulate_path": "sweeps",
+    "sweep_path": "sweeps",
+    "load_path_sweep": "sweeps",
 }
 _SUBPACKAGES = ("dynamics", "signal")
 
