@@ -23,7 +23,7 @@ from ..model._tape_path_file import check_parameter, parameter_units, set_parame
 from ..runner import PointStore, check_executor, check_store_path, point_key
 from ._path_point import PATH_CODEC
 from ._point import STATUS_EXCEPTION, STATUS_NOT_COMPUTED
-from ._sweep import _STATUS_DOC, _point_label, _version, _warn_failures, run_stored
+from ._sweep import _STATUS_DOC, _point_label, _version, _warn_failures, fill_grid, run_stored
 
 __all__ = ["check_path_grid", "plan_paths", "run_paths", "assemble_paths", "read_paths", "STORE_FORMAT"]
 
@@ -102,27 +102,16 @@ def assemble_paths(plan: dict, results: dict, guide_vars: dict, point_vars: dict
     """The Dataset: a dimension per swept parameter, ``guide`` for ``guide_vars``; SI units in ``attrs``."""
     grid, base = plan["grid"], plan["base"]
     dims = list(grid)
-    shape = tuple(v.size for v in grid.values())
-    per_guide = {name: np.full(shape + (base.n,), np.nan) for name in guide_vars}
-    per_point = {name: np.full(shape, np.nan) for name in point_vars}
-    status = np.zeros(shape, dtype=np.int32)
-    message = np.full(shape, "", dtype=object)
-    for flat, (_, key) in enumerate(plan["points"]):
-        idx = np.unravel_index(flat, shape) if shape else ()
-        res = results[key]
-        for name in guide_vars:
-            per_guide[name][idx] = res[name]
-        for name in point_vars:
-            per_point[name][idx] = res[name]
-        status[idx], message[idx] = res["status"], res["message"]
+    values, status, message = fill_grid(plan, results, {**dict.fromkeys(guide_vars, (base.n,)),
+                                                        **dict.fromkeys(point_vars, ())})
 
     def meta(units, long_name):
         return {"units": units, "long_name": long_name}
 
-    data = {name: (dims + ["guide"], per_guide[name], meta(*guide_vars[name])) for name in guide_vars}
-    data.update({name: (dims, per_point[name], meta(*point_vars[name])) for name in point_vars})
+    data = {name: (dims + ["guide"], values[name], meta(*guide_vars[name])) for name in guide_vars}
+    data.update({name: (dims, values[name], meta(*point_vars[name])) for name in point_vars})
     data["status"] = (dims, status, {"long_name": "run status", "flag_meanings": _STATUS_DOC})
-    data["message"] = (dims, message.astype(str), {"long_name": "status message"})
+    data["message"] = (dims, message, {"long_name": "status message"})
     coords = {k: (k, v, meta(*parameter_units(k))) for k, v in grid.items()}
     coords["guide"] = ("guide", np.arange(base.n), {"long_name": "guide index along the path"})
     coords["guide_position"] = ("guide", np.array([g.position for g in base.guides]),

@@ -419,27 +419,37 @@ def _plan(base, grid, duration, backend, x0, v0, options) -> dict:
             "x0": x0, "v0": v0, "options": options}
 
 
-def _assemble(plan: dict, results: dict) -> xr.Dataset:
-    grid = plan["grid"]
-    dims = list(grid)
-    shape = tuple(v.size for v in grid.values())
-    floats = {name: np.full(shape, np.nan) for name in FLOAT_VARS}
+def fill_grid(plan: dict, results: dict, trailing: Mapping[str, tuple]) -> tuple[dict, np.ndarray, np.ndarray]:
+    """Each point's results placed on the plan's grid: ``(arrays, status, message)``.
+
+    ``trailing[name]`` is the shape of ``name`` at one point (``()`` for a number, ``(n,)`` for
+    one value per guide); its array has the grid's shape followed by it, NaN where no
+    result says otherwise. ``message`` is a string array.
+    """
+    shape = tuple(v.size for v in plan["grid"].values())
+    arrays = {name: np.full(shape + tuple(extra), np.nan) for name, extra in trailing.items()}
     status = np.full(shape, STATUS_NOT_COMPUTED, dtype=np.int32)
     message = np.full(shape, "", dtype=object)
     for flat, (_, key) in enumerate(plan["points"]):
         idx = np.unravel_index(flat, shape) if shape else ()
         res = results[key]
-        for name in FLOAT_VARS:
-            floats[name][idx] = res[name]
-        status[idx] = res["status"]
-        message[idx] = res["message"]
+        for name, array in arrays.items():
+            array[idx] = res[name]
+        status[idx], message[idx] = res["status"], res["message"]
+    return arrays, status, message.astype(str)
+
+
+def _assemble(plan: dict, results: dict) -> xr.Dataset:
+    grid = plan["grid"]
+    dims = list(grid)
+    floats, status, message = fill_grid(plan, results, dict.fromkeys(FLOAT_VARS, ()))
 
     def attrs(units, long_name):
         return {"units": units, "long_name": long_name}
 
     data = {name: (dims, floats[name], attrs(*FLOAT_VARS[name])) for name in FLOAT_VARS}
     data["status"] = (dims, status, {"long_name": "run status", "flag_meanings": _STATUS_DOC})
-    data["message"] = (dims, message.astype(str), {"long_name": "status message"})
+    data["message"] = (dims, message, {"long_name": "status message"})
     coords = {k: (k, v, attrs(*FIELD_UNITS[k])) for k, v in grid.items()}
     base = plan["base"]
     ds_attrs = {f"base_{f}": _attr_value(getattr(base, f)) for f in _FIELDS}
