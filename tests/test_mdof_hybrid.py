@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 import impactosc
 from impactosc.model import Contact, Friction, MechanicalSystem
 from impactosc.model.hybrid import mechanical_system, oscillator_system
-from impactosc.model.hybrid._mechanical_system import MAX_MODES
+from impactosc.model.hybrid._mechanical_system import MAX_MODES, event_of
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mdof_systems import initial_state, random_system  # noqa: E402
@@ -49,22 +49,7 @@ def chain(n: int = 4, *, friction: bool = False, springs: bool = False, restitut
 
 def hybrid_events(ms: MechanicalSystem, sol) -> list[tuple[float, str, int]]:
     """The crossings of a hybrid run as ``(t, kind, index)`` in the exact backend's vocabulary."""
-    entry = {f"q{f.coordinate}": k for k, f in enumerate(ms.friction)}
-    out = []
-    for e in sol.events:
-        if e.kind != "crossing":
-            continue
-        what = e.guard.split(": ")[-1].split()
-        if what[0] == "impact":
-            out.append((e.t, "impact", int(what[1])))
-        elif what[0] == "contact":
-            out.append((e.t, "contact_start" if what[2] == "closes" else "contact_end", int(what[1])))
-        elif what[1] == "stops":
-            after = next(p for p in e.mode_after.split("/") if p[:-1] == what[0])
-            out.append((e.t, "stick" if after[-1] == "0" else "reversal", entry[what[0]]))
-        else:
-            out.append((e.t, "release", entry[what[0]]))
-    return out
+    return [(e.t, *event_of(ms, e.guard, e.mode_after)) for e in sol.events if e.kind == "crossing"]
 
 
 def exact_events(sol) -> list[tuple[float, str, int]]:
@@ -411,6 +396,6 @@ def test_simulate_runs_a_mechanical_system_on_every_event_locating_backend():
     assert t_exact.size > 0
     for backend, tol in (("heyoka", 1e-10), ("scipy", 1e-7)):
         sol = io.simulate(system, 30.0, [0.0, 0.0], [0.0, 0.0], backend=backend)
-        assert sol.status == 0, sol.message
-        t = np.array([e.t for e in sol.events if e.guard == "impact 0" and e.kind == "crossing"])
+        assert isinstance(sol, io.MechanicalSolution) and sol.status == 0, sol.message
+        t = sol.events["t"][sol.events["kind"] == "impact"]
         assert t.shape == t_exact.shape and np.max(np.abs(t - t_exact)) < tol, (backend, t, t_exact)

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .._util import validation as _v
 from ..engine._driver import check_run_arguments, check_sample_times
 from ..model._mechanical import MechanicalSystem
@@ -50,8 +48,10 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
     """Integrate the impact oscillator event by event from ``(x0, v0)`` at ``Lambda = 0``.
 
     ``simulate(system, t_end, q0, v0, backend="exact")`` runs a :class:`~impactosc.MechanicalSystem`
-    (``"heyoka"`` and ``"scipy"`` through its form as a user system) and returns a
-    :class:`~impactosc.results.MechanicalSolution` (a :class:`~impactosc.results.HybridSolution`).
+    and returns a :class:`~impactosc.results.MechanicalSolution`; ``"heyoka"`` and ``"scipy"`` run
+    its form as a user system (:func:`~impactosc.model.hybrid.mechanical_system`) and return the
+    same type (the events in the exact backend's kinds; a chatter that the exact backend sums
+    into rest on a stop ends their run with status 2).
     ``simulate(system, t_end, state0, backend=..., **options)`` runs a user's
     :class:`~impactosc.HybridSystem` instead (see ``impactosc.backends._hybrid.simulate_system``
     for its options) and returns a :class:`~impactosc.results.HybridSolution`.
@@ -152,23 +152,19 @@ def simulate(osc: Oscillator, t_end: float, x0: float = 0.95, v0: float = 0.0, *
 
 def _simulate_mechanical(system, t_end, q0, v0, *, backend, record, max_events, sample_at, **options):
     """A :class:`~impactosc.MechanicalSystem` on the exact n-DOF backend (``"exact"``, ``"auto"``), or on
-    heyoka or scipy through its form as a user system (:func:`impactosc.model.hybrid.mechanical_system`)."""
+    heyoka or scipy through its form as a user system (:func:`impactosc.model.hybrid.mechanical_system`);
+    a :class:`~impactosc.results.MechanicalSolution` from each."""
     _v.choice("backend", backend, ("exact", "auto", "heyoka", "scipy"))
+    if record != "full" or sample_at is not None:
+        raise ValueError("a MechanicalSystem's run keeps every event and samples afterwards "
+                         "(MechanicalSolution.sample): leave record and sample_at at their defaults")
     if backend in ("exact", "auto"):
-        if record != "full" or sample_at is not None:
-            raise ValueError("the exact n-DOF backend keeps every event and samples afterwards "
-                             "(MechanicalSolution.sample): leave record and sample_at at their defaults")
         from ._exact_mdof import simulate_mechanical
 
         return simulate_mechanical(system, t_end, q0, v0, max_events=max_events, **options)
-    from ..model.hybrid import mechanical_system
-    from ._hybrid import simulate_system
+    from ._mechanical_hybrid import run_as_system
 
-    n = system.n
-    q = np.broadcast_to(np.asarray(q0, dtype=float), (n,))
-    v = np.broadcast_to(np.asarray(v0, dtype=float), (n,))
-    return simulate_system(mechanical_system(system), t_end, np.concatenate([q, v]), backend=backend, record=record,
-                           max_events=max_events, sample_at=sample_at, **options)
+    return run_as_system(system, t_end, q0, v0, backend=backend, max_events=max_events, **options)
 
 
 def check_magnitudes(osc: Oscillator, t_end: float, x0: float, v0: float) -> None:

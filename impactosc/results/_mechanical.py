@@ -38,11 +38,13 @@ class MechanicalSolution:
     q, v : ndarray
         The state at ``t``.
     status : int
-        0: reached ``t_end``; 1: stopped at ``max_events``; -1: the guard search failed (the
-        message says where); what was computed up to there is kept.
+        0: reached ``t_end``; 1: stopped at ``max_events``; 2 (heyoka and scipy only): the
+        rebounds on a stop accumulate, which their loops do not sum into rest (the message
+        estimates the accumulation time); -1: the guard search or the integration failed
+        (the message says where); what was computed up to there is kept.
     message : str
     n_pieces : int
-        Closed-form pieces evaluated.
+        Smooth pieces (closed-form pieces on the exact backend).
 
     Examples
     --------

@@ -29,7 +29,7 @@ import numpy as np
 from .._mechanical import MechanicalSystem
 from ._definition import Guard, HybridMode, HybridSystem, symbols
 
-__all__ = ["mechanical_system", "MAX_MODES"]
+__all__ = ["mechanical_system", "MAX_MODES", "event_of"]
 
 #: The most modes :func:`mechanical_system` writes (``2^springs 3^frictions``): each is a term of
 #: the compiled vector field and of every guard's gated event, so the compile time grows with them.
@@ -338,3 +338,23 @@ class _Writer:
                 out.append(Guard(f"{here}: q{j} stops", self.v[j], -s, armed=here,
                                  to=(becomes(_STUCK), becomes(-s)), reset={self.v[j]: hy.expression(0.0)}))
         return out
+
+
+def event_of(ms: MechanicalSystem, guard: str, mode_after: str) -> tuple[str, int]:
+    """The exact backend's ``(kind, index)`` of a crossing of ``guard`` (a name :func:`mechanical_system` wrote).
+
+    ``kind`` is one of ``MECHANICAL_EVENT_KINDS``: ``impact`` and ``contact_start``/``contact_end``
+    with the contact's index, ``stick``/``reversal`` (a slip stops: ``mode_after`` says which)
+    and ``release`` with the index of the friction entry in ``ms.friction``.
+    """
+    words = guard.split(": ")[-1].split()
+    if words[0] == "impact":
+        return "impact", int(words[1])
+    if words[0] == "contact":
+        return ("contact_start" if words[2] == "closes" else "contact_end"), int(words[1])
+    entry = next(k for k, f in enumerate(ms.friction) if f"q{f.coordinate}" == words[0])
+    if words[1] == "stops":
+        part = next(p for p in mode_after.split("/") if p[:-1] == words[0])
+        return ("stick" if part[-1] == _TAG[_STUCK] else "reversal"), entry
+    return "release", entry
+
