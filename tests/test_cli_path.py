@@ -55,6 +55,14 @@ def test_options_override_the_file(capsys):
     assert "0.0005 s of tape motion" in out and "head at 20 mm" in out
 
 
+def test_backend_runs_the_path_on_the_cross_check(capsys):
+    assert main(["path", str(TWO), "--duration", "0.0005", "--backend", "heyoka"]) == 0
+    heyoka = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip()[:1].isdigit()][:2]
+    assert main(["path", str(TWO), "--duration", "0.0005"]) == 0
+    exact = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip()[:1].isdigit()][:2]
+    assert heyoka == exact and int(exact[1][4]) > 0  # the same table to the printed digits, with contacts
+
+
 def test_grid_sweeps_and_writes_a_dataset(capsys, tmp_path):
     import xarray as xr
 
@@ -108,6 +116,7 @@ def test_critical_clearance_chart_writes_its_dataset_and_figure(capsys, tmp_path
     (["--grid", "speed=1,2", "--motion", "m.csv"], "", "--motion and --events are for a single run"),
     (["--critical-clearance", "5"], "", "--critical-clearance must name guides 0 to 0"),
     (["--head", "1.0"], "", "head must lie on the path"),
+    (["--grid", "speed=1,2", "--backend", "scipy"], "", "--backend scipy applies to a single run"),
 ])
 def test_bad_files_and_options_are_one_line_errors(capsys, tmp_path, extra, text, message):
     import re

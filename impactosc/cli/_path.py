@@ -61,6 +61,8 @@ def add_parser(sub) -> None:
     run_group.add_argument("--head", type=float, help="position of the head along the path [m] (default: the last "
                                                       "guide)")
     run_group.add_argument("--max-events", type=positive_int, help="event limit of a run (default 1e7)")
+    run_group.add_argument("--backend", choices=("exact", "heyoka", "scipy"), default="exact",
+                           help="backend of a single run (default exact; heyoka and scipy are the cross-checks)")
     out = p.add_argument_group("output (override the file's [output] table)")
     out.add_argument("--motion", metavar="CSV", help="write the lateral motion at the head and the guides")
     out.add_argument("--events", metavar="CSV", help="write every event: time, kind, guide, side")
@@ -156,6 +158,9 @@ def run(args) -> int:
     for key in ("motion", "events"):
         if settings[key]:
             check_output_file(f"--{key}", settings[key])
+    if args.backend != "exact" and (grid or args.critical_clearance is not None):
+        raise ValueError(f"--backend {args.backend} applies to a single run; --grid and --critical-clearance run "
+                         "on the exact backend")
     if args.critical_clearance is not None:
         path.check_guide(args.critical_clearance, "--critical-clearance")
         return _contact(path, args, settings, grid)
@@ -182,7 +187,8 @@ def _single(path, args, settings) -> int:
     head = settings["head"] if settings["head"] is not None else path.guides[-1].position
     if head > supports_end:
         raise ValueError(f"head must lie on the path, in (0, {supports_end!r}] m, got {head!r}")
-    run = simulate_path(path, settings["duration"], phase=settings["phase"], max_events=settings["max_events"])
+    run = simulate_path(path, settings["duration"], phase=settings["phase"], max_events=settings["max_events"],
+                        backend=args.backend)
     print(_describe(path))
     print(f"run: {run.duration:g} s of tape motion, {len(run.solution.events)} events, status {run.status}"
           + (f" ({run.solution.message})" if run.status else ""))

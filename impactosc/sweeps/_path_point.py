@@ -16,6 +16,7 @@ import xarray as xr
 
 from .._util import validation as _v
 from ..backends._exact_mdof import simulate_mechanical
+from ..backends._mechanical_hybrid import run_as_system
 from ..backends._simulate import DEFAULT_MAX_EVENTS
 from ..model._tape_path import TapePath
 from ..results._tape_path import TapePathRun
@@ -40,10 +41,10 @@ PATH_RESULTS = {
 
 
 def simulate_path(path: TapePath, duration: float, *, phase: float = 0.0, q0=None, v0=None,
-                  max_events: int = DEFAULT_MAX_EVENTS) -> TapePathRun:
-    """Run a tape path for ``duration`` seconds on the exact n-DOF backend; its SI results.
+                  max_events: int = DEFAULT_MAX_EVENTS, backend: str = "exact", **options) -> TapePathRun:
+    """Run a tape path for ``duration`` seconds (on the exact n-DOF backend by default); its SI results.
 
-    ``simulate_mechanical(path.mechanical_system(phase), path.seconds_to_time(duration), q0, v0)``
+    ``simulate(path.mechanical_system(phase), path.seconds_to_time(duration), q0, v0, backend=...)``
     read by :class:`~impactosc.TapePathRun`.
 
     Parameters
@@ -59,6 +60,11 @@ def simulate_path(path: TapePath, duration: float, *, phase: float = 0.0, q0=Non
         rest on the guides' axes.
     max_events : int
         Stop with status 1 after this many events (what was computed is kept).
+    backend : {"exact", "heyoka", "scipy"}
+        ``"exact"`` (default): the compiled closed-form n-DOF backend. ``"heyoka"`` and
+        ``"scipy"``: the path's system written as a user system on their event loops, the
+        independent cross-checks (slower; a chatter that the exact backend sums into rest on a
+        flange ends their run with status 2). ``**options`` are the backend's (e.g. ``tol``).
 
     Returns
     -------
@@ -88,8 +94,12 @@ def simulate_path(path: TapePath, duration: float, *, phase: float = 0.0, q0=Non
         if arr.shape != (path.n,) or not np.all(np.isfinite(arr)):
             raise ValueError(f"{name} must hold {path.n} finite numbers (one per guide, SI units), got {value!r}")
         state.append(arr / scale)
-    sol = simulate_mechanical(path.mechanical_system(phase), path.seconds_to_time(duration), state[0], state[1],
-                              max_events=max_events)
+    _v.choice("backend", backend, ("exact", "heyoka", "scipy"))
+    system, t_end = path.mechanical_system(phase), path.seconds_to_time(duration)
+    if backend == "exact":
+        sol = simulate_mechanical(system, t_end, state[0], state[1], max_events=max_events, **options)
+    else:
+        sol = run_as_system(system, t_end, state[0], state[1], backend=backend, max_events=max_events, **options)
     return TapePathRun(path, sol, phase=phase)
 
 
