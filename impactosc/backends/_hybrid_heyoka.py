@@ -265,6 +265,7 @@ class _Run:
         self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
         # the states a transition can change (resets change states, never integrals)
         self.reset_slots = range(self.n)
+        self.ta, self.state = comp.ta, comp.ta.state
         self.guard_values = switch.rules.guard
 
     def transition(self, g: int, t: float, y: list) -> list:
@@ -286,7 +287,7 @@ class _Run:
     def crossing(self, ta, g: int) -> bool:
         """Guard ``g`` located at the integrator's time: apply its transition (the Python of every event)."""
         t = ta.time
-        state = ta.state
+        state = self.state if ta is self.ta else ta.state  # the cached view: ta.state makes a new array
         y = state.tolist()
         switch = self.switch
         mode = self.mode
@@ -352,7 +353,7 @@ class _Run:
             # released with v' = 0 moves ~1e-32 the wrong way before it turns), not a crossing
             # lost inside a step nor a grazing.
             return True
-        y = ta.state.tolist()
+        y = (self.state if ta is self.ta else ta.state).tolist()
         values, direction = self.guard_values, switch.direction
         p = switch.p
         for g in guards:

@@ -22,6 +22,7 @@ a forcing period, where the piece loop solves the release in closed form
 from __future__ import annotations
 
 from functools import lru_cache
+from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
@@ -120,11 +121,12 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     width = len(y0)
     if n:
         t_ev, g_ev, _, _, b_ev, before, after = zip(*events, strict=True)
-        t = np.array(t_ev)
-        guard = np.array(g_ev)
-        target = np.array(b_ev)
-        states_before = np.array(before).reshape(n, width)
-        states_after = np.array(after).reshape(n, width)
+        t = np.fromiter(t_ev, float, n)
+        guard = np.fromiter(g_ev, int, n)
+        target = np.fromiter(b_ev, int, n)
+        # flat first: numpy parses a sequence of tuples into a matrix several times slower
+        states_before = np.fromiter(chain.from_iterable(before), float, n * width).reshape(n, width)
+        states_after = np.fromiter(chain.from_iterable(after), float, n * width).reshape(n, width)
     else:
         t, guard, target = np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int)
         states_before = states_after = np.zeros((0, width))
@@ -145,8 +147,9 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     y1 = hybrid.state_final
     t_stop = np.concatenate((t, [t_final]))
     x_stop = np.concatenate((states_before[:, 0], [float(y1[0])]))
-    ends = np.vstack((states_before, np.asarray(y1, dtype=float)[None, :width]))
-    begins = np.vstack((np.asarray(y0, dtype=float)[None, :], states_after))
+    # the integrals' increments over each piece: at its end (before the event) less at its start
+    increments = np.vstack((states_before, np.asarray(y1, dtype=float)[None, :width]))
+    increments -= np.vstack((np.asarray(y0, dtype=float)[None, :], states_after))
     kept = t_stop > t_start
     kept[n] = kept[n] or n == 0
     pieces = np.zeros(int(kept.sum()), dtype=PIECE_DTYPE)
@@ -155,7 +158,7 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     for name in ("q", "q2", "w", "vv"):
         c = slots.get(name.upper(), -1)
         if c >= 0:
-            pieces[name] = (ends[:, c] - begins[:, c])[kept]
+            pieces[name] = increments[kept, c]
     counted = np.cumsum(kept)  # pieces recorded up to and including piece k
     recorded = np.zeros(n, dtype=EVENT_DTYPE)
     recorded["t"], recorded["kind"], recorded["x"], recorded["v"] = t, _KIND_NAMES[kind], x, v
