@@ -152,13 +152,15 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     increments -= np.vstack((np.asarray(y0, dtype=float)[None, :], states_after))
     kept = t_stop > t_start
     kept[n] = kept[n] or n == 0
-    pieces = np.zeros(int(kept.sum()), dtype=PIECE_DTYPE)
-    pieces["t0"], pieces["x0"], pieces["t1"], pieces["x1"] = t_start[kept], x_start[kept], t_stop[kept], x_stop[kept]
-    pieces["region"], pieces["motion"] = region[kept], motion[kept]
+    count = int(kept.sum())
+    sel = slice(None) if count == n + 1 else kept  # the common case, no two events at an instant: views
+    pieces = np.zeros(count, dtype=PIECE_DTYPE)
+    pieces["t0"], pieces["x0"], pieces["t1"], pieces["x1"] = t_start[sel], x_start[sel], t_stop[sel], x_stop[sel]
+    pieces["region"], pieces["motion"] = region[sel], motion[sel]
     for name in ("q", "q2", "w", "vv"):
         c = slots.get(name.upper(), -1)
         if c >= 0:
-            pieces[name] = increments[kept, c]
+            pieces[name] = increments[sel, c]
     counted = np.cumsum(kept)  # pieces recorded up to and including piece k
     recorded = np.zeros(n, dtype=EVENT_DTYPE)
     recorded["t"], recorded["kind"], recorded["x"], recorded["v"] = t, _KIND_NAMES[kind], x, v
@@ -167,11 +169,13 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     # a piece start after the last event at an instant (the engine records none between two)
     last = np.ones(n, dtype=bool)
     last[:-1] = t[1:] != t[:-1]
-    segments = np.zeros(int(last.sum()), dtype=SEGMENT_DTYPE)
-    segments["t"], segments["x"], segments["v"] = t[last], x[last], v[last]
-    segments["region"], segments["motion"] = region[1:][last], motion[1:][last]
-    segments["armed"] = table.armed[target[last]]
-    rec.bulk(pieces, recorded, event_pieces, segments, event_pieces[last])
+    starts = int(last.sum())
+    at = slice(None) if starts == n else last
+    segments = np.zeros(starts, dtype=SEGMENT_DTYPE)
+    segments["t"], segments["x"], segments["v"] = t[at], x[at], v[at]
+    segments["region"], segments["motion"] = region[1:][at], motion[1:][at]
+    segments["armed"] = table.armed[target[at]]
+    rec.bulk(pieces, recorded, event_pieces, segments, event_pieces[at])
     mode = modes[int(target[-1])] if n else start
     _finish(hybrid, rec, mode, max_events)
 
