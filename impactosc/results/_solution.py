@@ -364,31 +364,40 @@ class _Recorder:
         elif self._open is not None and not len(marks):
             lo, hi, start_event = np.array([0]), np.array([len(pieces)]), np.array([-1])
         count = len(lo)
-        initial = self._open if self._open is not None else [0.0, 0, 0.0, 0.0, 0.0, True]
-        from_start = start_event < 0
-        impulse = np.where(from_start, initial[4], 0.0)
-        peak = np.where(from_start, initial[3], 0.0)
-        loss_path = np.where(from_start, self._open_loss[0], 0.0)
-        loss_vv = np.where(from_start, self._open_loss[1], 0.0)
+        ev_t, ev_v, ev_side = events["t"], events["v"], events["side"]
+        at_start = self._open is not None and count > 0 and start_event[0] < 0
+        if at_start:  # the contact open at the start goes on: its sums so far, its entry
+            initial = _kept(self._open, "the open contact")
+            from_start = start_event < 0
+            impulse = np.where(from_start, initial[4], 0.0)
+            peak = np.where(from_start, initial[3], 0.0)
+            loss_path = np.where(from_start, self._open_loss[0], 0.0)
+            loss_vv = np.where(from_start, self._open_loss[1], 0.0)
+            safe = np.maximum(start_event, 0)
+            t_start = np.where(from_start, initial[0], ev_t[safe])
+            side = np.where(from_start, initial[1], ev_side[safe]).astype(int)
+            v_in = np.where(from_start, initial[2], ev_v[safe])
+            complete = np.where(from_start, bool(initial[5]), True)
+        else:
+            impulse, peak, loss_path, loss_vv = np.zeros((4, count))
+            t_start, side, v_in = ev_t[start_event], ev_side[start_event].astype(int), ev_v[start_event]
+            complete = np.ones(count, dtype=bool)
         region, motion = pieces["region"], pieces["motion"]
+        q, vv = pieces["q"], pieces["vv"]
         pen_all = deepest - np.where(region == 1, osc.gap_upper, np.where(region == -1, osc.gap_lower, 0.0))
+        slip_path = np.where(motion != 0, path, 0.0)
         length = hi - lo
         for k in range(int(length.max()) if count else 0):
             # the k-th piece of every contact that has one: sums in the order piece() adds them
             sel = np.flatnonzero(k < length)
             at = lo[sel] + k
             inside = region[at] != 0
-            sel, at = sel[inside], at[inside]
-            impulse[sel] += pieces["q"][at]
+            if not inside.all():
+                sel, at = sel[inside], at[inside]
+            impulse[sel] += q[at]
             peak[sel] = np.where(pen_all[at] > peak[sel], pen_all[at], peak[sel])
-            loss_path[sel] += np.where(motion[at] != 0, path[at], 0.0)
-            loss_vv[sel] += pieces["vv"][at]
-        ev_t, ev_v, ev_side = events["t"], events["v"], events["side"]
-        safe = np.maximum(start_event, 0)
-        t_start = np.where(from_start, initial[0], ev_t[safe])
-        side = np.where(from_start, initial[1], ev_side[safe]).astype(int)
-        v_in = np.where(from_start, initial[2], ev_v[safe])
-        complete = np.where(from_start, bool(initial[5]), True)
+            loss_path[sel] += slip_path[at]
+            loss_vv[sel] += vv[at]
         closed = len(ends)
         if trailing is not None or (self._open is not None and not len(ends)):
             j = count - 1
