@@ -92,7 +92,9 @@ class _Recorder:
     """Streams a run into counters and, depending on ``record``, tables.
 
     The engine's driver loop calls ``begin``, then ``piece``/``event``/``segment`` as the
-    run proceeds, then ``finish``. Only the tables asked for grow with the run.
+    run proceeds, then ``finish``; a run replayed from another event loop can hand over all
+    its pieces and events at once (``begin``, :meth:`bulk`, ``finish``: the same records and
+    sums). Only the tables asked for grow with the run.
     """
 
     def __init__(self, record: str, backend: str, evaluator: PieceEvaluator | None):

@@ -5,9 +5,9 @@ kinetic and static friction, damping, harmonics, one or two flanges at any gaps)
 that hybrid system on the user systems' heyoka loop (:mod:`impactosc.backends._hybrid_heyoka`),
 with the integrals the built-in :class:`~impactosc.Solution` reports (``Q``, ``Q2``, ``W``,
 ``VV``: ``oscillator_system(osc, energy=True)``). The run's events then feed the built-in
-recorder (:class:`~impactosc.results._solution._Recorder`) in the order the engine's
-``drive`` feeds it: ``begin``, then per smooth piece ``piece`` (the integrals' increments
-between two events) and per event ``event`` and ``segment``, then ``finish``. The hybrid
+recorder (:class:`~impactosc.results._solution._Recorder`) as the engine's ``drive`` feeds
+it: ``begin``, then its smooth pieces (the integrals' increments between two events), events
+and piece starts, as arrays in one ``bulk`` call, then ``finish``. The hybrid
 modes map onto the engine's ``Mode(region, motion)`` and its guards onto the built-in
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
