@@ -61,3 +61,10 @@ def test_hoisted_code_computes_what_the_original_does(t):
     exec("\n".join(["def f(t):", *body]), space_a)  # noqa: S102 - test text
     exec("\n".join(["def f(t):", *_hoisted(body)]), space_b)  # noqa: S102 - test text
     assert space_a["f"](t) == space_b["f"](t)
+
+
+def test_a_longer_name_that_ends_like_a_hoisted_call_is_left_alone():
+    body = ["    return cos(t) + cos(t) + acos(t) + arccos(t)"]
+    text = "\n".join(_hoisted(body))
+    assert "acos(t)" in text and "arccos(t)" in text
+    assert text.count("_h0") == 3  # its definition and the two calls

@@ -16,6 +16,7 @@ cannot reproduce uses the compiled function.
 from __future__ import annotations
 
 import math
+import re
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -294,8 +295,10 @@ def _hoisted(body: list[str]) -> list[str]:
     defs = []
     for i, call in enumerate(repeated):
         defs.append(f"    _h{i} = {call}")
-        text = text.replace(call, f"_h{i}")
-        repeated[i + 1:] = [c.replace(call, f"_h{i}") for c in repeated[i + 1:]]
+        # the call itself, not the tail of a longer name (acos(t) holds cos(t))
+        pattern = re.compile(r"(?<![A-Za-z0-9_])" + re.escape(call))
+        text = pattern.sub(f"_h{i}", text)
+        repeated[i + 1:] = [pattern.sub(f"_h{i}", c) for c in repeated[i + 1:]]
     return defs + text.split("\n")
 
 
