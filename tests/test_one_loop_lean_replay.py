@@ -1,7 +1,7 @@
 """Issue 27 item 4: the hybrid run replayed into the built-in recorder in one bulk call.
 
 ``backends/heyoka/_replay._replay`` turns the run's crossings into arrays and hands them to
-``_Recorder.bulk``; ``_replay_each`` feeds the same run one ``piece``/``event``/``segment``
+``results._bulk.bulk``; ``_replay_each`` feeds the same run one ``piece``/``event``/``segment``
 call at a time, as the engine's driver does. Every record, count, integral and contact sum
 must be the same to the last bit (both add in the same order), whatever the run: contacts
 on both flanges, a run that starts inside a flange, one that ends inside a contact or at
@@ -17,6 +17,7 @@ import impactosc
 from impactosc.backends._hybrid_heyoka import run_system
 from impactosc.backends.heyoka import _replay as replay
 from impactosc.engine._driver import initial_mode
+from impactosc.results._bulk import bulk
 from impactosc.results._solution import Solution, _Recorder
 
 CONTACT = impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
@@ -94,4 +95,4 @@ def test_bulk_refuses_a_rigid_flange():
     rec = _Recorder("full", "heyoka", None)
     rec.begin(osc, 0.0, 0.0, 0.0, initial_mode(osc, 0.0, 0.0, 0.0))
     with pytest.raises(ValueError, match="rigid"):
-        rec.bulk(*[np.zeros(0)] * 5)
+        bulk(rec, *[np.zeros(0)] * 5)

@@ -28,7 +28,7 @@ from .._util import validation as _v
 from ..engine._driver import CHATTER, CONTACT_END, CONTACT_START, EVENT_KINDS, IMPACT, Mode
 from ..model._oscillator import Oscillator
 from ._frames import SolutionFramesMixin
-from ._observables import elastic_impact_force, impact_force_law
+from ._observables import elastic_impact_force
 
 __all__ = ["Solution", "RECORD_OPTIONS", "EVENT_DTYPE", "IMPACT_DTYPE", "CONTACT_SUMS"]
 
@@ -54,9 +54,6 @@ IMPACT_DTYPE = np.dtype(
         ("complete", "?"),
     ]
 )
-#: The smooth pieces :meth:`_Recorder.bulk` takes (the arguments of ``_Recorder.piece``).
-PIECE_DTYPE = np.dtype([("t0", "f8"), ("x0", "f8"), ("t1", "f8"), ("x1", "f8"), ("region", "i1"), ("motion", "i1"),
-                        ("q", "f8"), ("q2", "f8"), ("w", "f8"), ("vv", "f8")])
 SAMPLE_DTYPE = np.dtype([("t", "f8"), ("x", "f8"), ("v", "f8"), ("region", "i1"), ("motion", "i1")])
 SEGMENT_DTYPE = np.dtype(
     [
@@ -93,8 +90,8 @@ class _Recorder:
 
     The engine's driver loop calls ``begin``, then ``piece``/``event``/``segment`` as the
     run proceeds, then ``finish``; a run replayed from another event loop can hand over all
-    its pieces and events at once (``begin``, :meth:`bulk`, ``finish``: the same records and
-    sums). Only the tables asked for grow with the run.
+    its pieces and events at once (``begin``, :func:`impactosc.results._bulk.bulk`, ``finish``:
+    the same records and sums). Only the tables asked for grow with the run.
     """
 
     def __init__(self, record: str, backend: str, evaluator: PieceEvaluator | None):
@@ -106,7 +103,7 @@ class _Recorder:
         self.events: list[tuple] = []
         self.impacts: list[tuple] = []
         self.segments: list[tuple] = []
-        # bulk() keeps its events and piece starts as structured arrays (with those of the lists before)
+        # _bulk.bulk keeps the events and piece starts as structured arrays (with those of the lists before)
         self.event_array: np.ndarray | None = None
         self.segment_array: np.ndarray | None = None
         self.counts = dict.fromkeys(EVENT_KINDS, 0)
@@ -269,170 +266,6 @@ class _Recorder:
         if self.keep_segments:
             self.segments.append((t, x, v, mode.region, mode.motion, mode.armed,
                                   self.impulse[1], self.impulse[-1]))
-
-    def bulk(self, pieces: np.ndarray, events: np.ndarray, event_pieces: np.ndarray, segments: np.ndarray,
-             segment_pieces: np.ndarray) -> None:
-        """A whole run of a spring-flange member at once: what ``piece``, ``event`` and ``segment`` would stream.
-
-        After :meth:`begin`; only :meth:`finish` may follow (the events and piece starts are kept
-        in ``event_array`` and ``segment_array`` from here on). The records, counts, integrals and
-        contact sums are those of the calls one by one, to the last bit: every sum is taken in
-        the same order (sequential cumulative sums, contact by contact), every product with
-        the same operands.
-
-        Parameters
-        ----------
-        pieces : numpy.ndarray of PIECE_DTYPE
-            The smooth pieces in time order (the arguments of :meth:`piece`).
-        events : numpy.ndarray of EVENT_DTYPE
-            The events in time order (the arguments of :meth:`event`).
-        event_pieces : numpy.ndarray of int
-            How many of ``pieces`` come before each event.
-        segments : numpy.ndarray of SEGMENT_DTYPE
-            The piece starts after events (:meth:`segment`; the impulse fields are filled here).
-        segment_pieces : numpy.ndarray of int
-            How many of ``pieces`` come before each segment.
-        """
-        if self.rigid:
-            raise ValueError("Recorder.bulk: a rigid flange's wall force is integrated piece by piece; use piece()")
-        osc = self.osc
-        region, motion = pieces["region"], pieces["motion"]
-        x0, x1 = pieces["x0"], pieces["x1"]
-        path = np.where(motion != 0, np.abs(x1 - x0), 0.0)
-        up, down = region == 1, region == -1
-        q, q2, length = pieces["q"], pieces["q2"], pieces["t1"] - pieces["t0"]
-        # every running sum in one cumulative sum (column by column, in piece order)
-        sums = np.empty((len(pieces) + 1, 9))
-        sums[0] = (self.impulse[1], self.impulse[-1], self.impulse_sq[1], self.impulse_sq[-1], self.contact_time[1],
-                   self.contact_time[-1], self.slip_path, self.forcing_work, self.v_squared)
-        for column, (on, values) in enumerate(((up, q), (down, q), (up, q2), (down, q2), (up, length),
-                                               (down, length))):
-            sums[1:, column] = np.where(on, values, 0.0)
-        sums[1:, 6], sums[1:, 7], sums[1:, 8] = path, pieces["w"], pieces["vv"]
-        np.cumsum(sums, axis=0, out=sums)
-        total = sums[-1].tolist()
-        self.impulse[1], self.impulse[-1], self.impulse_sq[1], self.impulse_sq[-1] = total[:4]
-        self.contact_time[1], self.contact_time[-1], self.slip_path, self.forcing_work, self.v_squared = total[4:]
-        # Pieces are monotonic in X, so the deepest point of a piece is at an end.
-        deepest = np.maximum(region * x0, region * x1)
-        for side, on in ((1, up), (-1, down)):
-            if on.any():
-                pen = float(deepest[on].max()) - osc.gap(side)
-                if pen > self.max_pen[side]:
-                    self.max_pen[side] = pen
-        self.pieces += len(pieces)
-        self.streamed_pieces = self.streamed_pieces or len(pieces) > 0
-        kinds = events["kind"]
-        for kind in self.counts:  # a comparison per kind: cheaper than sorting the names
-            self.counts[kind] += int(np.count_nonzero(kinds == kind))
-        self.n_events += len(events)
-        starts = events["side"][kinds == CONTACT_START]
-        self.entries[1] += int(np.count_nonzero(starts == 1))
-        self.entries[-1] += int(np.count_nonzero(starts == -1))
-        self._contacts(pieces, path, deepest, events, event_pieces)
-        if self.keep_events:
-            self.event_array = np.concatenate([np.array(self.events, dtype=EVENT_DTYPE), events]) if self.events \
-                else events
-        if self.keep_segments:
-            segments = segments.copy()
-            segments["impulse_upper"] = sums[segment_pieces, 0]
-            segments["impulse_lower"] = sums[segment_pieces, 1]
-            self.segment_array = np.concatenate([np.array(self.segments, dtype=SEGMENT_DTYPE), segments])
-
-    def _contacts(self, pieces: np.ndarray, path: np.ndarray, deepest: np.ndarray, events: np.ndarray,
-                  event_pieces: np.ndarray) -> None:
-        """The contacts of :meth:`bulk`: their rows and sums, and the one left open at the end in ``_open``."""
-        osc = self.osc
-        kinds = events["kind"]
-        marks = np.flatnonzero((kinds == CONTACT_START) | (kinds == CONTACT_END))
-        opening = kinds[marks] == CONTACT_START
-        # a contact_end closes the contact the event before it opened (or the one open at the start)
-        previous = np.concatenate(([self._open is not None], opening[:-1])) if len(marks) else opening
-        closing = ~opening & previous
-        ends = marks[closing]
-        first = self._open is not None and len(marks) and not opening[0]
-        open_at = marks[np.flatnonzero(closing) - 1] if len(ends) else np.zeros(0, dtype=int)
-        trailing = marks[-1] if len(marks) and opening[-1] else None
-        # every contact: its pieces [lo, hi), its start (event index, -1 for the one open at the start)
-        lo = event_pieces[open_at] if len(open_at) else np.zeros(0, dtype=int)
-        start_event = open_at.copy()
-        if first:
-            lo[0], start_event[0] = 0, -1
-        hi = event_pieces[ends]
-        if trailing is not None:
-            lo = np.append(lo, event_pieces[trailing])
-            hi = np.append(hi, len(pieces))
-            start_event = np.append(start_event, trailing)
-        elif self._open is not None and not len(marks):
-            lo, hi, start_event = np.array([0]), np.array([len(pieces)]), np.array([-1])
-        count = len(lo)
-        ev_t, ev_v, ev_side = events["t"], events["v"], events["side"]
-        at_start = self._open is not None and count > 0 and start_event[0] < 0
-        if at_start:  # the contact open at the start goes on: its sums so far, its entry
-            initial = _kept(self._open, "the open contact")
-            from_start = start_event < 0
-            impulse = np.where(from_start, initial[4], 0.0)
-            peak = np.where(from_start, initial[3], 0.0)
-            loss_path = np.where(from_start, self._open_loss[0], 0.0)
-            loss_vv = np.where(from_start, self._open_loss[1], 0.0)
-            safe = np.maximum(start_event, 0)
-            t_start = np.where(from_start, initial[0], ev_t[safe])
-            side = np.where(from_start, initial[1], ev_side[safe]).astype(int)
-            v_in = np.where(from_start, initial[2], ev_v[safe])
-            complete = np.where(from_start, bool(initial[5]), True)
-        else:
-            impulse, peak, loss_path, loss_vv = np.zeros((4, count))
-            t_start, side, v_in = ev_t[start_event], ev_side[start_event].astype(int), ev_v[start_event]
-            complete = np.ones(count, dtype=bool)
-        region, motion = pieces["region"], pieces["motion"]
-        q, vv = pieces["q"], pieces["vv"]
-        pen_all = deepest - np.where(region == 1, osc.gap_upper, np.where(region == -1, osc.gap_lower, 0.0))
-        slip_path = np.where(motion != 0, path, 0.0)
-        length = hi - lo
-        for k in range(int(length.max()) if count else 0):
-            # the k-th piece of every contact that has one: sums in the order piece() adds them
-            sel = np.flatnonzero(k < length)
-            at = lo[sel] + k
-            inside = region[at] != 0
-            if not inside.all():
-                sel, at = sel[inside], at[inside]
-            impulse[sel] += q[at]
-            peak[sel] = np.where(pen_all[at] > peak[sel], pen_all[at], peak[sel])
-            loss_path[sel] += slip_path[at]
-            loss_vv[sel] += vv[at]
-        closed = len(ends)
-        if trailing is not None or (self._open is not None and not len(ends)):
-            j = count - 1
-            self._open = [float(t_start[j]), int(side[j]), float(v_in[j]), float(peak[j]), float(impulse[j]),
-                          bool(complete[j])]
-            self._open_loss = [float(loss_path[j]), float(loss_vv[j])]
-        else:
-            self._open = None
-        if not closed:
-            return
-        pen = np.maximum(peak[:closed], 0.0)
-        c, power = impact_force_law(osc.K, osc.exponent)
-        v_in, side = v_in[:closed], side[:closed]
-        if osc.exponent == 1.0:
-            force, impact = osc.K * pen, c * np.abs(v_in) ** power
-        else:  # the scalar power of _close, contact by contact
-            force = np.array([osc.K * d**osc.exponent for d in pen.tolist()])
-            impact = np.array([elastic_impact_force(osc.K, osc.exponent, v) for v in v_in.tolist()])
-        loss = osc.beta * loss_path[:closed] + 2.0 * osc.zeta * loss_vv[:closed]
-        speed = np.abs(v_in)
-        # the columns of CONTACT_SUMS, contact by contact (one cumulative sum per flange)
-        columns = np.column_stack((np.ones(closed), speed, speed * speed, force, impulse[:closed], impact, loss))
-        for s in (1, -1):
-            on = side == s
-            if on.any():
-                running = np.vstack((self.contact_sums[s], columns[on]))
-                self.contact_sums[s] = np.cumsum(running, axis=0)[-1].tolist()
-        if self.keep_events:
-            rows = zip(t_start[:closed].tolist(), ev_t[ends].tolist(), side.tolist(), v_in.tolist(),
-                       ev_v[ends].tolist(), pen.tolist(), force.tolist(), impulse[:closed].tolist(),
-                       complete[:closed].tolist(), strict=True)
-            self.impacts.extend(rows)
-            self.dissipated.extend(loss.tolist())
 
     def finish(self, t: float, x: float, v: float, mode: Mode, status: int, message: str) -> None:
         if self._open is not None:
@@ -903,7 +736,7 @@ def _cell(value: float, width: int, decimals: int) -> str:
 
 
 def _records(rows, dtype: np.dtype) -> np.recarray:
-    """A table as a record array: from a structured array (:meth:`_Recorder.bulk`) or a list of tuples."""
+    """A table as a record array: from a structured array (``_bulk.bulk``, the exact loop) or a list of tuples."""
     if isinstance(rows, np.ndarray):
         return np.asarray(rows, dtype=dtype).view(np.recarray)
     return np.rec.array(rows, dtype=dtype) if len(rows) else np.recarray((0,), dtype=dtype)

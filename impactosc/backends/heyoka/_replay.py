@@ -31,7 +31,8 @@ from ...engine._driver import CONTACT_END, CONTACT_START, RELEASE, REVERSAL, STI
 from ...engine._hybrid import CROSSING
 from ...model._oscillator import Oscillator
 from ...model.hybrid import oscillator_system
-from ...results._solution import EVENT_DTYPE, PIECE_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
+from ...results._bulk import PIECE_DTYPE, bulk
+from ...results._solution import EVENT_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
 from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_system
 
 __all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
@@ -108,7 +109,7 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     """Feed ``rec`` with the pieces and events of ``hybrid`` as the engine's ``drive`` would, in one bulk call.
 
     The run's crossings become arrays (pieces between them, events, piece starts) and
-    :meth:`_Recorder.bulk` takes them at once: the same records and sums as the calls one
+    :func:`~impactosc.results._bulk.bulk` takes them at once: the same records and sums as the calls one
     by one (:func:`_replay_each`, which a rigid flange's wall force still needs).
     """
     if osc.rigid:
@@ -175,7 +176,7 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     segments["t"], segments["x"], segments["v"] = t[at], x[at], v[at]
     segments["region"], segments["motion"] = region[1:][at], motion[1:][at]
     segments["armed"] = table.armed[target[at]]
-    rec.bulk(pieces, recorded, event_pieces, segments, event_pieces[at])
+    bulk(rec, pieces, recorded, event_pieces, segments, event_pieces[at])
     mode = modes[int(target[-1])] if n else start
     _finish(hybrid, rec, mode, max_events)
 
