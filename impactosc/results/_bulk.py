@@ -99,9 +99,43 @@ def bulk(rec: _Recorder, pieces: np.ndarray, events: np.ndarray, event_pieces: n
 
 
 def _contacts(rec: _Recorder, pieces: np.ndarray, path: np.ndarray, deepest: np.ndarray, events: np.ndarray,
-          event_pieces: np.ndarray) -> None:
+              event_pieces: np.ndarray) -> None:
     """The contacts of :func:`bulk`: their rows and sums, and the one left open at the end in ``_open``."""
-    osc = rec.osc
+    lo, hi, start_event, ends, open_at_end = _spans(rec, events, event_pieces, len(pieces))
+    count = len(lo)
+    ev_t, ev_v, ev_side = events["t"], events["v"], events["side"]
+    if rec._open is not None and count > 0 and start_event[0] < 0:
+        # the contact open at the start goes on: its sums so far, its entry
+        initial = _kept(rec._open, "the open contact")
+        from_start = start_event < 0
+        sums = np.array([np.where(from_start, value, 0.0) for value in (initial[4], initial[3], *rec._open_loss)])
+        safe = np.maximum(start_event, 0)
+        t_start = np.where(from_start, initial[0], ev_t[safe])
+        side = np.where(from_start, initial[1], ev_side[safe]).astype(int)
+        v_in = np.where(from_start, initial[2], ev_v[safe])
+        complete = np.where(from_start, bool(initial[5]), True)
+    else:
+        sums = np.zeros((4, count))
+        t_start, side, v_in = ev_t[start_event], ev_side[start_event].astype(int), ev_v[start_event]
+        complete = np.ones(count, dtype=bool)
+    _insides(rec, pieces, path, deepest, lo, hi, sums)
+    impulse, peak, loss_path, loss_vv = sums
+    if open_at_end:
+        j = count - 1
+        rec._open = [float(t_start[j]), int(side[j]), float(v_in[j]), float(peak[j]), float(impulse[j]),
+                     bool(complete[j])]
+        rec._open_loss = [float(loss_path[j]), float(loss_vv[j])]
+    else:
+        rec._open = None
+    closed = len(ends)
+    if closed:
+        rows = (t_start[:closed], ev_t[ends], side[:closed], v_in[:closed], ev_v[ends], complete[:closed])
+        _close(rec, rows, sums[:, :closed])
+
+
+def _spans(rec: _Recorder, events: np.ndarray, event_pieces: np.ndarray, n_pieces: int) -> tuple:
+    """Each contact's pieces ``[lo, hi)`` and start event (-1: open at the start), the events that close
+    contacts, and whether the last contact is still open at the end, as ``event``/``_close`` pair them."""
     kinds = events["kind"]
     marks = np.flatnonzero((kinds == CONTACT_START) | (kinds == CONTACT_END))
     opening = kinds[marks] == CONTACT_START
@@ -109,46 +143,34 @@ def _contacts(rec: _Recorder, pieces: np.ndarray, path: np.ndarray, deepest: np.
     previous = np.concatenate(([rec._open is not None], opening[:-1])) if len(marks) else opening
     closing = ~opening & previous
     ends = marks[closing]
-    first = rec._open is not None and len(marks) and not opening[0]
     open_at = marks[np.flatnonzero(closing) - 1] if len(ends) else np.zeros(0, dtype=int)
-    trailing = marks[-1] if len(marks) and opening[-1] else None
-    # every contact: its pieces [lo, hi), its start (event index, -1 for the one open at the start)
     lo = event_pieces[open_at] if len(open_at) else np.zeros(0, dtype=int)
     start_event = open_at.copy()
-    if first:
-        lo[0], start_event[0] = 0, -1
+    if rec._open is not None and len(marks) and not opening[0]:
+        lo[0], start_event[0] = 0, -1  # the first end closes the contact open at the start
     hi = event_pieces[ends]
+    trailing = marks[-1] if len(marks) and opening[-1] else None
     if trailing is not None:
         lo = np.append(lo, event_pieces[trailing])
-        hi = np.append(hi, len(pieces))
+        hi = np.append(hi, n_pieces)
         start_event = np.append(start_event, trailing)
     elif rec._open is not None and not len(marks):
-        lo, hi, start_event = np.array([0]), np.array([len(pieces)]), np.array([-1])
-    count = len(lo)
-    ev_t, ev_v, ev_side = events["t"], events["v"], events["side"]
-    at_start = rec._open is not None and count > 0 and start_event[0] < 0
-    if at_start:  # the contact open at the start goes on: its sums so far, its entry
-        initial = _kept(rec._open, "the open contact")
-        from_start = start_event < 0
-        impulse = np.where(from_start, initial[4], 0.0)
-        peak = np.where(from_start, initial[3], 0.0)
-        loss_path = np.where(from_start, rec._open_loss[0], 0.0)
-        loss_vv = np.where(from_start, rec._open_loss[1], 0.0)
-        safe = np.maximum(start_event, 0)
-        t_start = np.where(from_start, initial[0], ev_t[safe])
-        side = np.where(from_start, initial[1], ev_side[safe]).astype(int)
-        v_in = np.where(from_start, initial[2], ev_v[safe])
-        complete = np.where(from_start, bool(initial[5]), True)
-    else:
-        impulse, peak, loss_path, loss_vv = np.zeros((4, count))
-        t_start, side, v_in = ev_t[start_event], ev_side[start_event].astype(int), ev_v[start_event]
-        complete = np.ones(count, dtype=bool)
+        lo, hi, start_event = np.array([0]), np.array([n_pieces]), np.array([-1])
+    open_at_end = trailing is not None or (rec._open is not None and not len(ends))
+    return lo, hi, start_event, ends, open_at_end
+
+
+def _insides(rec: _Recorder, pieces: np.ndarray, path: np.ndarray, deepest: np.ndarray, lo: np.ndarray,
+             hi: np.ndarray, sums: np.ndarray) -> None:
+    """Add each contact's pieces to its ``sums`` rows (impulse, peak penetration, slip path, int V^2) in place."""
+    osc = rec.osc
     region, motion = pieces["region"], pieces["motion"]
     q, vv = pieces["q"], pieces["vv"]
     pen_all = deepest - np.where(region == 1, osc.gap_upper, np.where(region == -1, osc.gap_lower, 0.0))
     slip_path = np.where(motion != 0, path, 0.0)
+    impulse, peak, loss_path, loss_vv = sums
     length = hi - lo
-    for k in range(int(length.max()) if count else 0):
+    for k in range(int(length.max()) if len(lo) else 0):
         # the k-th piece of every contact that has one: sums in the order piece() adds them
         sel = np.flatnonzero(k < length)
         at = lo[sel] + k
@@ -159,36 +181,30 @@ def _contacts(rec: _Recorder, pieces: np.ndarray, path: np.ndarray, deepest: np.
         peak[sel] = np.where(pen_all[at] > peak[sel], pen_all[at], peak[sel])
         loss_path[sel] += slip_path[at]
         loss_vv[sel] += vv[at]
-    closed = len(ends)
-    if trailing is not None or (rec._open is not None and not len(ends)):
-        j = count - 1
-        rec._open = [float(t_start[j]), int(side[j]), float(v_in[j]), float(peak[j]), float(impulse[j]),
-                      bool(complete[j])]
-        rec._open_loss = [float(loss_path[j]), float(loss_vv[j])]
-    else:
-        rec._open = None
-    if not closed:
-        return
-    pen = np.maximum(peak[:closed], 0.0)
+
+
+def _close(rec: _Recorder, rows: tuple, sums: np.ndarray) -> None:
+    """The closed contacts' impact rows, dissipated energies and contact sums (as ``_Recorder._close`` makes them)."""
+    osc = rec.osc
+    t_start, t_end, side, v_in, v_out, complete = rows
+    impulse, peak, loss_path, loss_vv = sums
+    pen = np.maximum(peak, 0.0)
     c, power = impact_force_law(osc.K, osc.exponent)
-    v_in, side = v_in[:closed], side[:closed]
     if osc.exponent == 1.0:
         force, impact = osc.K * pen, c * np.abs(v_in) ** power
     else:  # the scalar power of _close, contact by contact
         force = np.array([osc.K * d**osc.exponent for d in pen.tolist()])
         impact = np.array([elastic_impact_force(osc.K, osc.exponent, v) for v in v_in.tolist()])
-    loss = osc.beta * loss_path[:closed] + 2.0 * osc.zeta * loss_vv[:closed]
+    loss = osc.beta * loss_path + 2.0 * osc.zeta * loss_vv
     speed = np.abs(v_in)
     # the columns of CONTACT_SUMS, contact by contact (one cumulative sum per flange)
-    columns = np.column_stack((np.ones(closed), speed, speed * speed, force, impulse[:closed], impact, loss))
+    columns = np.column_stack((np.ones(len(pen)), speed, speed * speed, force, impulse, impact, loss))
     for s in (1, -1):
         on = side == s
         if on.any():
             running = np.vstack((rec.contact_sums[s], columns[on]))
             rec.contact_sums[s] = np.cumsum(running, axis=0)[-1].tolist()
     if rec.keep_events:
-        rows = zip(t_start[:closed].tolist(), ev_t[ends].tolist(), side.tolist(), v_in.tolist(),
-                   ev_v[ends].tolist(), pen.tolist(), force.tolist(), impulse[:closed].tolist(),
-                   complete[:closed].tolist(), strict=True)
-        rec.impacts.extend(rows)
+        rec.impacts.extend(zip(t_start.tolist(), t_end.tolist(), side.tolist(), v_in.tolist(), v_out.tolist(),
+                               pen.tolist(), force.tolist(), impulse.tolist(), complete.tolist(), strict=True))
         rec.dissipated.extend(loss.tolist())

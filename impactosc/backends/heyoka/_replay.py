@@ -115,22 +115,10 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     if osc.rigid:
         _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
         return
-    events = [e for e in hybrid._raw_events if e[2] == CROSSING]
-    n = len(events)
     y0 = hybrid._pieces[0][2]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
-    width = len(y0)
-    if n:
-        t_ev, g_ev, _, _, b_ev, before, after = zip(*events, strict=True)
-        t = np.fromiter(t_ev, float, n)
-        guard = np.fromiter(g_ev, int, n)
-        target = np.fromiter(b_ev, int, n)
-        # flat first: numpy parses a sequence of tuples into a matrix several times slower
-        states_before = np.fromiter(chain.from_iterable(before), float, n * width).reshape(n, width)
-        states_after = np.fromiter(chain.from_iterable(after), float, n * width).reshape(n, width)
-    else:
-        t, guard, target = np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int)
-        states_before = states_after = np.zeros((0, width))
+    t, guard, target, states_before, states_after = _crossings(hybrid._raw_events, len(y0))
+    n = len(t)
     table = _kinds(modes, guards)
     region = np.concatenate(([start.region], table.region[target]))  # the mode of piece k, after event k - 1
     motion = np.concatenate(([start.motion], table.motion[target]))
@@ -149,7 +137,7 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     t_stop = np.concatenate((t, [t_final]))
     x_stop = np.concatenate((states_before[:, 0], [float(y1[0])]))
     # the integrals' increments over each piece: at its end (before the event) less at its start
-    increments = np.vstack((states_before, np.asarray(y1, dtype=float)[None, :width]))
+    increments = np.vstack((states_before, np.asarray(y1, dtype=float)[None, :len(y0)]))
     increments -= np.vstack((np.asarray(y0, dtype=float)[None, :], states_after))
     kept = t_stop > t_start
     kept[n] = kept[n] or n == 0
@@ -179,6 +167,19 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     bulk(rec, pieces, recorded, event_pieces, segments, event_pieces[at])
     mode = modes[int(target[-1])] if n else start
     _finish(hybrid, rec, mode, max_events)
+
+
+def _crossings(raw_events, width: int) -> tuple:
+    """The crossings of a hybrid run as arrays: times, guards, modes after, states before and after."""
+    events = [e for e in raw_events if e[2] == CROSSING]
+    n = len(events)
+    if not n:
+        return np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros((0, width)), np.zeros((0, width))
+    t, guard, _, _, target, before, after = zip(*events, strict=True)
+    # flat first: numpy parses a sequence of tuples into a matrix several times slower
+    return (np.fromiter(t, float, n), np.fromiter(guard, int, n), np.fromiter(target, int, n),
+            np.fromiter(chain.from_iterable(before), float, n * width).reshape(n, width),
+            np.fromiter(chain.from_iterable(after), float, n * width).reshape(n, width))
 
 
 def _finish(hybrid, rec: _Recorder, mode: Mode, max_events: int) -> None:
