@@ -109,13 +109,14 @@ class _Callback:
     def __call__(self, ta, d_sgn) -> bool:
         run = self.holder.run
         mode = run.mode
-        checks = self.extrema[mode]
-        if checks is not None and not run.extremum(ta, checks):
-            return False
         g = self.cross[mode]
-        if g < 0 or run.mode != mode:
-            return True
-        return run.crossing(ta, g)
+        checks = self.extrema[mode]
+        if checks is not None:
+            if not run.extremum(ta, checks):
+                return False
+            if run.mode != mode:
+                return True
+        return run.crossing(ta, g) if g >= 0 else True
 
 
 class CompiledSystem:
@@ -262,6 +263,10 @@ class _Run:
         self.resting: tuple[int, float] | None = None  # (guard, accumulation time) where its rest mode begins
         self.zeno_tol = zeno_tol
         self.at_start = 16.0 * 2.0**-52  # a root this close (relative) to the piece start is at its start
+        # the states a transition can change (resets change states, never integrals)
+        self.reset_slots = range(self.n)
+        self.ta, self.state = comp.ta, comp.ta.state
+        self.guard_values = switch.rules.guard
 
     def transition(self, g: int, t: float, y: list) -> list:
         """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
@@ -282,7 +287,7 @@ class _Run:
     def crossing(self, ta, g: int) -> bool:
         """Guard ``g`` located at the integrator's time: apply its transition (the Python of every event)."""
         t = ta.time
-        state = ta.state
+        state = self.state if ta is self.ta else ta.state  # the cached view: ta.state makes a new array
         y = state.tolist()
         switch = self.switch
         mode = self.mode
@@ -308,7 +313,8 @@ class _Run:
             pars[self.P + target] = 1.0
             self.mode = target
         if after is not y:
-            state[:] = after
+            for i in self.reset_slots:  # element by element: a slice assignment from a list costs more
+                state[i] = after[i]
         if switch.done:
             return False  # the event the run was to end after (until=...)
         accumulation = self.accumulation
@@ -347,16 +353,18 @@ class _Run:
             # released with v' = 0 moves ~1e-32 the wrong way before it turns), not a crossing
             # lost inside a step nor a grazing.
             return True
-        y = ta.state.tolist()
+        y = (self.state if ta is self.ta else ta.state).tolist()
+        values, direction = self.guard_values, switch.direction
+        p = switch.p
         for g in guards:
-            h = switch.guard_value(g, t, y)
-            d = switch.direction[g]
+            h = values[g](t, y, p)[0]
+            d = direction[g]
             if d * h > 0.0 and self._started_before(g):
                 # Past zero and back within a step, its roots not located (rounding): stop the
                 # propagation; the loop applies the guard at its first root (see _first_root).
                 self.missed = (g, t)
                 return False
-            if abs(h) <= self.graze_tol * (1.0 + max(abs(c) for c in y[:self.n])):
+            if abs(h) <= self.graze_tol * (1.0 + max(map(abs, y[:self.n]))):
                 switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
                 if not self._go_on(t):
                     return False

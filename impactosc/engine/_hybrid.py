@@ -38,8 +38,6 @@ CROSSING, GRAZING, MARKER, REST = "crossing", "grazing", "marker", "rest"
 #: step for a root, and fires again at the instant of the transition.
 START_NUDGE = 1e-300
 
-_UNPLANNED = object()  # a (guard, mode) whose transition plan has not been asked for yet
-
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
 MAX_EVENTS_AT_AN_INSTANT = 64
 
@@ -117,6 +115,7 @@ class Switch:
         self._values = self.rules.values
         self._armed_in = self.num.armed_in
         self._plans = self.rules.plans
+        self._modes = len(system.modes)
         self.events: list[tuple] = []
         self.pieces: list[tuple] = []
         self.until_guard, self.until_count, self.seen, self.done = -1, 0, 0, False
@@ -193,23 +192,24 @@ class Switch:
         InstantAccumulation
             After :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at ``t``.
         """
+        events, plans, p, touch, modes = self.events, self._plans, self.p, self.touch_tol, self._modes
         chained = 0
-        events, plans, p, touch = self.events, self._plans, self.p, self.touch_tol
-        while g >= 0:
+        before = tuple(y)
+        while True:
             # the reset, the next mode and whether the state after lies near a guard of it: one
             # generated function per (guard, mode), made on first use (this runs at every event)
-            step = plans.get((g, mode), _UNPLANNED)
-            if step is _UNPLANNED:
-                step = plans[(g, mode)] = plan(self.num, self.rules, g, mode)
-            if step is not None:
+            step = plans[g * modes + mode]
+            if step is None:
+                step = plans[g * modes + mode] = plan(self.num, self.rules, g, mode) or False
+            if step:
                 target, after, then = step(t, y, p, touch)
                 if target < 0:
                     self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
             else:
                 target, after = self.apply(g, mode, t, y)
                 then = -2
-            before = tuple(y)
-            events.append((t, g, CROSSING, mode, target, before, before if after is y else tuple(after)))
+            state = before if after is y else tuple(after)
+            events.append((t, g, CROSSING, mode, target, before, state))
             mode, y = target, after
             chained += 1
             if chained > MAX_EVENTS_AT_AN_INSTANT:
@@ -222,7 +222,10 @@ class Switch:
             # state after it lies on it moving its way, and firing it again would count the one
             # crossing twice (up to the instant-accumulation limit).
             g = then if then != -2 else self.pending(mode, t, y, g if self._reset[g] is None else -1)
-        self.pieces.append((t, mode, tuple(y)))
+            if g < 0:
+                break
+            before = state
+        self.pieces.append((t, mode, state))
         return mode, y
 
     def rests(self, g: int) -> bool:

@@ -89,7 +89,9 @@ class _Recorder:
     """Streams a run into counters and, depending on ``record``, tables.
 
     The engine's driver loop calls ``begin``, then ``piece``/``event``/``segment`` as the
-    run proceeds, then ``finish``. Only the tables asked for grow with the run.
+    run proceeds, then ``finish``; a run replayed from another event loop can hand over all
+    its pieces and events at once (``begin``, :func:`impactosc.results._bulk.bulk`, ``finish``:
+    the same records and sums). Only the tables asked for grow with the run.
     """
 
     def __init__(self, record: str, backend: str, evaluator: PieceEvaluator | None):
@@ -101,6 +103,9 @@ class _Recorder:
         self.events: list[tuple] = []
         self.impacts: list[tuple] = []
         self.segments: list[tuple] = []
+        # _bulk.bulk keeps the events and piece starts as structured arrays (with those of the lists before)
+        self.event_array: np.ndarray | None = None
+        self.segment_array: np.ndarray | None = None
         self.counts = dict.fromkeys(EVENT_KINDS, 0)
         self.entries = {1: 0, -1: 0}
         self.n_events = 0
@@ -337,11 +342,11 @@ class Solution(SolutionFramesMixin):
         self._dissipated = (np.array(rec.dissipated, dtype=float)
                             if streamed and rec.keep_events and len(rec.dissipated) == len(rec.impacts) else None)
         self._evaluator = rec.evaluator
-        self._events = (np.rec.array(rec.events, dtype=EVENT_DTYPE) if len(rec.events)
-                        else np.recarray((0,), dtype=EVENT_DTYPE)) if rec.keep_events else None
-        self._impacts = (np.rec.array(rec.impacts, dtype=IMPACT_DTYPE) if len(rec.impacts)
-                         else np.recarray((0,), dtype=IMPACT_DTYPE)) if rec.keep_events else None
-        self._segments = np.array(rec.segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
+        events = rec.events if rec.event_array is None else rec.event_array
+        self._events = _records(events, EVENT_DTYPE) if rec.keep_events else None
+        self._impacts = _records(rec.impacts, IMPACT_DTYPE) if rec.keep_events else None
+        segments = rec.segments if rec.segment_array is None else rec.segment_array
+        self._segments = np.asarray(segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
         self._tails = tuple(rec.tails)
         self.samples = (np.rec.array(rec.samples, dtype=SAMPLE_DTYPE) if len(rec.samples)
                         else np.recarray((0,), dtype=SAMPLE_DTYPE))
@@ -728,3 +733,11 @@ def _cell(value: float, width: int, decimals: int) -> str:
     if len(text) > width:
         text = f"{value:{width}.{max(width - 8, 0)}e}"
     return text
+
+
+def _records(rows, dtype: np.dtype) -> np.recarray:
+    """A table as a record array: from a structured array (``_bulk.bulk``, the exact loop) or a list of tuples."""
+    if isinstance(rows, np.ndarray):
+        return np.asarray(rows, dtype=dtype).view(np.recarray)
+    return np.rec.array(rows, dtype=dtype) if len(rows) else np.recarray((0,), dtype=dtype)
+

@@ -5,9 +5,9 @@ kinetic and static friction, damping, harmonics, one or two flanges at any gaps)
 that hybrid system on the user systems' heyoka loop (:mod:`impactosc.backends._hybrid_heyoka`),
 with the integrals the built-in :class:`~impactosc.Solution` reports (``Q``, ``Q2``, ``W``,
 ``VV``: ``oscillator_system(osc, energy=True)``). The run's events then feed the built-in
-recorder (:class:`~impactosc.results._solution._Recorder`) in the order the engine's
-``drive`` feeds it: ``begin``, then per smooth piece ``piece`` (the integrals' increments
-between two events) and per event ``event`` and ``segment``, then ``finish``. The hybrid
+recorder (:class:`~impactosc.results._solution._Recorder`) as the engine's ``drive`` feeds
+it: ``begin``, then its smooth pieces (the integrals' increments between two events), events
+and piece starts, as arrays in one ``bulk`` call, then ``finish``. The hybrid
 modes map onto the engine's ``Mode(region, motion)`` and its guards onto the built-in
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
@@ -22,6 +22,8 @@ a forcing period, where the piece loop solves the release in closed form
 from __future__ import annotations
 
 from functools import lru_cache
+from itertools import chain
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,7 +31,8 @@ from ...engine._driver import CONTACT_END, CONTACT_START, RELEASE, REVERSAL, STI
 from ...engine._hybrid import CROSSING
 from ...model._oscillator import Oscillator
 from ...model.hybrid import oscillator_system
-from ...results._solution import Solution, _Recorder
+from ...results._bulk import PIECE_DTYPE, bulk
+from ...results._solution import EVENT_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
 from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_system
 
 __all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
@@ -103,7 +106,122 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
 
 
 def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int, t_end: float) -> None:
-    """Feed ``rec`` with the pieces and events of ``hybrid`` as the engine's ``drive`` would."""
+    """Feed ``rec`` with the pieces and events of ``hybrid`` as the engine's ``drive`` would, in one bulk call.
+
+    The run's crossings become arrays (pieces between them, events, piece starts) and
+    :func:`~impactosc.results._bulk.bulk` takes them at once: the same records and sums as the calls one
+    by one (:func:`_replay_each`, which a rigid flange's wall force still needs).
+    """
+    if osc.rigid:
+        _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
+        return
+    y0 = hybrid._pieces[0][2]
+    rec.begin(osc, 0.0, y0[0], y0[1], start)
+    t, guard, target, states_before, states_after = _crossings(hybrid._raw_events, len(y0))
+    n = len(t)
+    table = _kinds(modes, guards)
+    region = np.concatenate(([start.region], table.region[target]))  # the mode of piece k, after event k - 1
+    motion = np.concatenate(([start.motion], table.motion[target]))
+    side = table.side[guard]
+    kind = np.where(table.kind[guard] >= 0, table.kind[guard], np.where(motion[1:] == 0, _STICK, _REVERSAL))
+    walls = np.array([0.0, osc.gap_upper, -osc.gap_lower])
+    # a flange crossing is recorded on the flange's surface, as the engine snaps it (the hybrid
+    # run keeps the located state, within rounding of it, so that its Jacobians stay those of the flow)
+    x = np.where(side != 0, walls[side], states_after[:, 0])
+    v = states_after[:, 1]
+    # piece k runs from event k - 1 (or the start) to event k (or the end): recorded when it has a length
+    t_start = np.concatenate(([0.0], t))
+    x_start = np.concatenate(([float(y0[0])], x))
+    t_final = hybrid.t_final
+    y1 = hybrid.state_final
+    t_stop = np.concatenate((t, [t_final]))
+    x_stop = np.concatenate((states_before[:, 0], [float(y1[0])]))
+    # the integrals' increments over each piece: at its end (before the event) less at its start
+    increments = np.vstack((states_before, np.asarray(y1, dtype=float)[None, :len(y0)]))
+    increments -= np.vstack((np.asarray(y0, dtype=float)[None, :], states_after))
+    kept = t_stop > t_start
+    kept[n] = kept[n] or n == 0
+    count = int(kept.sum())
+    sel = slice(None) if count == n + 1 else kept  # the common case, no two events at an instant: views
+    pieces = np.zeros(count, dtype=PIECE_DTYPE)
+    pieces["t0"], pieces["x0"], pieces["t1"], pieces["x1"] = t_start[sel], x_start[sel], t_stop[sel], x_stop[sel]
+    pieces["region"], pieces["motion"] = region[sel], motion[sel]
+    for name in ("q", "q2", "w", "vv"):
+        c = slots.get(name.upper(), -1)
+        if c >= 0:
+            pieces[name] = increments[sel, c]
+    counted = np.cumsum(kept)  # pieces recorded up to and including piece k
+    recorded = np.zeros(n, dtype=EVENT_DTYPE)
+    recorded["t"], recorded["kind"], recorded["x"], recorded["v"] = t, _KIND_NAMES[kind], x, v
+    recorded["side"], recorded["count"], recorded["direction"] = side, 1, motion[1:]
+    event_pieces = counted[:n]
+    # a piece start after the last event at an instant (the engine records none between two)
+    last = np.ones(n, dtype=bool)
+    last[:-1] = t[1:] != t[:-1]
+    starts = int(last.sum())
+    at = slice(None) if starts == n else last
+    segments = np.zeros(starts, dtype=SEGMENT_DTYPE)
+    segments["t"], segments["x"], segments["v"] = t[at], x[at], v[at]
+    segments["region"], segments["motion"] = region[1:][at], motion[1:][at]
+    segments["armed"] = table.armed[target[at]]
+    bulk(rec, pieces, recorded, event_pieces, segments, event_pieces[at])
+    mode = modes[int(target[-1])] if n else start
+    _finish(hybrid, rec, mode, max_events)
+
+
+def _crossings(raw_events, width: int) -> tuple:
+    """The crossings of a hybrid run as arrays: times, guards, modes after, states before and after."""
+    events = [e for e in raw_events if e[2] == CROSSING]
+    n = len(events)
+    if not n:
+        return np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros((0, width)), np.zeros((0, width))
+    t, guard, _, _, target, before, after = zip(*events, strict=True)
+    # flat first: numpy parses a sequence of tuples into a matrix several times slower
+    return (np.fromiter(t, float, n), np.fromiter(guard, int, n), np.fromiter(target, int, n),
+            np.fromiter(chain.from_iterable(before), float, n * width).reshape(n, width),
+            np.fromiter(chain.from_iterable(after), float, n * width).reshape(n, width))
+
+
+def _finish(hybrid, rec: _Recorder, mode: Mode, max_events: int) -> None:
+    """The end of the replay: the final state and the built-in status and message."""
+    t_final = hybrid.t_final
+    y1 = hybrid.state_final
+    status, message = hybrid.status, hybrid.message
+    if status == 0:
+        message = "The end time was reached."
+    elif status == 1:
+        message = (f"The event limit max_events={max_events} was reached at t={t_final!r}; "
+                   "results up to that time are kept.")
+    else:
+        status, message = -1, f"the heyoka backend failed after t={t_final!r}: {message}"
+    rec.finish(t_final, float(y1[0]), float(y1[1]), mode, status, message)
+
+
+_KIND_NAMES = np.array([CONTACT_START, CONTACT_END, RELEASE, STICK, REVERSAL])
+_START, _END, _RELEASE, _STICK, _REVERSAL = range(len(_KIND_NAMES))
+
+
+class _KindTable(NamedTuple):
+    """The built-in kind and side of each hybrid guard and the region and motion of each hybrid mode, as arrays."""
+
+    kind: np.ndarray  # index into _KIND_NAMES, -1: stick or reversal, decided by the mode after it
+    side: np.ndarray
+    region: np.ndarray
+    motion: np.ndarray
+    armed: np.ndarray
+
+
+@lru_cache(maxsize=64)
+def _kinds(modes: tuple, guards: tuple) -> _KindTable:
+    codes = {CONTACT_START: _START, CONTACT_END: _END, RELEASE: _RELEASE, None: -1}
+    return _KindTable(np.array([codes[k] for k, _ in guards]), np.array([s for _, s in guards]),
+                      np.array([m.region for m in modes]), np.array([m.motion for m in modes]),
+                      np.array([m.armed for m in modes]))
+
+
+def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int,
+                 t_end: float) -> None:
+    """Feed ``rec`` with the pieces and events of ``hybrid`` one call at a time, as the engine's ``drive`` does."""
     events = [e for e in hybrid._raw_events if e[2] == CROSSING]
     n = len(events)
     y0 = hybrid._pieces[0][2]
@@ -146,15 +264,7 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     dq, dq2, dw, dvv = increments[n]
     if t_final > t_prev or n == 0:
         rec.piece(mode, t_prev, x_prev, t_final, float(y1[0]), dq, dq2, dw, dvv, 0)
-    status, message = hybrid.status, hybrid.message
-    if status == 0:
-        message = "The end time was reached."
-    elif status == 1:
-        message = (f"The event limit max_events={max_events} was reached at t={t_final!r}; "
-                   "results up to that time are kept.")
-    else:
-        status, message = -1, f"the heyoka backend failed after t={t_final!r}: {message}"
-    rec.finish(t_final, float(y1[0]), float(y1[1]), mode, status, message)
+    _finish(hybrid, rec, mode, max_events)
 
 
 def _samples(hybrid, rec: _Recorder, modes, sample_at) -> None:

@@ -16,6 +16,7 @@ cannot reproduce uses the compiled function.
 from __future__ import annotations
 
 import math
+import re
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -229,37 +230,76 @@ def plan(num: Numeric, rules: Rules, g: int, mode: int):
     def largest(vs):
         return f"_abs({vs[0]})" if len(vs) == 1 else f"_max({', '.join(f'_abs({v})' for v in vs)})"
 
-    lines.append(f"    _quick = touch * (1.0 + {largest(names)})")
+    # One scale for both tests: a guard beyond it on every target is on none (pending's quicker
+    # test with all states and integrals only sends more states to the detailed test, which
+    # answers -1 for every guard beyond this scale).
     lines.append(f"    _scale = touch * (1.0 + {largest(names[:n])})")
+    body: list[str] = []
     for k, m in enumerate(targets):
         test = "True"
         entry = rules.entry[m]
         if multiple and entry is not None:
             test = " and ".join(f"({c}) >= 0.0" for c in entry.texts)
-        lines.append(f"    {'if' if k == 0 else 'elif'} {test}:")
+        body.append(f"    {'if' if k == 0 else 'elif'} {test}:")
         armed = num.armed_in[m]
-        if not armed:
-            lines.append(f"        return {m}, {after}, -1")
-            continue
-        texts = rules.probe[m].texts
+        texts = rules.probe[m].texts if armed else []
         count = len(armed)
-        lines.append(f"        if {' and '.join(f'_abs({h}) > _quick' for h in texts[:count])}:")
-        lines.append(f"            return {m}, {after}, -1")
-        for i, guard in enumerate(armed):
-            if not num.terminal[guard] or (guard == g and reset is None):
-                continue  # a marker never fires here; a guard crossed without a reset is not fired again
+        # a marker never fires here; a guard crossed without a reset is not fired again
+        fires = [i for i, guard in enumerate(armed) if num.terminal[guard] and not (guard == g and reset is None)]
+        if not fires:
+            body.append(f"        return {m}, {after}, -1")
+            continue
+        body.append(f"        if {' and '.join(f'_abs({texts[i]}) > _scale' for i in fires)}:")
+        body.append(f"            return {m}, {after}, -1")
+        for i in fires:
+            guard = armed[i]
             d = num.direction[guard]
-            lines.append(f"        if _abs({texts[i]}) <= _scale:")
-            lines.append(f"            _rate = {texts[count + i]}")
-            lines.append("            if _abs(_rate) <= _scale:")
-            lines.append(f"                return {m}, {after}, -2")
-            lines.append(f"            if {'True' if d == 0 else f'{d} * _rate > 0.0'}:")
-            lines.append(f"                return {m}, {after}, {guard}")
-        lines.append(f"        return {m}, {after}, -1")
-    lines.append(f"    return -1, {after}, -1")
+            body.append(f"        if _abs({texts[i]}) <= _scale:")
+            body.append(f"            _rate = {texts[count + i]}")
+            body.append("            if _abs(_rate) <= _scale:")
+            body.append(f"                return {m}, {after}, -2")
+            body.append(f"            if {'True' if d == 0 else f'{d} * _rate > 0.0'}:")
+            body.append(f"                return {m}, {after}, {guard}")
+        body.append(f"        return {m}, {after}, -1")
+    body.append(f"    return -1, {after}, -1")
+    lines += _hoisted(body)
     space = {**_NAMESPACE, "_abs": abs, "_max": max}
     exec(compile("\n".join(lines), f"<transition of guard {system.guards[g].name!r}>", "exec"), space)  # noqa: S102
     return space["_plan"]
+
+
+_HOISTED = ("sin", "cos")  # total on finite numbers: evaluating one early never raises where the branch would not
+
+
+def _hoisted(body: list[str]) -> list[str]:
+    """``body`` with each ``sin(...)``/``cos(...)`` it evaluates more than once computed once, first.
+
+    The same arithmetic (the same call on the same operands gives the same float); a
+    transition's entry conditions and guard checks repeat the forcing's ``cos`` a few times.
+    """
+    text = "\n".join(body)
+    calls: dict[str, int] = {}
+    for name in _HOISTED:
+        start = text.find(f"{name}(")
+        while start >= 0:
+            if start == 0 or not (text[start - 1].isalnum() or text[start - 1] == "_"):
+                depth, end = 0, start + len(name)
+                for end in range(start + len(name), len(text)):
+                    depth += {"(": 1, ")": -1}.get(text[end], 0)
+                    if depth == 0:
+                        break
+                call = text[start:end + 1]
+                calls[call] = calls.get(call, 0) + 1
+            start = text.find(f"{name}(", start + 1)
+    repeated = sorted((c for c, k in calls.items() if k > 1), key=len)
+    defs = []
+    for i, call in enumerate(repeated):
+        defs.append(f"    _h{i} = {call}")
+        # the call itself, not the tail of a longer name (acos(t) holds cos(t))
+        pattern = re.compile(r"(?<![A-Za-z0-9_])" + re.escape(call))
+        text = pattern.sub(f"_h{i}", text)
+        repeated[i + 1:] = [pattern.sub(f"_h{i}", c) for c in repeated[i + 1:]]
+    return defs + text.split("\n")
 
 
 class Rules:
@@ -301,7 +341,9 @@ class Rules:
         self.guard = [evaluator(num, [num.guards[g]], f"guard {system.guards[g].name!r}")
                       for g in range(len(system.guards))]
         self.dimension = n
-        self.plans: dict = {}  # (guard, mode) -> the transition's generated function (see plan), made on first use
+        # the transition's generated function (see plan) of guard g in mode m at g * modes + m: None until
+        # first asked for, then the function, or False where the transition is not generated code
+        self.plans: list = [None] * (len(system.guards) * len(system.modes))
         self._num = num
         self._jacobians: dict[int, tuple] = {}
 
