@@ -9,7 +9,9 @@ are the exact event-driven ones of :mod:`impactosc.dynamics`: no collocation mes
 user-written segment signature. A user's own :class:`~impactosc.HybridSystem` is followed
 by the same loop on its :class:`~impactosc.dynamics.HybridMap` (any number of states): the
 same smooth special points, a grazing of each guard, stick onsets as entries into a stick
-mode appearing; its grazings are located but not crossed.
+mode appearing; its grazings are crossed by the same code as the flanges' (on the map of the
+system with the grazed guard taken away, and for a guard with a reset on its impacting
+orbits with the impact's time and state as unknowns).
 
 What a COCO or AUTO user expects of a run: an AUTO-style table of the labelled points
 (:meth:`Branch.table`, printed by :meth:`Branch.summary`, on the ``label`` dimension of

@@ -249,11 +249,12 @@ def _predict(problem: MapProblem, u, t, h: float, bounds):
 def _failed_end(problem, node: Node, why: str, settings: Settings, crossing: str = ""):
     near = node.info.nearest_grazing()
     if near < GRAZING_NEAR:
-        if not problem.nonsmooth_steps:
+        if not isinstance(problem, MapProblem):
             guard = _nearest_margin(node.info).removeprefix(GUARD)
+            tried = f"; {crossing}" if crossing else ""
             return 2, (f"the branch ends at a grazing of the guard {guard!r} (its last point is {near:.3g} from "
-                       "touching it, in distance or crossing speed) and does not cross it: continuation crosses the "
-                       f"grazings of the built-in family only; no orbit was corrected past it ({why})")
+                       "touching it, in distance or crossing speed) and does not cross it: no orbit was corrected "
+                       f"past it ({why}){tried}")
         tried = (f"; {crossing} (a discontinuous grazing with no family on the other side, or one this crossing "
                  "cannot reach)") if crossing else ""
         return 2, (f"the branch ends at a grazing (its last point is {near:.3g} from touching a flange, in distance "

@@ -16,7 +16,7 @@ from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, unscaled
 from ._grazing import Crossing, contacts_on, cross, locate, stripped_sides
 from ._nodes import Found, Node, make_node
-from ._points import point_info
+from ._points import GUARD, point_info
 
 __all__ = ["across_section", "crossed", "regular_grazing", "try_crossing"]
 
@@ -31,8 +31,8 @@ def try_crossing(problem, node: Node, side: int, h: float, settings: Settings, b
     if isinstance(result, Crossing):
         return crossed(problem, node, result, direction, index)
     if why is not None:
-        flange = "upper" if side > 0 else "lower"
-        why["crossing_failure"] = f"crossing the {flange} flange's grazing failed: {result}"
+        what = f"the guard {side!r}" if isinstance(side, str) else f"the {'upper' if side > 0 else 'lower'} flange"
+        why["crossing_failure"] = f"crossing {what}'s grazing failed: {result}"
     return None
 
 
@@ -95,10 +95,13 @@ def crossed(problem, node: Node, result: Crossing, direction: int, index: int):
     new = make_node(problem, far, chord, graze_arc + direction * float(np.linalg.norm(far.u - result.grazing_u)))
     gnode = Node(result.grazing_u, chord, Corrected(result.grazing_u, result.grazing_ev, 0), result.grazing_info,
                  graze_arc)
-    test = "upper_margin" if result.side > 0 else "lower_margin"
+    extra: dict
+    if isinstance(result.side, str):  # a user system's guard
+        extra = {"test": GUARD + result.side, "guard": result.side}
+    else:
+        extra = {"test": "upper_margin" if result.side > 0 else "lower_margin", "side": result.side}
     graze = Found("grazing", gnode, node.info.signature, new.info.signature, result.accuracy, result.message,
-                  index, {"test": test, "side": result.side, "case": result.case, "virtual": True,
-                          "one_of_several": result.one_of_several})
+                  index, {**extra, "case": result.case, "virtual": True, "one_of_several": result.one_of_several})
     return new, graze
 
 
@@ -111,7 +114,7 @@ def regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, in
     flange in one contact, and the grazing lies between the two points in the parameter.
     """
     side = 1 if name == "upper_margin" else -1
-    if len(problem.names) != 1 or problem.stripped:
+    if len(problem.names) != 1 or problem.stripped or name.startswith(GUARD):
         return None
     contact = a if float(getattr(a.info, name)) < 0.0 else b
     if contacts_on(contact.info, side) != 1:
