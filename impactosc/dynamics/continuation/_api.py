@@ -89,7 +89,7 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
           a point of a user system's branch.
     parameter : str or (str, str)
         The free parameter: a field of the model (:func:`parameter_names`), or a parameter of
-        the user system; two for a boundary (the built-in family only).
+        the user system; two for a boundary.
     limits : (float, float) or dict
         ``(lo, hi)`` of the (first) parameter; for a boundary, a dict of ``name: (lo, hi)``
         (either parameter; at least one). The branch ends on a limit.
@@ -222,11 +222,10 @@ def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, ba
         from ._boundary import boundary
 
         if not isinstance(located, MapProblem):
-            raise ValueError(f"{start.label!r} was located on a user system's branch: boundaries in two parameters "
-                             "are followed for the built-in family only (continue the system in one parameter at "
-                             "several values of the other instead)")
-
-        if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
+            if options or backend is not None:
+                raise TypeError(f"a user system's boundary takes no backend or backend options, got backend="
+                                f"{backend!r}, options {sorted(options)}: the map's tolerance is its HybridMap's")
+        elif isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
             for name, pair in limits.items():
                 pair = _limits_pair(name, pair)
                 check_study_parameter(located.base, name, pair)

@@ -61,7 +61,7 @@ def codim2_points(curve, kind: str, test: str, nodes: list, extra, settings: Set
     if kind == "fold":
         return cusps(curve, nodes, extra, settings) if "cusp" in settings.locate else []
     if test not in ("upper_margin", "lower_margin"):
-        return []
+        return []  # a user system's guard (no fold-grazing or grazing-stick test is written for one)
     side = 1 if test == "upper_margin" else -1
     stick = stick_test(curve)
     return (grazing_points(curve, nodes, extra, settings, side)
@@ -85,16 +85,17 @@ def cusps(curve, nodes: list, extra, settings: Settings) -> list:
     tangents = [nodes[0].t] if nodes else []
     for node in nodes[1:]:
         tangents.append(node.t if float(node.t @ tangents[-1]) >= 0.0 else -node.t)
-    second = [i for i in range(len(nodes) - 1) if tangents[i][3] * tangents[i + 1][3] < 0.0]
+    d = curve.dimension  # the tangent's components: the state, then the two parameters
+    second = [i for i in range(len(nodes) - 1) if tangents[i][d + 1] * tangents[i + 1][d + 1] < 0.0]
     for i in range(len(nodes) - 1):
         a, b = nodes[i], nodes[i + 1]
         chord = b.u - a.u
         h = float(np.linalg.norm(chord))
         ta, tb = _oriented(a, chord), _oriented(b, chord)
         # the second parameter turns in the same interval, or a neighbour (a node may fall between the two zeros)
-        if h == 0.0 or not ta[2] * tb[2] < 0.0 or not any(abs(j - i) <= 1 for j in second):
+        if h == 0.0 or not ta[d] * tb[d] < 0.0 or not any(abs(j - i) <= 1 for j in second):
             continue
-        found = _locate_cusp(curve, a, ta, h, extra, settings, ta[2], tb[2])
+        found = _locate_cusp(curve, a, ta, h, extra, settings, ta[d], tb[d])
         if found is not None:
             node, accuracy, t = found
             out.append(Found("cusp", node, a.info.signature, b.info.signature, accuracy, _cusp_message(curve, t), i,
@@ -104,22 +105,24 @@ def cusps(curve, nodes: list, extra, settings: Settings) -> list:
 
 def _locate_cusp(curve, a: Node, ta, h: float, extra, settings: Settings, fa: float, fb: float):
     """``(node, accuracy, tangent)`` where the first parameter's tangent component vanishes between ``a`` and ``b``."""
-    found = _locate_zero(curve, a, ta, h, extra, settings, lambda result, t: float(t[2]), fa, fb)
+    d = curve.dimension
+    found = _locate_zero(curve, a, ta, h, extra, settings, lambda result, t: float(t[d]), fa, fb)
     if found is None:
         return None
     result, t, width = found
     node = make_node(curve, result, ta, a.arclength + float(np.linalg.norm(result.u - a.u)), extra)
     # the parameters are quadratic in the arclength at a cusp: a bracket of width d places them to O(d^2)
-    accuracy = (width**2 + float(t[3]) ** 2) * max(curve.scales)
+    accuracy = (width**2 + float(t[d + 1]) ** 2) * max(curve.scales)
     return node, accuracy, t
 
 
 def _cusp_message(curve, t) -> str:
     p1, p2 = curve.names
+    d = curve.dimension
     return (f"cusp: the fold's quadratic normal-form coefficient vanishes; {p1} and {p2} turn back together along "
-            f"the fold curve (its tangent's parameter components {t[2]:.2g}, {t[3]:.2g}: it runs along the critical "
-            "eigenvector), where two fold curves meet and the region of three coexisting orbits between them ends; "
-            "the curve goes on along the other fold curve")
+            f"the fold curve (its tangent's parameter components {t[d]:.2g}, {t[d + 1]:.2g}: it runs along the "
+            "critical eigenvector), where two fold curves meet and the region of three coexisting orbits between them "
+            "ends; the curve goes on along the other fold curve")
 
 
 def _locate_zero(curve, a: Node, ta, h: float, extra, settings: Settings, value, fa: float, fb: float):

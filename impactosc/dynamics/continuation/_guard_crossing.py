@@ -96,6 +96,8 @@ class GuardlessProblem(SystemProblem):
         hmap = HybridMap(without_guard(real, guard), h.iterates, names=h.names, mode=h.mode, t0=h.t0, tol=h.tol,
                          max_time=h.max_time)
         super().__init__(hmap, problem.scales)
+        #: The problem with the guard (the real system), which a boundary's points are rerun on.
+        self.unstripped = problem
         self.real = real
         self.guard, self.guard_index = guard_of(real, guard)
         self.stripped = guard  # type: ignore[assignment]
