@@ -25,5 +25,6 @@ the flange gaps and a drive's guide offset included.
 
 from ._api import continuation
 from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
+from ._path_clearance import critical_clearance_boundary
 
-__all__ = ["continuation", "Branch", "BranchPoint", "SpecialPoint", "SPECIAL_KINDS"]
+__all__ = ["continuation", "Branch", "BranchPoint", "SpecialPoint", "SPECIAL_KINDS", "critical_clearance_boundary"]

@@ -78,11 +78,11 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
         if not isinstance(followed, str):
             nodes, found, ends, nb = followed
             return assemble(curve, nodes, found, ends, nb)
-    return _follow_curve(curve, z0, point.kind, test, _extra(curve, test), bounds, settings,
+    return follow_curve(curve, z0, point.kind, test, _extra(curve, test), bounds, settings,
                          problem.orbit_events or 0, names)
 
 
-def _follow_curve(curve, z0, kind: str, test: str, extra, bounds, settings: Settings, orbit_events: int, names):
+def follow_curve(curve, z0, kind: str, test: str, extra, bounds, settings: Settings, orbit_events: int, names):
     """The boundary through ``z0`` of the curve problem ``curve`` with its test ``extra``: both ways, verified."""
     from ._follow import follow, make_node
 
@@ -147,7 +147,7 @@ def system_boundary(point, names: tuple, limits, settings: Settings):
                              "followed")
         curve = GuardlessProblem(curve, guard)
         test = GUARD + guard
-    return _follow_curve(curve, z, point.kind, test, _extra(curve, test), bounds, settings, problem.orbit_events,
+    return follow_curve(curve, z, point.kind, test, _extra(curve, test), bounds, settings, problem.orbit_events,
                          names)
 
 
@@ -178,7 +178,7 @@ def _bounds(names, limits, here, values=None):
 def _extra(curve, test: str):
     """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: on the virtual orbits)."""
     if test.startswith(GUARD):
-        return _guard_test(curve)
+        return guard_test(curve)
     if test in ("upper_margin", "lower_margin"):
         return grazing_test(curve, 1 if test == "upper_margin" else -1)
     if test == "stick_margin":
@@ -206,7 +206,7 @@ def _extra(curve, test: str):
     return differenced
 
 
-def _guard_test(curve: GuardlessProblem):
+def guard_test(curve: GuardlessProblem):
     """The grazing test of a user system's guard (:meth:`GuardlessProblem.grazing_test`), NaN where it fails."""
 
     def test(ev, u):
