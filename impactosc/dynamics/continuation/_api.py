@@ -27,7 +27,7 @@ from ..tangent import check_backend, check_start
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
 from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
-from ._follow import follow, make_node
+from ._follow import CLOSED, follow, make_node
 from ._hybrid_problem import is_system_orbit, system_problem
 from ._problem import MapProblem
 
@@ -437,7 +437,11 @@ def _run(problem: MapProblem, z0, limits, direction: str, settings: Settings, ma
     if isinstance(start, str):
         return assemble(problem, [], [], [(-1, start)], 0)
     sides = {"forward": (1,), "backward": (-1,), "both": (-1, 1)}[direction]
-    results = {d: follow(problem, start, d, limits, settings, max_points) for d in sides}
+    results: dict = {}
+    for d in sides:
+        if any(r[3].startswith(CLOSED) for r in results.values()):
+            break  # the other direction came round: this one would go round again
+        results[d] = follow(problem, start, d, limits, settings, max_points)
     back_nodes, back_found, *back_end = results.get(-1, ([], [], None, None))
     fwd_nodes, fwd_found, *fwd_end = results.get(1, ([], [], None, None))
     nodes = list(reversed(back_nodes)) + [start] + fwd_nodes

@@ -84,7 +84,7 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
 
 def follow_curve(curve, z0, kind: str, test: str, extra, bounds, settings: Settings, orbit_events: int, names):
     """The boundary through ``z0`` of the curve problem ``curve`` with its test ``extra``: both ways, verified."""
-    from ._follow import follow, make_node
+    from ._follow import CLOSED, follow, make_node
 
     d = curve.dimension
     u0 = scaled(curve, z0, curve.values())
@@ -105,9 +105,12 @@ def follow_curve(curve, z0, kind: str, test: str, extra, bounds, settings: Setti
         return assemble(curve, [], [], [(-1, f"the {kind} point solved in {names} was not verified: "
                                              f"{rejected}")], 0)
     back = follow(curve, start, -1, bounds, plain, settings.max_points, extra, verify)
-    fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
-    nodes = list(reversed(back[0])) + [start] + fwd[0]
-    ends = [tuple(back[2:]), tuple(fwd[2:])]
+    if back[3].startswith(CLOSED):  # the curve came round: going the other way would go round again
+        nodes, ends = list(reversed(back[0])) + [start], [tuple(back[2:])]
+    else:
+        fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
+        nodes = list(reversed(back[0])) + [start] + fwd[0]
+        ends = [tuple(back[2:]), tuple(fwd[2:])]
     found = codim2_points(curve, kind, test, nodes, extra, settings, stick_test)
     return assemble(curve, nodes, found, ends, len(back[0]))
 
@@ -137,8 +140,12 @@ def system_boundary(point, names: tuple, limits, settings: Settings):
     values = dict(here.parameters)
     bounds = _bounds(names, limits, None, values)
     h = problem.hmap
+    # each parameter scaled by the larger of its value and the span of its limits (as a branch's): a parameter
+    # that starts at 0 crosses its range in a few dozen steps
+    scales = [max(abs(values[name]), hi - lo if math.isfinite(hi - lo) else 0.0, 1e-3)
+              for name, (lo, hi) in zip(names, bounds, strict=True)]
     curve = SystemProblem(HybridMap(here, h.iterates, names=names, mode=h.mode, t0=h.t0, tol=h.tol,
-                                    max_time=h.max_time))
+                                    max_time=h.max_time), scales)
     test = point.kind
     if point.kind == "grazing":
         guard = str(extra_info.get("guard", ""))
