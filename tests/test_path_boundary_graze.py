@@ -21,10 +21,19 @@ def _path(offset: float = 0.0) -> TapePath:
                     [Guide(0.02, clearance=300e-6), Guide(0.05, clearance=30e-6, guide_offset=offset)], end_span=0.03)
 
 
+def _with_runout(path: TapePath, runout: float) -> TapePath:
+    """``path`` with the pack's run-out ``runout`` at its diameter: both ends of the linear law (Fig. 6) scaled."""
+    k = runout / path.drive.runout
+    out = path.with_parameter("runout_hub", k * path.drive.runout_hub)
+    out = out.with_parameter("runout_full", k * path.drive.runout_full)
+    assert out.drive.runout == pytest.approx(runout, rel=1e-14)
+    return out
+
+
 @pytest.mark.parametrize("offset", [0.0, 4e-6])
 def test_the_continued_clearance_is_the_measured_one(offset):
     path = _path(offset)
-    ds = critical_clearance_boundary(path, 1, limits={"speed": (2.0, 8.0)})
+    ds = critical_clearance_boundary(path, 1, ("clearance", "speed"), {"speed": (2.0, 8.0)})
     assert ds.attrs["status"] == 0, ds.attrs["message"]
     assert ds.attrs["flange"] == "upper"  # offset towards the upper flange: the tape reaches it first
     speeds = ds.speed.values
@@ -36,9 +45,25 @@ def test_the_continued_clearance_is_the_measured_one(offset):
         assert abs(float(ds.clearance[i]) - ref) < 1e-9 * ref
 
 
+def test_the_clearance_against_the_runout_is_the_measured_one():
+    path = _path(4e-6)
+    r0 = path.drive.runout
+    ds = critical_clearance_boundary(path, 1, ("clearance", "runout"), {"runout": (0.5 * r0, 2.0 * r0)})
+    assert ds.attrs["status"] == 0, ds.attrs["message"]
+    assert ds.runout.attrs["units"] == "m" and "runout = " in ds.attrs["message"]
+    runouts = ds.runout.values
+    assert runouts.min() == pytest.approx(0.5 * r0, rel=1e-12) and runouts.max() == pytest.approx(2.0 * r0, rel=1e-12)
+    for i in (0, len(runouts) - 1):
+        ref = critical_clearance(_with_runout(path, float(runouts[i])), 1)
+        assert abs(float(ds.clearance[i]) - ref) < 1e-9 * ref
+    # without contact anywhere the path is linear: its deflection grows in proportion to the run-out
+    slope = np.diff(ds.clearance.values) / np.diff(runouts)
+    assert np.ptp(slope) < 1e-6 * np.abs(slope).max()
+
+
 def test_the_lower_flange_on_request():
     path = _path(4e-6)
-    ds = critical_clearance_boundary(path, 1, limits={"speed": (3.0, 5.0)}, flange="lower")
+    ds = critical_clearance_boundary(path, 1, ("clearance", "speed"), {"speed": (3.0, 5.0)}, flange="lower")
     assert ds.attrs["status"] == 0 and ds.attrs["flange"] == "lower"
     v = float(ds.speed[-1])
     ref = steady_deflection(path.with_parameter("speed", v), 1)["critical_clearance_lower"]
