@@ -101,3 +101,16 @@ def test_a_spring_flange_is_crossed_onto_the_contacting_orbits():
     _check_past_the_grazing(hmap, branch, "enter upper", crossing_after=True)
     (graze,) = branch.find("grazing")
     assert abs(graze.parameter - _builtin_grazing(_member(0.2, K=K), start.z, "forward")) < 1e-10
+
+
+def test_a_grazing_stepped_over_is_located_on_the_orbits_without_the_guard():
+    # a soft flange (K = 1): the branch steps across the grazing smoothly; the sign change of the guard's
+    # margin between two points is then solved on the system without the guard, not by regula falsi
+    hmap = HybridMap(oscillator_system(_member(0.2, K=1.0)))
+    start = periodic_orbit_of(hmap, cf.free_state(0.2, W, ZETA, 0.0))
+    branch = dy.continuation(start, "F", LIMITS, base=hmap, direction="forward", step=0.1, max_step=0.1,
+                             progress=False)
+    assert branch.status == 0, branch.message
+    (graze,) = branch.find("grazing")
+    assert "between two points of the branch" in graze.message and graze.guard == "enter upper"
+    assert abs(graze.parameter - cf.grazing_amplitude(W, ZETA)) < 1e-10 and graze.accuracy < 1e-10

@@ -166,8 +166,9 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     :class:`~impactosc.HybridSystem`, its impacting orbit at ``F = 0.5`` followed in ``F``
     up to its period doubling (``F = 0.5182098666`` in closed form at ``Omega = 0.8``).
     Special points of a user system are the same kinds; a grazing is labelled with its
-    guard (:attr:`SpecialPoint.guard`), and a branch that reaches one it cannot step past
-    (an impact's square-root map) ends there with status 2:
+    guard (:attr:`SpecialPoint.guard`) and crossed as a flange's is (on the system with that
+    guard taken away; for a guard with a reset, onto the impacting orbits with the impact's
+    time and state as unknowns), or, where that fails, ends the branch with status 2:
 
     >>> import math, heyoka as hy
     >>> from impactosc import Guard, HybridMode, HybridSystem, symbols
@@ -181,6 +182,18 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     >>> up = dy.continuation(orbit, "F", (0.45, 0.6), base=hmap, direction="forward", progress=False)
     >>> [(s.label, round(s.parameter, 9)) for s in up.special]
     [('PD1', 0.518209867)]
+
+    Down in ``F`` the impact speed falls to zero at the grazing, ``F = |1 - W^2 + 0.1 i W|``
+    (0.368781778 in closed form), and the branch goes on along the contact-free orbits; the
+    grazing is then followed in ``(F, W)``, like a flange's:
+
+    >>> down = dy.continuation(orbit, "F", (0.1, 0.5), base=hmap, direction="backward", progress=False)
+    >>> (graze,) = down.find("grazing")
+    >>> down.status, graze.guard, round(graze.parameter, 9)
+    (0, 'impact', 0.368781778)
+    >>> curve = dy.continuation(graze, ("F", "W"), {"W": (0.7, 0.9)}, progress=False)
+    >>> curve.status, len(curve.points) > 5
+    (0, True)
 
     References
     ----------

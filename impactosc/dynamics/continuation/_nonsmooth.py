@@ -14,7 +14,8 @@ import numpy as np
 
 from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, unscaled
-from ._grazing import Crossing, contacts_on, cross, locate, stripped_sides
+from ._grazing import TOUCHES_BOTH, Crossing, contacts_on, cross, crossings_of, locate, stripped_sides
+from ._guard_crossing import GuardlessProblem, replace_info_singular
 from ._nodes import Found, Node, make_node
 from ._points import GUARD, point_info
 
@@ -113,8 +114,10 @@ def regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, in
     regula falsi across the nonsmooth point: only where one side of the step touches the
     flange in one contact, and the grazing lies between the two points in the parameter.
     """
+    if name.startswith(GUARD):
+        return _regular_guard_grazing(problem, a, b, name, settings, index)
     side = 1 if name == "upper_margin" else -1
-    if len(problem.names) != 1 or problem.stripped or name.startswith(GUARD):
+    if len(problem.names) != 1 or problem.stripped:
         return None
     contact = a if float(getattr(a.info, name)) < 0.0 else b
     if contacts_on(contact.info, side) != 1:
@@ -138,3 +141,41 @@ def regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, in
                  f"the orbit grazes the {flange} flange: located as a regular point of the contact-free orbits "
                  "(gap - max X = 0) between two points of the branch", index,
                  {"test": name, "side": side, "virtual": True})
+
+
+def _regular_guard_grazing(problem, a: Node, b: Node, name: str, settings: Settings, index: int):
+    """:func:`regular_grazing` of a user system's guard: on the orbits of the system without it, or None.
+
+    Only where one side of the step crosses the guard once a period and no other guard grazes
+    at the same point (the virtual map would not be smooth there).
+    """
+    guard = name.removeprefix(GUARD)
+    if len(problem.names) != 1 or problem.stripped:
+        return None
+    contact = a if a.info.test_value(name) < 0.0 else b
+    if crossings_of(contact.info, guard) != 1:
+        return None
+    free = b if contact is a else a
+    try:
+        virtual = GuardlessProblem(problem, guard)
+    except ValueError:
+        return None
+    found = locate(virtual, guard, free.u, settings.tol)
+    if isinstance(found, str):
+        return None
+    u_g, ev_g, error = found
+    d = problem.dimension
+    lo, hi = sorted((a.u[d], b.u[d]))
+    if not lo - 1e-12 <= u_g[d] <= hi + 1e-12:
+        return None
+    info = point_info(virtual, ev_g)
+    if any(abs(m) < TOUCHES_BOTH for m in info.margins.values()):
+        return None
+    if virtual.guard.reset:
+        info = replace_info_singular(info, f"the map is not differentiable where the orbit grazes the guard {guard!r} "
+                                           "with its reset (a square-root term, Nordmark 1991)")
+    node = Node(u_g, free.t, Corrected(u_g, ev_g, 0), info, a.arclength)
+    return Found("grazing", node, a.info.signature, b.info.signature, abs(float(error[d])) * problem.scales[0],
+                 f"the orbit touches the guard {guard!r} tangentially: located as a regular point of the orbits of "
+                 "the system with that guard taken away (its value at its extremum = 0) between two points of the "
+                 "branch", index, {"test": name, "guard": guard, "virtual": True})
