@@ -83,3 +83,24 @@ def test_a_user_boundary_refuses_backend_options(rigid_grazings):
         dy.continuation(user_point, ("F", "Omega"), {"Omega": (0.6, 1.0)}, backend="scipy", progress=False)
     with pytest.raises(ValueError, match="parameters of the system"):
         dy.continuation(user_point, ("F", "nope"), {"F": (0.1, 0.5)}, progress=False)
+
+
+def test_the_fold_grazing_points_of_a_user_stop_are_the_resonant_grazings():
+    # a fold curve of the impacting orbits ends on the grazing curve where the square-root term vanishes: at
+    # Omega = 2 w_d / k (k = 2, 3 in (0.5, 1.5)), as the built-in family finds (test_codim2_issue26)
+    zeta = 0.05
+    w_d = (1.0 - zeta * zeta) ** 0.5
+    osc = io.Oscillator(0.05, 1.0, 0.0, None, zeta=zeta, flange="rigid", restitution=E, gap_lower=None)
+    hmap = HybridMap(oscillator_system(osc))
+    start = periodic_orbit_of(hmap, cf.free_state(0.05, 1.0, zeta, 0.0))
+    branch = dy.continuation(start, "F", (0.02, 1.0), base=hmap, direction="forward", progress=False)
+    curve = dy.continuation(branch.find("grazing")[0], ("F", "Omega"), {"Omega": (0.5, 1.5)}, max_points=400,
+                            progress=False)
+    assert curve.status == 0, curve.message
+    points = sorted(curve.find("fold_grazing"), key=lambda s: s.parameters["Omega"])
+    assert len(points) == 2, curve.summary()
+    for s, W in zip(points, [2.0 * w_d / 3.0, w_d], strict=True):
+        assert abs(s.parameters["Omega"] - W) < 1e-8 and s.accuracy < 1e-8
+        assert abs(s.parameters["F"] - cf.grazing_amplitude(W, zeta)) < 1e-8
+        assert s.guard == "impact upper" and s.label.startswith("FG")
+        assert 0 < s.index < len(curve.points) - 1  # the grazing curve goes on past it

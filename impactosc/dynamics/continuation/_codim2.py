@@ -41,11 +41,14 @@ import math
 import numpy as np
 
 from ._arclength import Corrected, Settings, correct, illinois, jacobian_rows, tangent, unscaled
+from ._guard_crossing import GuardImpact, GuardlessProblem
 from ._impact_curves import zero_speed_tests
 from ._nodes import Found, Node, make_node
+from ._points import GUARD
 from ._problem import MapProblem
 
-__all__ = ["codim2_points", "cusps", "grazing_points", "grazing_stick_points", "zeros_along"]
+__all__ = ["codim2_points", "cusps", "grazing_points", "grazing_stick_points", "zeros_along",
+           "guard_fold_grazing_points"]
 
 #: Illinois iterations at most for one located point.
 _LOCATE_STEPS = 60
@@ -60,8 +63,10 @@ def codim2_points(curve, kind: str, test: str, nodes: list, extra, settings: Set
     """
     if kind == "fold":
         return cusps(curve, nodes, extra, settings) if "cusp" in settings.locate else []
+    if test.startswith(GUARD) and isinstance(curve, GuardlessProblem):
+        return guard_fold_grazing_points(curve, nodes, extra, settings)
     if test not in ("upper_margin", "lower_margin"):
-        return []  # a user system's guard (no fold-grazing or grazing-stick test is written for one)
+        return []
     side = 1 if test == "upper_margin" else -1
     stick = stick_test(curve)
     return (grazing_points(curve, nodes, extra, settings, side)
@@ -249,3 +254,36 @@ def _grazing_message(name: str, side: int) -> str:
             "acceleration at the grazing, M12 of the flight's monodromy): this is where the square-root term of the "
             f"grazing map vanishes, the resonant grazing at which the {name} curve ends (RG on it); the grazing curve "
             "goes on")
+
+
+def guard_fold_grazing_points(curve: GuardlessProblem, nodes: list, extra, settings: Settings) -> list:
+    """The fold-grazing points of a user system's grazing curve of a guard with a reset, as :class:`Found`.
+
+    The impacting family of the guard (:class:`._guard_crossing.GuardImpact`: unknowns the
+    impact time ``t_i``, the state ``y_-`` before it and the parameters) is smooth through zero
+    impact speed; its parameter turns where ``dR/d(t_i, y_-)`` is singular. At the grazing
+    orbit of each point of the curve that determinant is the fold test; where it vanishes a
+    fold curve of the impacting orbits meets the grazing curve (the resonant grazing, where
+    the square-root term of the grazing map vanishes), and the grazing's case changes across
+    it. A guard without a reset (a spring's entry) has none.
+    """
+    if "fold_grazing" not in settings.locate or not curve.guard.reset or len(nodes) < 2:
+        return []
+    d = curve.dimension
+
+    def value(result, t):
+        z, params = unscaled(curve, result.u)
+        peak = curve.peak(z, params)
+        if isinstance(peak, str):
+            return peak
+        form = GuardImpact(curve, peak[5])
+        out = form.residual(np.concatenate([[peak[3]], peak[4][:d], result.u[d:]]))
+        return out if isinstance(out, str) else float(np.linalg.det(out[1][:, :d + 1]))
+
+    message = (f"fold-grazing: a fold curve of the orbits that cross the guard {curve.guard.name!r} with its reset "
+               "meets its grazing curve here: the fold test of the impacting family, det dR/d(impact time, state "
+               "before it), vanishes at zero crossing speed, where the square-root term of the grazing map "
+               "vanishes (the resonant grazing); the grazing's case (persistent or nonsmooth fold) changes across "
+               "this point, and the grazing curve goes on")
+    return zeros_along(curve, nodes, extra, settings, "fold_grazing", value, message,
+                       {"test": "fold_grazing", "guard": curve.guard.name})
