@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._arclength import Corrected, Settings, correct, parameter
-from ._grazing import approaching
+from ._crossing import approaching
 from ._locate import locate_between
 from ._nodes import Found, Node, make_node
 from ._nonsmooth import across_section, try_crossing

@@ -23,6 +23,10 @@ the branch's own problem. Whether the parameter goes on in the same direction (a
 *persistent* crossing) or turns back (a *nonsmooth fold*: the two families meet at the
 grazing and annihilate) is said in the grazing's label. Only the map, its derivatives, the
 vector field and one event quantity (the impact speed) enter.
+
+The pieces that do not depend on the kind of map (:func:`margin`, :func:`locate`,
+:func:`grazing_near`, :func:`beyond`) also serve a user system's guards, whose crossing
+(:mod:`._crossing`) has its own virtual map and impact formulation (:mod:`._guard_crossing`).
 """
 
 from __future__ import annotations
@@ -35,13 +39,13 @@ import numpy as np
 from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
-from ._guard_crossing import GuardImpact, GuardlessProblem, replace_info_singular
 from ._multi_impact import grazing_of_new_impact, grazing_of_one_impact, impacts_on
 from ._newton import newton as _newton
 from ._points import GUARD, PointInfo, point_info
 from ._problem import BOTH, MapEvaluation, MapProblem
 
-__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate", "stripped_sides"]
+__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate", "stripped_sides",
+           "crossings_of", "grazing_near", "beyond", "NEAR", "FAR_STEP", "TOUCHES_BOTH"]
 
 #: A flange margin (distance, penetration or impact speed) below which a branch moving towards the
 #: grazing hands over to :func:`cross` once its next step would reach it.
@@ -93,8 +97,6 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
     if previous is None or problem.stripped:
         return 0
     ds = float(np.linalg.norm(node.u - previous.u))
-    if not isinstance(problem, MapProblem):
-        return _guard_near(problem, previous, node, ds, h, failed)
     for side in (1, -1):
         if math.isinf(problem.walls[(side + 1) // 2]):
             continue
@@ -112,26 +114,6 @@ def approaching(problem: MapProblem, previous, node, h: float, failed: bool = Fa
         if _touch_near(problem, previous, node, side, ds, h, failed):
             return side
     return 0
-
-
-def _guard_near(problem, previous, node, ds: float, h: float, failed: bool) -> str:
-    """The guard of a user system whose grazing the branch reaches within its next step ("": none).
-
-    As :func:`approaching` for a flange: a margin shrinking towards zero within :data:`NEAR`, reached
-    by the secant within 1.5 steps (or the step has just failed); a guard crossed more than once a
-    period is not one about to vanish.
-    """
-    for name, kind in problem.margin_tests:
-        guard = name.removeprefix(GUARD)
-        m0, m1 = margin(previous.info, guard), margin(node.info, guard)
-        if kind != "grazing" or not (math.isfinite(m0) and math.isfinite(m1)) or abs(m1) >= NEAR \
-                or abs(m1) >= abs(m0) or m0 * m1 <= 0:
-            continue
-        if m1 < 0.0 and (crossings_of(node.info, guard) != 1 or crossings_of(previous.info, guard) != 1):
-            continue
-        if failed or abs(m1) <= 1.5 * h * abs(m1 - m0) / max(ds, 1e-300):
-            return guard
-    return ""
 
 
 def _touch_near(problem: MapProblem, previous, node, side: int, ds: float, h: float, failed: bool) -> bool:
@@ -251,8 +233,6 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     """
     if len(problem.names) != 1:
         return "crossing a grazing is done on branches in one parameter"
-    if isinstance(side, str):
-        return _cross_guard(problem, node, side, h, settings, bounds)
     virtual = problem.virtual(stripped_sides(node.info, side))
     from_contact = margin(node.info, side) < 0.0
     new_impact = (problem.rigid and from_contact and abs(margin(node.info, side)) >= NEAR
@@ -264,7 +244,7 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
             return one
         u_g, ev_g, info, accuracy, far, case, message = one
         return Crossing(side, u_g, ev_g, info, accuracy, far, case, message, one_of_several=True)
-    found = _grazing_near(problem, virtual, node, side, h, settings, bounds)
+    found = grazing_near(problem, virtual, node, side, h, settings, bounds)
     if isinstance(found, str):
         return found
     u_g, ev_g, error, t_free = found
@@ -283,118 +263,7 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
 
 
-def _cross_guard(problem, node, guard: str, h: float, settings: Settings, bounds):
-    """:func:`cross` for the grazing of a user system's guard: a :class:`Crossing`, or a string saying why not.
-
-    The same three steps as a flange's: the grazing located on the orbits of the system with the
-    guard taken away (:class:`GuardlessProblem`), the first point beyond it (back along those
-    orbits when the branch comes from contact, into contact by the impact formulation of the
-    guard's reset, or along the virtual family for a guard without one), and the label.
-    """
-    from_contact = margin(node.info, guard) < 0.0
-    if from_contact and crossings_of(node.info, guard) != 1:
-        return (f"the guard {guard!r} fires {crossings_of(node.info, guard)} times a period: the grazing of one "
-                "crossing of several is crossed on the built-in family only")
-    try:
-        virtual = GuardlessProblem(problem, guard)
-    except ValueError as exc:
-        return str(exc)
-    found = _grazing_near(problem, virtual, node, guard, h, settings, bounds)
-    if isinstance(found, str):
-        return found
-    u_g, ev_g, error, t_free = found
-    info = point_info(virtual, ev_g)
-    also = sorted(name.removeprefix(GUARD) for name, m in info.margins.items() if abs(m) < TOUCHES_BOTH)
-    if also:
-        return (f"the orbit grazes the guard {guard!r} and, at the same point, {', '.join(map(repr, also))} (a "
-                "symmetric orbit, say): several guards grazed at once are not crossed on a user system")
-    d = problem.dimension
-    with_reset = bool(virtual.guard.reset)
-    if from_contact:
-        far = _beyond(problem, u_g, t_free, h, settings, guard, want_contact=False)
-        far = far if isinstance(far, str) else (far, np.sign(t_free[d]))
-    elif with_reset:
-        far = _beyond_impact(problem, virtual, u_g, h, settings)
-    else:
-        far = _beyond(problem, u_g, -t_free, h, settings, guard, want_contact=True)
-        far = far if isinstance(far, str) else (far, -np.sign(t_free[d]))
-    if isinstance(far, str):
-        return far
-    far, went = far
-    came = np.sign(u_g[d] - node.u[d])
-    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
-    if with_reset:
-        info = replace_info_singular(info, f"the map is not differentiable where the orbit grazes the guard {guard!r}"
-                                           " with its reset (a square-root term, Nordmark 1991)")
-    into = "onto the orbits that cross" if not from_contact else "off"
-    what = ("the branch goes on in the same direction of the parameter (a persistent crossing)" if case == "persistent"
-            else "the parameter turns back there: the families on either side meet at the grazing and end together "
-                 "(a nonsmooth fold)")
-    message = (f"the orbit touches the guard {guard!r} tangentially: located as a regular point of the orbits of the "
-               f"system with that guard taken away (its value at its extremum = 0); the branch crosses {into} the "
-               f"guard, and {what}")
-    return Crossing(guard, u_g, ev_g, info, abs(float(error[d])) * problem.scales[0], far, case, message)
-
-
-def _beyond_impact(problem, virtual: GuardlessProblem, u_g, h: float, settings: Settings):
-    """``(first orbit that crosses the guard, direction of the parameter)`` past its grazing, or why not.
-
-    The impact formulation of the guard's reset (:class:`GuardImpact`) is stepped from the grazing
-    orbit towards a positive crossing speed, then its orbit corrected on the branch's own problem.
-    """
-    d = problem.dimension
-    z_g, params_g = unscaled(virtual, u_g)  # type: ignore[arg-type]
-    peak = virtual.peak(z_g, params_g)
-    if isinstance(peak, str):
-        return f"the grazing orbit could not be run again: {peak}"
-    t_touch, y_touch, mode = peak[3:]
-    form = GuardImpact(virtual, mode)
-    w_g = np.concatenate([[t_touch], y_touch[:d], u_g[d:]])
-    out = form.residual(w_g)
-    if isinstance(out, str):
-        return out
-    t_w = np.linalg.svd(out[1])[2][-1]
-    why = "no step tried"
-    for sign in (1.0, -1.0):
-        step = 2.0 * max(h, FAR_STEP)
-        while step > settings.min_step:
-            step *= 0.5
-            w_pred = w_g + sign * step * t_w
-
-            def fun(w, w_pred=w_pred, sign=sign):
-                res = form.residual(w)
-                if isinstance(res, str):
-                    return res
-                return (np.concatenate([res[0], [float(sign * t_w @ (w - w_pred))]]),
-                        np.vstack([res[1], sign * t_w[None, :]]), None)
-
-            found = _newton(fun, w_pred, settings.tol)
-            if isinstance(found, str):
-                why = found
-                continue
-            w = found[0]
-            speed = form.speed(w)
-            if speed <= 0.0:
-                why = f"the crossing speed past the grazing is {speed:.3g}"
-                break  # the other direction along the impacting family
-            z = form.section_state(w)
-            if isinstance(z, str):
-                why = z
-                continue
-            u_pred = np.concatenate([z, w[1 + d:]])
-            chord = (u_pred - u_g) / np.linalg.norm(u_pred - u_g)
-            result = correct(problem, u_pred, chord, settings, max_distance=2.0 * step + 1e-9)
-            if not isinstance(result, Corrected):
-                why = result
-                continue
-            if margin(point_info(problem, result.ev), virtual.guard.name) >= 0.0:
-                why = "the corrected orbit does not cross the guard"
-                continue
-            return result, float(np.sign(w[1 + d] - w_g[1 + d]))
-    return f"no orbit crossing the guard was found past the grazing: {why}"
-
-
-def _grazing_near(problem, virtual, node, side: int | str, h: float, settings: Settings, bounds):
+def grazing_near(problem, virtual, node, side: int | str, h: float, settings: Settings, bounds):
     """``(u_g, ev_g, error, t_free)``: the grazing the branch reaches, located on the virtual family, or why not.
 
     ``t_free`` is the virtual family's tangent at the grazing, oriented towards the contact-free
@@ -432,14 +301,14 @@ def _far_side(problem: MapProblem, ev_g, u_g, t_free, side: int, h: float, setti
     softer one the virtual family's tangent into the flange.
     """
     if from_contact:
-        far = _beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
+        far = beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
         return far if isinstance(far, str) else (far, np.sign(t_free[2]))
     far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
     if not isinstance(far, str):
         return far[0], np.sign(far[1])
     if problem.rigid:
         return far
-    far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
+    far = beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
     return far if isinstance(far, str) else (far, -np.sign(t_free[2]))
 
 
@@ -472,7 +341,7 @@ def _grazes_other(virtual: MapProblem, ev, side: int) -> bool:
     return abs(gap + side * x) < TOUCHES_BOTH * max(1.0, gap)
 
 
-def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
+def beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
     """The first point of the branch's own family a step ``h`` from the grazing along ``direction``."""
     why = "no step tried"
     # from a step the branch came with (not less than FAR_STEP: right past a stiff flange's grazing the map is

@@ -14,7 +14,8 @@ import numpy as np
 
 from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, unscaled
-from ._grazing import TOUCHES_BOTH, Crossing, contacts_on, cross, crossings_of, locate, stripped_sides
+from ._crossing import cross
+from ._grazing import TOUCHES_BOTH, Crossing, contacts_on, crossings_of, locate, stripped_sides
 from ._guard_crossing import GuardlessProblem, replace_info_singular
 from ._nodes import Found, Node, make_node
 from ._points import GUARD, point_info
