@@ -11,7 +11,8 @@ by the same loop on its :class:`~impactosc.dynamics.HybridMap` (any number of st
 same smooth special points, a grazing of each guard, stick onsets as entries into a stick
 mode appearing; its grazings are crossed by the same code as the flanges' (on the map of the
 system with the grazed guard taken away, and for a guard with a reset on its impacting
-orbits with the impact's time and state as unknowns).
+orbits with the impact's time and state as unknowns). A tape path's critical clearance at a
+guide is such a boundary, followed in SI units by :func:`critical_clearance_boundary`.
 
 What a COCO or AUTO user expects of a run: an AUTO-style table of the labelled points
 (:meth:`Branch.table`, printed by :meth:`Branch.summary`, on the ``label`` dimension of

@@ -22,6 +22,7 @@ import re
 import numpy as np
 
 from ..._util import validation as _v
+from ...backends._exact_mdof import simulate_mechanical
 from ...backends._hybrid import simulate_system
 from ...model._tape_path import TapePath
 from ...model.hybrid._definition import Guard, HybridMode, HybridSystem, symbols
@@ -189,7 +190,7 @@ def critical_clearance_boundary(path: TapePath, guide: int, parameters=("clearan
     name, per_si, unit = (("omega0", path.drive.omega_r / path.drive.speed / path.omega_scale, "m/s")
                           if other == "speed" else ("runout_scale", 1.0 / path.drive.runout, "m"))
     flanges = [f for f in ("upper", "lower") if sides in ("both", f)] if flange == "auto" else [flange]
-    starts = [_grazing_start(path, g, f, phase) for f in flanges]
+    starts = _grazing_starts(path, g, flanges, phase)
     f_side, system, z0, gap = max(starts, key=lambda s: s[3] * L + (offset if s[0] == "upper" else -offset))
     sign = 1.0 if f_side == "upper" else -1.0
     system = system.with_parameters(gap=gap)
@@ -239,20 +240,37 @@ def _in_si(message: str, name: str, L: float, offset: float, other: str, per_si:
     return re.sub(rf"\b{name} = " + number, value, re.sub(r"\bgap = " + number, clearance, message))
 
 
-def _grazing_start(path: TapePath, g: int, flange: str, phase: float):
-    """``(flange, system, z, gap)``: the steady orbit at the path's parameters and the gap at which it grazes."""
-    system = _flange_system(path, g, flange, phase)
-    hmap = HybridMap(system)
-    T = hmap.period()
-    free = GuardlessProblem(SystemProblem(hmap.with_names(("gap",))), system.guards[-1].name)
-    sol = simulate_system(free.hmap.system, SETTLE_PERIODS * T, [0.0] * system.dimension)
-    if sol.status != 0:
-        raise RuntimeError(f"critical_clearance_boundary: the settling run from rest failed: {sol.message}")
-    orbit = periodic_orbit_of(free.hmap, sol.state_final[:system.dimension])
+def _grazing_starts(path: TapePath, g: int, flanges, phase: float) -> list:
+    """``(flange, system, z, gap)`` per flange: the steady orbit at the path's parameters, and the gap it grazes at.
+
+    The orbit is the same for every flange (the path without the guide's flanges): settled from
+    rest on the exact n-DOF backend (the heyoka loop where that refuses the path), then solved
+    by Newton's method on the map.
+    """
+    systems = [_flange_system(path, g, flange, phase) for flange in flanges]
+    frees = [GuardlessProblem(SystemProblem(HybridMap(s, names=("gap",))), s.guards[-1].name) for s in systems]
+    free = frees[0]
+    n = systems[0].dimension
+    T = free.hmap.period()
+    try:
+        settled = simulate_mechanical(path.mechanical_system(phase, leave_out_flanges=(g,)), SETTLE_PERIODS * T,
+                                      np.zeros(n // 2), np.zeros(n // 2))
+        status, message = settled.status, settled.message
+        q, v = settled.sample([SETTLE_PERIODS * T])[:2]
+        state = np.concatenate([q[0], v[0]])
+    except ValueError:
+        run = simulate_system(free.hmap.system, SETTLE_PERIODS * T, [0.0] * n)
+        status, message, state = run.status, run.message, run.state_final[:n]
+    if status != 0:
+        raise RuntimeError(f"critical_clearance_boundary: the settling run from rest failed: {message}")
+    orbit = periodic_orbit_of(free.hmap, state)
     if orbit.status != 0:
-        raise RuntimeError(f"critical_clearance_boundary: no steady orbit of the path at its speed (status "
+        raise RuntimeError(f"critical_clearance_boundary: no steady orbit of the path at its parameters (status "
                            f"{orbit.status}): {orbit.message}")
-    peak = free.peak(orbit.z, (0.0,))
-    if isinstance(peak, str):
-        raise RuntimeError(f"critical_clearance_boundary: the steady orbit's extreme at guide {g}: {peak}")
-    return flange, system, np.asarray(orbit.z, float), -float(peak[0])  # psi = gap - sign q at the extreme
+    out = []
+    for flange, system, virtual in zip(flanges, systems, frees, strict=True):
+        peak = virtual.peak(orbit.z, (0.0,))
+        if isinstance(peak, str):
+            raise RuntimeError(f"critical_clearance_boundary: the steady orbit's extreme at guide {g}: {peak}")
+        out.append((flange, system, np.asarray(orbit.z, float), -float(peak[0])))  # psi = gap - sign q there
+    return out
