@@ -114,3 +114,25 @@ def test_a_grazing_stepped_over_is_located_on_the_orbits_without_the_guard():
     (graze,) = branch.find("grazing")
     assert "between two points of the branch" in graze.message and graze.guard == "enter upper"
     assert abs(graze.parameter - cf.grazing_amplitude(W, ZETA)) < 1e-10 and graze.accuracy < 1e-10
+
+
+def test_a_section_maps_guard_is_not_crossed_and_says_why():
+    # an autonomous system's return map (the relay of test_system_tangent): the extremum's sensitivity is written
+    # for a stroboscopic map, so its guards' grazings are refused by name, never a crash inside a branch
+    from impactosc import Guard, HybridMode, HybridSystem, symbols
+    from impactosc.dynamics.continuation._guard_crossing import GuardlessProblem
+    from impactosc.dynamics.continuation._hybrid_problem import SystemProblem
+
+    x, v, zeta, a = symbols("x v zeta a")
+    s = x + a * v
+    relay = HybridSystem("x v", {"zeta": -0.1, "a": 0.05},
+                         [HybridMode("on", {x: v, v: -x - 2 * zeta * v - 1.0}),
+                          HybridMode("off", {x: v, v: -x - 2 * zeta * v + 1.0})],
+                         [Guard("switch off", s, -1, armed="on", to="off"),
+                          Guard("switch on", s, 1, armed="off", to="on")],
+                         section="switch on", name="relay")
+    problem = SystemProblem(HybridMap(relay, mode="on", names=("a",)))
+    virtual = GuardlessProblem(problem, "switch off")
+    assert "section" in virtual.peak([-0.05, 0.9], (0.05,))
+    with pytest.raises(ValueError, match="section of the map"):
+        GuardlessProblem(problem, "switch on")

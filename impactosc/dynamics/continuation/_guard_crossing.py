@@ -108,6 +108,9 @@ class GuardlessProblem(SystemProblem):
         ``psi = -d h`` there (``d`` the guard's direction): positive while the orbit stays clear of it.
         """
         hmap, real = self.hmap, self.real
+        if hmap.section is not None:
+            return (f"the map returns to the section {hmap.section!r}: a grazing of an autonomous system's guard is "
+                    "located, not crossed or followed (its extremum's sensitivity is written for a stroboscopic map)")
         try:
             sys_p, sol = hmap.run(z, params)
         except ValueError as exc:
