@@ -283,6 +283,41 @@ class HybridMap:
                 dp[:, j] += f_end[:n] * dT
         return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds, extrema_of=extrema_of)
 
+    def run(self, z, params=None):
+        """``(system at params, the run of one map from z)``: the :class:`~impactosc.HybridSolution` behind
+        :meth:`evaluate`, for what the map value does not carry (the state at an instant inside the period).
+
+        Raises
+        ------
+        ValueError
+            For a state no mode admits, as :func:`~impactosc.simulate` does; a failed run is returned
+            with its status.
+        """
+        z = np.asarray(z, dtype=float).ravel()
+        params = self.values() if params is None else tuple(float(q) for q in params)
+        sys_p = self.system.with_parameters(**dict(zip(self.names, params, strict=True)))
+        if self.section is not None:
+            return sys_p, simulate_system(sys_p, self.t0 + self.max_time, z, backend="heyoka", mode=self.mode,
+                                          t0=self.t0, tol=self.tol, until=(self.section, self.iterates))
+        return sys_p, simulate_system(sys_p, self.t0 + self.period(params), z, backend="heyoka", mode=self.mode,
+                                      t0=self.t0, tol=self.tol)
+
+    def tangent_until(self, system: HybridSystem, sol, t: float) -> np.ndarray:
+        """``[dy(t)/dz | dy(t)/dp]`` along the run ``sol`` of :meth:`run` from its start to ``t`` (before the
+        events at ``t``): the sensitivity of the state at an instant inside the period, by the same pieces and
+        saltation matrices as :meth:`evaluate` (rows: the states and integrals; columns: the initial states and
+        integrals, then every parameter of the system).
+
+        ``system`` is the system at the run's parameters (the first item :meth:`run` returns). A stroboscopic
+        map's only (a section map's last event is its value, not a transition).
+        """
+        if self.section is not None:
+            raise ValueError(f"{self.system.name}: tangent_until is defined for a stroboscopic map (the system has "
+                             f"a period), not for the section map of {self.section!r}")
+        events = [e for e in sol.events if e.t < t]
+        until = _RunUntil(sol.pieces, events, float(t))
+        return self._sensitivity(system, until, system.parameter_values)[0]
+
     def _sensitivity(self, system: HybridSystem, sol, p) -> tuple[np.ndarray, Any, tuple]:
         """``[dy/dz | dy/dp]`` at the end of ``sol``, pieces and saltations in turn; the guards' extrema (a
         function computing them) and speeds.
@@ -352,6 +387,16 @@ class HybridMap:
         J_new = S @ J
         J_new[:, n_all:] += np.array(jump.params).reshape(n_all, P)
         return J_new, dtau, f_plus
+
+
+@dataclass(frozen=True)
+class _RunUntil:
+    """A run cut at ``t_final``: what :meth:`HybridMap._sensitivity` reads of a run (its first piece, the
+    events before the cut)."""
+
+    pieces: list
+    events: list
+    t_final: float
 
 
 def _grazings(sol) -> list:

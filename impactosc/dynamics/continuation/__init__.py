@@ -9,7 +9,10 @@ are the exact event-driven ones of :mod:`impactosc.dynamics`: no collocation mes
 user-written segment signature. A user's own :class:`~impactosc.HybridSystem` is followed
 by the same loop on its :class:`~impactosc.dynamics.HybridMap` (any number of states): the
 same smooth special points, a grazing of each guard, stick onsets as entries into a stick
-mode appearing; its grazings are located but not crossed.
+mode appearing; its grazings are crossed by the same code as the flanges' (on the map of the
+system with the grazed guard taken away, and for a guard with a reset on its impacting
+orbits with the impact's time and state as unknowns). A tape path's critical clearance at a
+guide is such a boundary, followed in SI units by :func:`critical_clearance_boundary`.
 
 What a COCO or AUTO user expects of a run: an AUTO-style table of the labelled points
 (:meth:`Branch.table`, printed by :meth:`Branch.summary`, on the ``label`` dimension of
@@ -23,5 +26,6 @@ the flange gaps and a drive's guide offset included.
 
 from ._api import continuation
 from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
+from ._path_clearance import critical_clearance_boundary
 
-__all__ = ["continuation", "Branch", "BranchPoint", "SpecialPoint", "SPECIAL_KINDS"]
+__all__ = ["continuation", "Branch", "BranchPoint", "SpecialPoint", "SPECIAL_KINDS", "critical_clearance_boundary"]

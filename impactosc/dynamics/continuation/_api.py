@@ -27,7 +27,7 @@ from ..tangent import check_backend, check_start
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits, reindex
 from ._branch import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint
-from ._follow import follow, make_node
+from ._follow import CLOSED, follow, make_node
 from ._hybrid_problem import is_system_orbit, system_problem
 from ._problem import MapProblem
 
@@ -89,7 +89,7 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
           a point of a user system's branch.
     parameter : str or (str, str)
         The free parameter: a field of the model (:func:`parameter_names`), or a parameter of
-        the user system; two for a boundary (the built-in family only).
+        the user system; two for a boundary.
     limits : (float, float) or dict
         ``(lo, hi)`` of the (first) parameter; for a boundary, a dict of ``name: (lo, hi)``
         (either parameter; at least one). The branch ends on a limit.
@@ -166,8 +166,9 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     :class:`~impactosc.HybridSystem`, its impacting orbit at ``F = 0.5`` followed in ``F``
     up to its period doubling (``F = 0.5182098666`` in closed form at ``Omega = 0.8``).
     Special points of a user system are the same kinds; a grazing is labelled with its
-    guard (:attr:`SpecialPoint.guard`), and a branch that reaches one it cannot step past
-    (an impact's square-root map) ends there with status 2:
+    guard (:attr:`SpecialPoint.guard`) and crossed as a flange's is (on the system with that
+    guard taken away; for a guard with a reset, onto the impacting orbits with the impact's
+    time and state as unknowns), or, where that fails, ends the branch with status 2:
 
     >>> import math, heyoka as hy
     >>> from impactosc import Guard, HybridMode, HybridSystem, symbols
@@ -181,6 +182,18 @@ def continuation(start, parameter, limits, *, base=None, backend: str | None = N
     >>> up = dy.continuation(orbit, "F", (0.45, 0.6), base=hmap, direction="forward", progress=False)
     >>> [(s.label, round(s.parameter, 9)) for s in up.special]
     [('PD1', 0.518209867)]
+
+    Down in ``F`` the impact speed falls to zero at the grazing, ``F = |1 - W^2 + 0.1 i W|``
+    (0.368781778 in closed form), and the branch goes on along the contact-free orbits; the
+    grazing is then followed in ``(F, W)``, like a flange's:
+
+    >>> down = dy.continuation(orbit, "F", (0.1, 0.5), base=hmap, direction="backward", progress=False)
+    >>> (graze,) = down.find("grazing")
+    >>> down.status, graze.guard, round(graze.parameter, 9)
+    (0, 'impact', 0.368781778)
+    >>> curve = dy.continuation(graze, ("F", "W"), {"W": (0.7, 0.9)}, progress=False)
+    >>> curve.status, len(curve.points) > 5
+    (0, True)
 
     References
     ----------
@@ -222,11 +235,10 @@ def _from_special(start: SpecialPoint, parameter, limits, settings: Settings, ba
         from ._boundary import boundary
 
         if not isinstance(located, MapProblem):
-            raise ValueError(f"{start.label!r} was located on a user system's branch: boundaries in two parameters "
-                             "are followed for the built-in family only (continue the system in one parameter at "
-                             "several values of the other instead)")
-
-        if isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
+            if options or backend is not None:
+                raise TypeError(f"a user system's boundary takes no backend or backend options, got backend="
+                                f"{backend!r}, options {sorted(options)}: the map's tolerance is its HybridMap's")
+        elif isinstance(limits, dict):  # the same up-front refusals as a branch in one parameter
             for name, pair in limits.items():
                 pair = _limits_pair(name, pair)
                 check_study_parameter(located.base, name, pair)
@@ -438,7 +450,11 @@ def _run(problem: MapProblem, z0, limits, direction: str, settings: Settings, ma
     if isinstance(start, str):
         return assemble(problem, [], [], [(-1, start)], 0)
     sides = {"forward": (1,), "backward": (-1,), "both": (-1, 1)}[direction]
-    results = {d: follow(problem, start, d, limits, settings, max_points) for d in sides}
+    results: dict = {}
+    for d in sides:
+        if any(r[3].startswith(CLOSED) for r in results.values()):
+            break  # the other direction came round: this one would go round again
+        results[d] = follow(problem, start, d, limits, settings, max_points)
     back_nodes, back_found, *back_end = results.get(-1, ([], [], None, None))
     fwd_nodes, fwd_found, *fwd_end = results.get(1, ([], [], None, None))
     nodes = list(reversed(back_nodes)) + [start] + fwd_nodes

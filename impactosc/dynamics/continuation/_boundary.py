@@ -20,12 +20,15 @@ import math
 import numpy as np
 
 from .._common import check_parameter, parameter_value
+from ..hybrid_map import HybridMap
 from ._arclength import Corrected, Settings, correct, scaled, unscaled
 from ._assembly import assemble, check_limits
 from ._codim2 import codim2_points
 from ._grazing import grazing_test, stripped_sides
+from ._guard_crossing import GuardlessProblem
+from ._hybrid_problem import SystemProblem
 from ._impact_curves import fold_curve, single_impact_side
-from ._points import SMOOTH_TESTS, point_info
+from ._points import GUARD, SMOOTH_TESTS, point_info
 from ._problem import MapProblem
 
 __all__ = ["boundary"]
@@ -37,9 +40,9 @@ _FD_STEP = 1e-7
 
 def boundary(point, names: tuple, limits, settings: Settings, backend, options):
     """The curve of ``point`` (a :class:`~._branch.SpecialPoint`) in the two parameters ``names``."""
-    from ._follow import follow, make_node
-
     problem, node, extra_info = point.context
+    if not isinstance(problem, MapProblem):
+        return system_boundary(point, names, limits, settings)
     if point.kind not in BOUNDARY_KINDS:
         raise ValueError(f"a {point.kind!r} point has no boundary to follow; the kinds that do: "
                          f"{', '.join(BOUNDARY_KINDS)}")
@@ -75,30 +78,84 @@ def boundary(point, names: tuple, limits, settings: Settings, backend, options):
         if not isinstance(followed, str):
             nodes, found, ends, nb = followed
             return assemble(curve, nodes, found, ends, nb)
+    return follow_curve(curve, z0, point.kind, test, _extra(curve, test), bounds, settings,
+                         problem.orbit_events or 0, names)
+
+
+def follow_curve(curve, z0, kind: str, test: str, extra, bounds, settings: Settings, orbit_events: int, names):
+    """The boundary through ``z0`` of the curve problem ``curve`` with its test ``extra``: both ways, verified."""
+    from ._follow import CLOSED, follow, make_node
+
+    d = curve.dimension
     u0 = scaled(curve, z0, curve.values())
     fix = np.zeros_like(u0)
-    fix[3] = 1.0  # the second parameter held at its value: solve for the first
-    curve.limit_events(problem.orbit_events or 0)
-    extra = _extra(curve, test)
+    fix[d + 1] = 1.0  # the second parameter held at its value: solve for the first
+    curve.limit_events(orbit_events)
     result = correct(curve, u0, fix, settings, extra=extra)
     if not isinstance(result, Corrected):
-        return assemble(curve, [], [], [(-1, f"the {point.kind} point could not be solved in {names}: {result}")], 0)
+        return assemble(curve, [], [], [(-1, f"the {kind} point could not be solved in {names}: {result}")], 0)
     start = make_node(curve, result, None, 0.0, extra)
-    if start.t[3] < 0.0:
+    if start.t[d + 1] < 0.0:
         start.t = -start.t
     plain = Settings(settings.step, settings.min_step, settings.max_step, settings.max_points, settings.tol,
                      settings.max_iter, frozenset(), settings.locate_tol)
     verify = _verifier(curve, extra, settings)
     rejected = verify(result)
     if rejected:
-        return assemble(curve, [], [], [(-1, f"the {point.kind} point solved in {names} was not verified: "
+        return assemble(curve, [], [], [(-1, f"the {kind} point solved in {names} was not verified: "
                                              f"{rejected}")], 0)
     back = follow(curve, start, -1, bounds, plain, settings.max_points, extra, verify)
-    fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
-    nodes = list(reversed(back[0])) + [start] + fwd[0]
-    ends = [tuple(back[2:]), tuple(fwd[2:])]
-    found = codim2_points(curve, point.kind, test, nodes, extra, settings, stick_test)
+    if back[3].startswith(CLOSED):  # the curve came round: going the other way would go round again
+        nodes, ends = list(reversed(back[0])) + [start], [tuple(back[2:])]
+    else:
+        fwd = follow(curve, start, 1, bounds, plain, settings.max_points, extra, verify)
+        nodes = list(reversed(back[0])) + [start] + fwd[0]
+        ends = [tuple(back[2:]), tuple(fwd[2:])]
+    found = codim2_points(curve, kind, test, nodes, extra, settings, stick_test)
     return assemble(curve, nodes, found, ends, len(back[0]))
+
+
+def system_boundary(point, names: tuple, limits, settings: Settings):
+    """The curve of a special point of a user system's branch in two of its parameters.
+
+    A grazing of a guard: the zero of the guard's value at its extremum on the orbits of the
+    system with that guard taken away (:class:`._guard_crossing.GuardlessProblem`), smooth
+    through the grazing whichever side the point was located from; a fold, period doubling or
+    Neimark-Sacker point: its test function of the monodromy matrix, differenced as for the
+    built-in family. Cusps of a fold curve are located; the codimension-two points written
+    for a flange (fold-, period-doubling-grazing, grazing-stick) are not.
+    """
+    problem, node, extra_info = point.context
+    if point.kind not in ("grazing",) + SMOOTH_TESTS:
+        raise ValueError(f"a {point.kind!r} point of a user system has no boundary followed in two parameters; the "
+                         f"kinds that do: grazing, {', '.join(SMOOTH_TESTS)}")
+    if len(names) != 2 or names[0] == names[1]:
+        raise ValueError(f"parameter must be two distinct names for a boundary, got {names!r}")
+    z, params = unscaled(problem, node.u)
+    here = problem.model(params)
+    for name in names:
+        if name not in here.parameter_names:
+            raise ValueError(f"parameter must name parameters of the system {here.name!r}; the parameters are "
+                             f"{list(here.parameter_names)}, got {name!r}")
+    values = dict(here.parameters)
+    bounds = _bounds(names, limits, None, values)
+    h = problem.hmap
+    # each parameter scaled by the larger of its value and the span of its limits (as a branch's): a parameter
+    # that starts at 0 crosses its range in a few dozen steps
+    scales = [max(abs(values[name]), hi - lo if math.isfinite(hi - lo) else 0.0, 1e-3)
+              for name, (lo, hi) in zip(names, bounds, strict=True)]
+    curve = SystemProblem(HybridMap(here, h.iterates, names=names, mode=h.mode, t0=h.t0, tol=h.tol,
+                                    max_time=h.max_time), scales)
+    test = point.kind
+    if point.kind == "grazing":
+        guard = str(extra_info.get("guard", ""))
+        if not guard or "," in guard:
+            raise ValueError(f"the grazing {point.label!r} names no single guard ({guard!r}): its boundary cannot be "
+                             "followed")
+        curve = GuardlessProblem(curve, guard)
+        test = GUARD + guard
+    return follow_curve(curve, z, point.kind, test, _extra(curve, test), bounds, settings, problem.orbit_events,
+                         names)
 
 
 #: The test functions a boundary solves (a margin of :mod:`._points` or a smooth test).
@@ -112,18 +169,23 @@ def _grazed_side(point) -> str:
     return "lower_margin" if sides == {-1} else "upper_margin"
 
 
-def _bounds(names, limits, here):
+def _bounds(names, limits, here, values=None):
     if not isinstance(limits, dict):
         raise TypeError(f"limits of a boundary must be a dict of name: (lo, hi) for either parameter, got {limits!r}")
     unknown = set(limits) - set(names)
     if unknown or not limits:
         raise ValueError(f"limits must name one or both of {names}, got {sorted(limits)!r}")
-    return [check_limits(name, limits[name], parameter_value(here, name)) if name in limits else (-math.inf, math.inf)
+    def value(name):
+        return values[name] if values is not None else parameter_value(here, name)
+
+    return [check_limits(name, limits[name], value(name)) if name in limits else (-math.inf, math.inf)
             for name in names]
 
 
-def _extra(curve: MapProblem, test: str):
+def _extra(curve, test: str):
     """``extra(ev, u) -> (psi, gradient row)`` of the test ``test`` (a grazing: on the virtual orbits)."""
+    if test.startswith(GUARD):
+        return guard_test(curve)
     if test in ("upper_margin", "lower_margin"):
         return grazing_test(curve, 1 if test == "upper_margin" else -1)
     if test == "stick_margin":
@@ -149,6 +211,18 @@ def _extra(curve: MapProblem, test: str):
         return np.array([psi]), grad[None, :]
 
     return differenced
+
+
+def guard_test(curve: GuardlessProblem):
+    """The grazing test of a user system's guard (:meth:`GuardlessProblem.grazing_test`), NaN where it fails."""
+
+    def test(ev, u):
+        out = curve.grazing_test(ev, u)
+        if isinstance(out, str):
+            return np.array([math.nan]), np.full((1, len(u)), math.nan)
+        return out
+
+    return test
 
 
 #: Relative step of the central differences of the net force in time and position (an algebraic expression).
@@ -209,7 +283,7 @@ VERIFY_ORBIT = 1e-6
 
 def _verifier(curve: MapProblem, extra, settings: Settings):
     """``verify(corrected) -> str``: the point's equations re-evaluated, its orbit rerun on the real model."""
-    real = curve.virtual(0) if curve.stripped else curve
+    real = curve.unstripped if isinstance(curve, GuardlessProblem) else curve.virtual(0) if curve.stripped else curve
 
     def verify(result) -> str:
         ev = result.ev

@@ -41,11 +41,14 @@ import math
 import numpy as np
 
 from ._arclength import Corrected, Settings, correct, illinois, jacobian_rows, tangent, unscaled
+from ._guard_crossing import GuardImpact, GuardlessProblem
 from ._impact_curves import zero_speed_tests
 from ._nodes import Found, Node, make_node
+from ._points import GUARD
 from ._problem import MapProblem
 
-__all__ = ["codim2_points", "cusps", "grazing_points", "grazing_stick_points", "zeros_along"]
+__all__ = ["codim2_points", "cusps", "grazing_points", "grazing_stick_points", "zeros_along",
+           "guard_fold_grazing_points"]
 
 #: Illinois iterations at most for one located point.
 _LOCATE_STEPS = 60
@@ -60,6 +63,8 @@ def codim2_points(curve, kind: str, test: str, nodes: list, extra, settings: Set
     """
     if kind == "fold":
         return cusps(curve, nodes, extra, settings) if "cusp" in settings.locate else []
+    if test.startswith(GUARD) and isinstance(curve, GuardlessProblem):
+        return guard_fold_grazing_points(curve, nodes, extra, settings)
     if test not in ("upper_margin", "lower_margin"):
         return []
     side = 1 if test == "upper_margin" else -1
@@ -85,16 +90,17 @@ def cusps(curve, nodes: list, extra, settings: Settings) -> list:
     tangents = [nodes[0].t] if nodes else []
     for node in nodes[1:]:
         tangents.append(node.t if float(node.t @ tangents[-1]) >= 0.0 else -node.t)
-    second = [i for i in range(len(nodes) - 1) if tangents[i][3] * tangents[i + 1][3] < 0.0]
+    d = curve.dimension  # the tangent's components: the state, then the two parameters
+    second = [i for i in range(len(nodes) - 1) if tangents[i][d + 1] * tangents[i + 1][d + 1] < 0.0]
     for i in range(len(nodes) - 1):
         a, b = nodes[i], nodes[i + 1]
         chord = b.u - a.u
         h = float(np.linalg.norm(chord))
         ta, tb = _oriented(a, chord), _oriented(b, chord)
         # the second parameter turns in the same interval, or a neighbour (a node may fall between the two zeros)
-        if h == 0.0 or not ta[2] * tb[2] < 0.0 or not any(abs(j - i) <= 1 for j in second):
+        if h == 0.0 or not ta[d] * tb[d] < 0.0 or not any(abs(j - i) <= 1 for j in second):
             continue
-        found = _locate_cusp(curve, a, ta, h, extra, settings, ta[2], tb[2])
+        found = _locate_cusp(curve, a, ta, h, extra, settings, ta[d], tb[d])
         if found is not None:
             node, accuracy, t = found
             out.append(Found("cusp", node, a.info.signature, b.info.signature, accuracy, _cusp_message(curve, t), i,
@@ -104,22 +110,24 @@ def cusps(curve, nodes: list, extra, settings: Settings) -> list:
 
 def _locate_cusp(curve, a: Node, ta, h: float, extra, settings: Settings, fa: float, fb: float):
     """``(node, accuracy, tangent)`` where the first parameter's tangent component vanishes between ``a`` and ``b``."""
-    found = _locate_zero(curve, a, ta, h, extra, settings, lambda result, t: float(t[2]), fa, fb)
+    d = curve.dimension
+    found = _locate_zero(curve, a, ta, h, extra, settings, lambda result, t: float(t[d]), fa, fb)
     if found is None:
         return None
     result, t, width = found
     node = make_node(curve, result, ta, a.arclength + float(np.linalg.norm(result.u - a.u)), extra)
     # the parameters are quadratic in the arclength at a cusp: a bracket of width d places them to O(d^2)
-    accuracy = (width**2 + float(t[3]) ** 2) * max(curve.scales)
+    accuracy = (width**2 + float(t[d + 1]) ** 2) * max(curve.scales)
     return node, accuracy, t
 
 
 def _cusp_message(curve, t) -> str:
     p1, p2 = curve.names
+    d = curve.dimension
     return (f"cusp: the fold's quadratic normal-form coefficient vanishes; {p1} and {p2} turn back together along "
-            f"the fold curve (its tangent's parameter components {t[2]:.2g}, {t[3]:.2g}: it runs along the critical "
-            "eigenvector), where two fold curves meet and the region of three coexisting orbits between them ends; "
-            "the curve goes on along the other fold curve")
+            f"the fold curve (its tangent's parameter components {t[d]:.2g}, {t[d + 1]:.2g}: it runs along the "
+            "critical eigenvector), where two fold curves meet and the region of three coexisting orbits between them "
+            "ends; the curve goes on along the other fold curve")
 
 
 def _locate_zero(curve, a: Node, ta, h: float, extra, settings: Settings, value, fa: float, fb: float):
@@ -246,3 +254,36 @@ def _grazing_message(name: str, side: int) -> str:
             "acceleration at the grazing, M12 of the flight's monodromy): this is where the square-root term of the "
             f"grazing map vanishes, the resonant grazing at which the {name} curve ends (RG on it); the grazing curve "
             "goes on")
+
+
+def guard_fold_grazing_points(curve: GuardlessProblem, nodes: list, extra, settings: Settings) -> list:
+    """The fold-grazing points of a user system's grazing curve of a guard with a reset, as :class:`Found`.
+
+    The impacting family of the guard (:class:`._guard_crossing.GuardImpact`: unknowns the
+    impact time ``t_i``, the state ``y_-`` before it and the parameters) is smooth through zero
+    impact speed; its parameter turns where ``dR/d(t_i, y_-)`` is singular. At the grazing
+    orbit of each point of the curve that determinant is the fold test; where it vanishes a
+    fold curve of the impacting orbits meets the grazing curve (the resonant grazing, where
+    the square-root term of the grazing map vanishes), and the grazing's case changes across
+    it. A guard without a reset (a spring's entry) has none.
+    """
+    if "fold_grazing" not in settings.locate or not curve.guard.reset or len(nodes) < 2:
+        return []
+    d = curve.dimension
+
+    def value(result, t):
+        z, params = unscaled(curve, result.u)
+        peak = curve.peak(z, params)
+        if isinstance(peak, str):
+            return peak
+        form = GuardImpact(curve, peak[5])
+        out = form.residual(np.concatenate([[peak[3]], peak[4][:d], result.u[d:]]))
+        return out if isinstance(out, str) else float(np.linalg.det(out[1][:, :d + 1]))
+
+    message = (f"fold-grazing: a fold curve of the orbits that cross the guard {curve.guard.name!r} with its reset "
+               "meets its grazing curve here: the fold test of the impacting family, det dR/d(impact time, state "
+               "before it), vanishes at zero crossing speed, where the square-root term of the grazing map "
+               "vanishes (the resonant grazing); the grazing's case (persistent or nonsmooth fold) changes across "
+               "this point, and the grazing curve goes on")
+    return zeros_along(curve, nodes, extra, settings, "fold_grazing", value, message,
+                       {"test": "fold_grazing", "guard": curve.guard.name})

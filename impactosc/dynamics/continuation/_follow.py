@@ -13,6 +13,10 @@ Where the map is not smooth the plain predictor-corrector cannot go on, and the 
 over (:mod:`._nonsmooth`): a branch about to reach a grazing crosses it into the family on
 the other side (:mod:`._grazing`), and an impact that crosses the section is stepped over
 by mapping the section state across the impact's reset.
+
+A closed curve (an isola of periodic orbits, a closed fold curve in two parameters) would
+run round to ``max_points``: the loop stops where the chord between two accepted points
+passes its start again, travelling the way it left (:data:`CLOSED`, status 0).
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._arclength import Corrected, Settings, correct, parameter
-from ._grazing import approaching
+from ._crossing import approaching
 from ._locate import locate_between
 from ._nodes import Found, Node, make_node
 from ._nonsmooth import across_section, try_crossing
@@ -39,6 +43,10 @@ LABEL_ORDER = {"grazing": 0, "stick_onset": 1, "border": 2, "fold": 3, "branch_p
                "neimark_sacker": 6, "resonant_grazing": 7}
 #: A margin this close to zero (nondimensional) at a failed step: the branch ends at the grazing.
 GRAZING_NEAR = 1e-3
+#: The start of the message of a direction that ended on its start: the curve is closed.
+CLOSED = "the curve is closed"
+#: A chord passing the start within this fraction of its length has come round to it.
+RETURN_SHARE = 0.1
 
 
 def follow(problem: MapProblem, start: Node, direction: int, limits, settings: Settings, max_points: int,
@@ -65,6 +73,7 @@ class _Walk:
         self.max_points, self.extra, self.verify = max_points, extra, verify
         self.bounds = [limits] if np.ndim(limits) == 1 else list(limits)
         self.start = start
+        self.travel0 = direction * start.t  # the way the walk leaves its start (a closed curve arrives so)
         self.nodes: list[Node] = []
         self.found: list[Found] = []
         self.t = direction * start.t
@@ -105,6 +114,13 @@ class _Walk:
             end = self._accept(attempt)
             if end is not None:
                 return end
+
+    def _returned(self, new: Node) -> bool:
+        """The step to ``new`` came round to the start, travelling the way the walk left it (a closed curve)."""
+        if len(self.nodes) < 3:
+            return False
+        chord = new.u - self.node.u
+        return float(chord @ self.travel0) > 0.0 and _passes(self.node.u, new.u, self.start.u)
 
     # -- one step ----------------------------------------------------------------------
     def _cross_ahead(self):
@@ -180,9 +196,13 @@ class _Walk:
         assert new is not None  # an attempt that did not fail has its point
         if settings.locate:
             self.found += locate_between(self.problem, self.node, new, self.t, settings, index=len(self.nodes) - 1)
+        returned = self._returned(new)
         self.nodes.append(new)
         if settings.on_point is not None:
             settings.on_point(new)
+        if returned:
+            return self.nodes, self.found, 0, (f"{CLOSED}: it returned to its start after {len(self.nodes)} points "
+                                               f"(arclength {abs(new.arclength - self.start.arclength):.6g})")
         stop = [f for f in self.found if f.kind in settings.stop_at]
         if stop:
             return self.nodes, self.found, 0, f"stopped at the first {stop[0].kind} point, as asked (stop_at)"
@@ -196,6 +216,16 @@ class _Walk:
             self.h = max(self.h * 0.6, settings.min_step)
         self.previous, self.node, self.t = self.node, new, new.t
         return None
+
+
+def _passes(a, b, point) -> bool:
+    """The chord from ``a`` to ``b`` passes ``point`` within :data:`RETURN_SHARE` of its length."""
+    chord = b - a
+    length2 = float(chord @ chord)
+    if length2 == 0.0:
+        return False
+    s = min(1.0, max(0.0, float((point - a) @ chord) / length2))
+    return float(np.linalg.norm(a + s * chord - point)) <= RETURN_SHARE * math.sqrt(length2)
 
 
 @dataclass(eq=False)
@@ -249,11 +279,12 @@ def _predict(problem: MapProblem, u, t, h: float, bounds):
 def _failed_end(problem, node: Node, why: str, settings: Settings, crossing: str = ""):
     near = node.info.nearest_grazing()
     if near < GRAZING_NEAR:
-        if not problem.nonsmooth_steps:
+        if not isinstance(problem, MapProblem):
             guard = _nearest_margin(node.info).removeprefix(GUARD)
+            tried = f"; {crossing}" if crossing else ""
             return 2, (f"the branch ends at a grazing of the guard {guard!r} (its last point is {near:.3g} from "
-                       "touching it, in distance or crossing speed) and does not cross it: continuation crosses the "
-                       f"grazings of the built-in family only; no orbit was corrected past it ({why})")
+                       "touching it, in distance or crossing speed) and does not cross it: no orbit was corrected "
+                       f"past it ({why}){tried}")
         tried = (f"; {crossing} (a discontinuous grazing with no family on the other side, or one this crossing "
                  "cannot reach)") if crossing else ""
         return 2, (f"the branch ends at a grazing (its last point is {near:.3g} from touching a flange, in distance "

@@ -23,6 +23,10 @@ the branch's own problem. Whether the parameter goes on in the same direction (a
 *persistent* crossing) or turns back (a *nonsmooth fold*: the two families meet at the
 grazing and annihilate) is said in the grazing's label. Only the map, its derivatives, the
 vector field and one event quantity (the impact speed) enter.
+
+The pieces that do not depend on the kind of map (:func:`margin`, :func:`locate`,
+:func:`grazing_near`, :func:`beyond`) also serve a user system's guards, whose crossing
+(:mod:`._crossing`) has its own virtual map and impact formulation (:mod:`._guard_crossing`).
 """
 
 from __future__ import annotations
@@ -37,10 +41,11 @@ from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
 from ._multi_impact import grazing_of_new_impact, grazing_of_one_impact, impacts_on
 from ._newton import newton as _newton
-from ._points import PointInfo, point_info
+from ._points import GUARD, PointInfo, point_info
 from ._problem import BOTH, MapEvaluation, MapProblem
 
-__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate", "stripped_sides"]
+__all__ = ["approaching", "cross", "grazing_test", "Crossing", "margin", "contacts_on", "locate", "stripped_sides",
+           "crossings_of", "grazing_near", "beyond", "NEAR", "FAR_STEP", "TOUCHES_BOTH"]
 
 #: A flange margin (distance, penetration or impact speed) below which a branch moving towards the
 #: grazing hands over to :func:`cross` once its next step would reach it.
@@ -55,7 +60,7 @@ REACH = 0.2
 class Crossing:
     """A grazing crossed: the grazing orbit (on the virtual family) and the first point beyond it."""
 
-    side: int
+    side: int | str  #: the flange (+1, -1), or a user system's guard
     grazing_u: np.ndarray  #: the grazing's unknowns (z, scaled parameters) on the virtual family
     grazing_ev: MapEvaluation  #: the virtual map's evaluation there
     grazing_info: PointInfo
@@ -67,9 +72,19 @@ class Crossing:
     one_of_several: bool = False
 
 
-def margin(info: PointInfo, side: int) -> float:
-    """Signed distance of an orbit from grazing the flange of ``side`` (negative once it is reached)."""
+def margin(info: PointInfo, side) -> float:
+    """Signed distance of an orbit from grazing the flange of ``side`` (negative once it is reached).
+
+    ``side`` is +1 or -1 for a flange of the built-in family, a guard's name for a user system.
+    """
+    if isinstance(side, str):
+        return float(info.margins.get(GUARD + side, math.nan))
     return info.upper_margin if side > 0 else info.lower_margin
+
+
+def crossings_of(info: PointInfo, guard: str) -> int:
+    """How often a user system's orbit crosses ``guard`` in one map period."""
+    return sum(count for (name, _), count in info.signature if name == guard)
 
 
 def approaching(problem: MapProblem, previous, node, h: float, failed: bool = False) -> int:
@@ -135,8 +150,14 @@ def contacts_on(info: PointInfo, side: int) -> int:
                if s == side and kind in ("impact", "contact_start", "chatter"))
 
 
-def grazing_test(virtual: MapProblem, side: int):
-    """``extra(ev, u) -> (psi, row)``: ``gap - side X_extreme`` on the virtual map and its exact gradient."""
+def grazing_test(virtual, side):
+    """``extra(ev, u) -> (psi, row)``: ``gap - side X_extreme`` on the virtual map and its exact gradient.
+
+    For a user system (``side`` a guard's name, ``virtual`` a :class:`GuardlessProblem`): minus the
+    guard's value at its extremum nearest to firing (:meth:`GuardlessProblem.grazing_test`).
+    """
+    if isinstance(side, str):
+        return virtual.grazing_test
     gap = virtual.flange_gaps[(side + 1) // 2]
     scales = np.asarray(virtual.scales)
 
@@ -150,7 +171,7 @@ def grazing_test(virtual: MapProblem, side: int):
     return test
 
 
-def locate(virtual: MapProblem, side: int, u0, tol: float):
+def locate(virtual, side: int | str, u0, tol: float):
     """The grazing orbit of one free parameter: ``(u, ev, last step)`` on the virtual family, or why not."""
     test = grazing_test(virtual, side)
 
@@ -159,7 +180,10 @@ def locate(virtual: MapProblem, side: int, u0, tol: float):
         ev = virtual.evaluate(z, params)
         if not ev.ok or ev.singular:
             return f"the virtual orbit could not be evaluated: {ev.failure or ev.singular}"
-        value, row = test(ev, u)
+        out = test(ev, u)
+        if isinstance(out, str):
+            return f"the grazing test could not be evaluated: {out}"
+        value, row = out
         return np.concatenate([ev.residual, value]), np.vstack([jacobian_rows(virtual, ev), row]), ev
 
     return _newton(fun, u0, tol)
@@ -220,7 +244,7 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
             return one
         u_g, ev_g, info, accuracy, far, case, message = one
         return Crossing(side, u_g, ev_g, info, accuracy, far, case, message, one_of_several=True)
-    found = _grazing_near(problem, virtual, node, side, h, settings, bounds)
+    found = grazing_near(problem, virtual, node, side, h, settings, bounds)
     if isinstance(found, str):
         return found
     u_g, ev_g, error, t_free = found
@@ -239,7 +263,7 @@ def cross(problem: MapProblem, node, side: int, h: float, settings: Settings, bo
     return Crossing(side, u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message)
 
 
-def _grazing_near(problem: MapProblem, virtual: MapProblem, node, side: int, h: float, settings: Settings, bounds):
+def grazing_near(problem, virtual, node, side: int | str, h: float, settings: Settings, bounds):
     """``(u_g, ev_g, error, t_free)``: the grazing the branch reaches, located on the virtual family, or why not.
 
     ``t_free`` is the virtual family's tangent at the grazing, oriented towards the contact-free
@@ -252,11 +276,15 @@ def _grazing_near(problem: MapProblem, virtual: MapProblem, node, side: int, h: 
     distance = float(np.linalg.norm(u_g - node.u))
     if distance > max(10.0 * h, REACH):
         return f"the grazing located is {distance:.3g} away from the branch's last point: not the one it reaches"
-    value = u_g[2] * problem.scales[0]
+    d = problem.dimension
+    value = u_g[d] * problem.scales[0]
     if bounds is not None and not bounds[0] <= value <= bounds[1]:
         return f"the grazing lies beyond the limits, at {problem.names[0]} = {value!r}"
     rows = jacobian_rows(virtual, ev_g)
-    _, row = grazing_test(virtual, side)(ev_g, u_g)
+    out = grazing_test(virtual, side)(ev_g, u_g)
+    if isinstance(out, str):
+        return f"the grazing test could not be evaluated at the grazing: {out}"
+    row = out[1]
     t_v = np.linalg.svd(rows)[2][-1]
     slope = float(row[0] @ t_v)
     if abs(slope) < 1e-12:
@@ -273,14 +301,14 @@ def _far_side(problem: MapProblem, ev_g, u_g, t_free, side: int, h: float, setti
     softer one the virtual family's tangent into the flange.
     """
     if from_contact:
-        far = _beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
+        far = beyond(problem, u_g, t_free, h, settings, side, want_contact=False)
         return far if isinstance(far, str) else (far, np.sign(t_free[2]))
     far = _beyond_rigid(problem, problem.virtual(side), ev_g, u_g, side, h, settings)
     if not isinstance(far, str):
         return far[0], np.sign(far[1])
     if problem.rigid:
         return far
-    far = _beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
+    far = beyond(problem, u_g, -t_free, h, settings, side, want_contact=True)
     return far if isinstance(far, str) else (far, -np.sign(t_free[2]))
 
 
@@ -313,7 +341,7 @@ def _grazes_other(virtual: MapProblem, ev, side: int) -> bool:
     return abs(gap + side * x) < TOUCHES_BOTH * max(1.0, gap)
 
 
-def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
+def beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
     """The first point of the branch's own family a step ``h`` from the grazing along ``direction``."""
     why = "no step tried"
     # from a step the branch came with (not less than FAR_STEP: right past a stiff flange's grazing the map is
@@ -330,7 +358,8 @@ def _beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
             why = f"the corrected point lies on the wrong side of the grazing (margin {m:.3g})"
             continue
         t_far = tangent(jacobian_rows(problem, result.ev), direction)
-        if (result.u[2] - u_g[2]) * direction[2] < 0.0 or t_far[2] * direction[2] < 0.0:
+        d = problem.dimension
+        if (result.u[d] - u_g[d]) * direction[d] < 0.0 or t_far[d] * direction[d] < 0.0:
             why = "a fold lies within the step"  # the family turned back in the parameter: locate it normally
             continue
         return result

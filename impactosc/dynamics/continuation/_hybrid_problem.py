@@ -19,9 +19,10 @@ locates:
 
 The smooth special points (fold, branch point, period doubling, Neimark-Sacker) are the
 same test functions of the ``n x n`` monodromy matrix as for the built-in family. A
-grazing is not crossed: a branch whose corrector cannot go on next to one (the square-root
-map of an impact with a reset) ends there with status 2, the grazing labelled with its
-guard.
+grazing the branch reaches is crossed by the built-in family's code (:mod:`._grazing`), on
+the map of the system with the grazed guard taken away and, for a guard with a reset, the
+impact formulation of its impacting orbits (:mod:`._guard_crossing`); where that fails the
+branch ends there with status 2, the grazing labelled with its guard.
 """
 
 from __future__ import annotations
@@ -55,9 +56,9 @@ class SystemProblem:
         One per free parameter: the unknowns are ``p / scale`` (default ``max(|p|, 1e-3)``).
     """
 
-    #: No rigid walls bound the corrector's iterates, and no grazing or section impact is crossed.
+    #: No rigid walls bound the corrector's iterates; grazings of guards are crossed (:mod:`._grazing`).
     rigid = False
-    nonsmooth_steps = False
+    nonsmooth_steps = True
     stripped = 0
     walls = (math.inf, math.inf)
     backend = "heyoka"

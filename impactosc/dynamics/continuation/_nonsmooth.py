@@ -14,9 +14,11 @@ import numpy as np
 
 from .._common import oscillator_of
 from ._arclength import Corrected, Settings, correct, unscaled
-from ._grazing import Crossing, contacts_on, cross, locate, stripped_sides
+from ._crossing import cross
+from ._grazing import TOUCHES_BOTH, Crossing, contacts_on, crossings_of, locate, stripped_sides
+from ._guard_crossing import GuardlessProblem, replace_info_singular
 from ._nodes import Found, Node, make_node
-from ._points import point_info
+from ._points import GUARD, point_info
 
 __all__ = ["across_section", "crossed", "regular_grazing", "try_crossing"]
 
@@ -31,8 +33,8 @@ def try_crossing(problem, node: Node, side: int, h: float, settings: Settings, b
     if isinstance(result, Crossing):
         return crossed(problem, node, result, direction, index)
     if why is not None:
-        flange = "upper" if side > 0 else "lower"
-        why["crossing_failure"] = f"crossing the {flange} flange's grazing failed: {result}"
+        what = f"the guard {side!r}" if isinstance(side, str) else f"the {'upper' if side > 0 else 'lower'} flange"
+        why["crossing_failure"] = f"crossing {what}'s grazing failed: {result}"
     return None
 
 
@@ -95,10 +97,13 @@ def crossed(problem, node: Node, result: Crossing, direction: int, index: int):
     new = make_node(problem, far, chord, graze_arc + direction * float(np.linalg.norm(far.u - result.grazing_u)))
     gnode = Node(result.grazing_u, chord, Corrected(result.grazing_u, result.grazing_ev, 0), result.grazing_info,
                  graze_arc)
-    test = "upper_margin" if result.side > 0 else "lower_margin"
+    extra: dict
+    if isinstance(result.side, str):  # a user system's guard
+        extra = {"test": GUARD + result.side, "guard": result.side}
+    else:
+        extra = {"test": "upper_margin" if result.side > 0 else "lower_margin", "side": result.side}
     graze = Found("grazing", gnode, node.info.signature, new.info.signature, result.accuracy, result.message,
-                  index, {"test": test, "side": result.side, "case": result.case, "virtual": True,
-                          "one_of_several": result.one_of_several})
+                  index, {**extra, "case": result.case, "virtual": True, "one_of_several": result.one_of_several})
     return new, graze
 
 
@@ -110,6 +115,8 @@ def regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, in
     regula falsi across the nonsmooth point: only where one side of the step touches the
     flange in one contact, and the grazing lies between the two points in the parameter.
     """
+    if name.startswith(GUARD):
+        return _regular_guard_grazing(problem, a, b, name, settings, index)
     side = 1 if name == "upper_margin" else -1
     if len(problem.names) != 1 or problem.stripped:
         return None
@@ -135,3 +142,41 @@ def regular_grazing(problem, a: Node, b: Node, name: str, settings: Settings, in
                  f"the orbit grazes the {flange} flange: located as a regular point of the contact-free orbits "
                  "(gap - max X = 0) between two points of the branch", index,
                  {"test": name, "side": side, "virtual": True})
+
+
+def _regular_guard_grazing(problem, a: Node, b: Node, name: str, settings: Settings, index: int):
+    """:func:`regular_grazing` of a user system's guard: on the orbits of the system without it, or None.
+
+    Only where one side of the step crosses the guard once a period and no other guard grazes
+    at the same point (the virtual map would not be smooth there).
+    """
+    guard = name.removeprefix(GUARD)
+    if len(problem.names) != 1 or problem.stripped:
+        return None
+    contact = a if a.info.test_value(name) < 0.0 else b
+    if crossings_of(contact.info, guard) != 1:
+        return None
+    free = b if contact is a else a
+    try:
+        virtual = GuardlessProblem(problem, guard)
+    except ValueError:
+        return None
+    found = locate(virtual, guard, free.u, settings.tol)
+    if isinstance(found, str):
+        return None
+    u_g, ev_g, error = found
+    d = problem.dimension
+    lo, hi = sorted((a.u[d], b.u[d]))
+    if not lo - 1e-12 <= u_g[d] <= hi + 1e-12:
+        return None
+    info = point_info(virtual, ev_g)
+    if any(abs(m) < TOUCHES_BOTH for m in info.margins.values()):
+        return None
+    if virtual.guard.reset:
+        info = replace_info_singular(info, f"the map is not differentiable where the orbit grazes the guard {guard!r} "
+                                           "with its reset (a square-root term, Nordmark 1991)")
+    node = Node(u_g, free.t, Corrected(u_g, ev_g, 0), info, a.arclength)
+    return Found("grazing", node, a.info.signature, b.info.signature, abs(float(error[d])) * problem.scales[0],
+                 f"the orbit touches the guard {guard!r} tangentially: located as a regular point of the orbits of "
+                 "the system with that guard taken away (its value at its extremum = 0) between two points of the "
+                 "branch", index, {"test": name, "guard": guard, "virtual": True})

@@ -66,7 +66,8 @@ class MapProblem:
     ``dimension`` (the state's length), ``evaluate(z, params)``, ``values()``, ``model(params)``,
     ``period(params)``, ``margin_tests`` (the margins whose zeros are nonsmooth points),
     ``events_in(ev)``, ``limit_events(count)``, ``doubled()``; ``nonsmooth_steps`` says whether it
-    crosses grazings and impacts on the section (:mod:`._nonsmooth`, the built-in family only).
+    crosses grazings and impacts on the section (:mod:`._nonsmooth`; a user system's problem crosses
+    the grazings of its guards, :mod:`._guard_crossing`).
 
     Parameters
     ----------
