@@ -20,6 +20,9 @@ drive in SI units (:class:`~impactosc.TapeDrive`):
 :func:`continuation`               follow a family of periodic orbits in one parameter (a
                                    :class:`Branch`) with its folds, period doublings, grazings
                                    and stick onsets located; a located point in two parameters
+:func:`critical_clearance_boundary` a tape path's critical clearance at a guide, continued as
+                                   the grazing boundary of its flange against a second SI
+                                   parameter (speed or run-out)
 :class:`HybridMap`                 the stroboscopic (or section) map of a user system
                                    (:class:`~impactosc.HybridSystem`) and its Jacobians by saltation
 :func:`periodic_orbit_of`          a periodic orbit of a user system by Newton's method on its
@@ -48,7 +51,7 @@ from .closed_form import (
     den_hartog_onset,
     quasi_static_critical_clearance,
 )
-from .continuation import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint, continuation
+from .continuation import SPECIAL_KINDS, Branch, BranchPoint, SpecialPoint, continuation, critical_clearance_boundary
 from .hybrid_map import HybridMap, HybridMapValue, periodic_orbit_of
 from .hybrid_map import HybridOrbit as HybridOrbit  # the former name of PeriodicOrbit for user systems
 from .lyapunov import LyapunovResult, lyapunov_exponent, map_lyapunov_exponent
@@ -85,6 +88,7 @@ __all__ = [
     "BranchPoint",
     "SpecialPoint",
     "SPECIAL_KINDS",
+    "critical_clearance_boundary",
     "HybridMap",
     "HybridMapValue",
     "periodic_orbit_of",
