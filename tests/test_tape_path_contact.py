@@ -107,6 +107,20 @@ def test_a_reached_neighbour_flange_limits_the_guide_after_it():
     assert critical_clearance(tight, 1) == pytest.approx(critical_clearance(free, 1), rel=1e-9)
 
 
+def test_a_peak_between_the_samples_is_found_by_the_exact_guard_search():
+    # Guide 0 touches its flanges, which sets the tape ringing at guide 1 far above the run-out's
+    # frequency: a peak of guide 1's deflection narrower than 512 samples a turn. Sampled and
+    # polished at the largest sample, the critical clearance read 4.00317e-5 m (1.5e-4 low);
+    # the probe contacts of the certified guard search find the peak between the samples.
+    path = TapePath(TapeDrive(friction=0.0, damping_ratio=0.05),
+                    [Guide(0.02, clearance=80e-6), Guide(0.05, clearance=30e-6)], end_span=0.03)
+    coarse = steady_deflection(path, 1, samples=512)
+    dense = steady_deflection(path, 1, samples=32768)  # spacing below the ringing's period
+    assert coarse["status"] == 0 and dense["status"] == 0
+    assert coarse["critical_clearance"] == pytest.approx(dense["critical_clearance"], rel=1e-10)
+    assert coarse["max"] == pytest.approx(4.0037798462508e-05, rel=1e-10)
+
+
 def test_the_chart_is_the_critical_clearance_of_every_point():
     path = _path()
     grid = {"speed": [2.0, 8.0], "tension": [0.5, 2.0]}

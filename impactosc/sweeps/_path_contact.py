@@ -4,7 +4,8 @@ A guide's **critical clearance** is the largest clearance at which the tape touc
 guide's flanges: the steady-state extreme lateral deflection at the guide with its flanges
 taken away (every other guide keeps its flanges and friction), plus or minus the guide's
 offset. It is measured by simulating the transient out on the exact n-DOF backend and
-taking the extremes over whole turns of the reel; without friction and contact the motion is
+taking the extremes over whole turns of the reel (samples, polished, then checked by the
+backend's certified guard search for a peak between the samples); without friction and contact the motion is
 the linear chain's harmonic response, ``|H(i w) f|`` at the guide, and the measurement
 reproduces it (tests check this closed form).
 """
@@ -22,6 +23,7 @@ import xarray as xr
 from .._util import validation as _v
 from ..backends._exact_mdof import simulate_mechanical
 from ..backends._simulate import DEFAULT_MAX_EVENTS
+from ..model._mechanical import Contact, MechanicalSystem
 from ..model._tape_path import TapePath
 from ..model._tape_path_file import check_parameter, parameter_units
 from ._path_grid import assemble_paths, plan_paths, run_paths
@@ -36,6 +38,11 @@ SETTLE_DECADES = 14.0
 #: Default limit in seconds of tape motion on the settle time: a lightly damped chain whose
 #: transient outlasts it is refused by name rather than simulated for hours.
 MAX_SETTLE_SECONDS = 2.0
+#: Relative margin beyond a located extreme at which a probe contact checks for a higher peak
+#: between the samples (see ``_unsampled_peaks``): a peak higher by more than this is found.
+PROBE_MARGIN = 1e-9
+#: Probe runs before the extremes are declared uncertain (each finds one higher peak).
+MAX_PROBES = 8
 
 CONTACT_RESULTS = {
     "critical_clearance": ("m", "critical clearance: the largest at which the tape touches the guide's flanges"),
@@ -71,7 +78,10 @@ def steady_deflection(path: TapePath, guide: int, *, phase: float = 0.0, turns: 
     The path (every other guide with its flanges and friction) runs from rest for the settle
     time (the slowest mode's transient down by ``10**SETTLE_DECADES``, in whole turns of the
     reel), then ``turns`` whole turns are sampled at ``samples`` points per turn and every
-    extreme is polished by a bounded scalar search on the closed form. A roller's run-out turns
+    extreme is polished by a bounded scalar search on the closed form, then checked over the
+    turns by the exact backend's certified guard search (two probe contacts just beyond the
+    extremes: a contact start is a higher peak between the samples, polished and checked
+    again), so a narrow peak (the tape ringing after another guide's contact) is not missed. A roller's run-out turns
     at its own frequency: the motion is then not periodic in the reel's turn, and the
     extremes of the measured turns approach the true ones as ``turns`` grows.
 
@@ -100,8 +110,6 @@ def steady_deflection(path: TapePath, guide: int, *, phase: float = 0.0, turns: 
         of the flanges the guide has), ``settle_time`` (s), ``status`` (0: the run reached
         its end) and ``message``.
     """
-    from scipy.optimize import minimize_scalar
-
     if not isinstance(path, TapePath):
         raise TypeError(f"path must be a TapePath, got {path!r} of type {type(path).__name__}")
     g = path.check_guide(guide)
@@ -119,22 +127,72 @@ def steady_deflection(path: TapePath, guide: int, *, phase: float = 0.0, turns: 
         return out | dict.fromkeys(("max", "min", "critical_clearance", "critical_clearance_upper",
                                     "critical_clearance_lower"), math.nan)
     t = np.linspace(t0, t1, turns * samples + 1)
-    q = sol.sample(t)[0][:, g]
-
-    def polish(sign: float) -> float:
-        k = int(np.argmax(sign * q))
-        lo, hi = t[k] - dt, t[k] + dt
-        res = minimize_scalar(lambda s: -sign * float(sol.sample([s])[0][0, g]), bounds=(lo, hi), method="bounded",
-                              options={"xatol": 1e-10 * max(abs(t1), 1.0)})
-        return sign * max(sign * q[k], -float(res.fun))
-
+    extremes = [_peak(sol, g, 1.0, t), _peak(sol, g, -1.0, t)]
+    status, message = _unsampled_peaks(system, sol, g, (t0, t1), extremes, max_events)
+    if status != 0:
+        return out | {"status": status, "message": message} | dict.fromkeys(
+            ("max", "min", "critical_clearance", "critical_clearance_upper", "critical_clearance_lower"), math.nan)
     L = path.length_scale
-    q_max, q_min = polish(1.0) * L, polish(-1.0) * L
+    q_max, q_min = extremes[0] * L, extremes[1] * L
     gd = path.guide_drive(g)
     upper, lower = q_max + gd.guide_offset, -q_min - gd.guide_offset
     present = [c for c, side in ((upper, "upper"), (lower, "lower")) if gd.flange_sides in ("both", side)]
     return out | {"max": q_max, "min": q_min, "critical_clearance_upper": upper, "critical_clearance_lower": lower,
                   "critical_clearance": max(present)}
+
+
+def _peak(sol, g: int, sign: float, t: np.ndarray) -> float:
+    """The largest ``sign * q_g`` (times ``sign``) over the samples ``t``, polished by a bounded search
+    around the largest sample (one sample spacing each way) on the closed form."""
+    from scipy.optimize import minimize_scalar
+
+    q = sol.sample(t)[0][:, g]
+    k = int(np.argmax(sign * q))
+    spacing = float(t[1] - t[0])
+    res = minimize_scalar(lambda s: -sign * float(sol.sample([s])[0][0, g]), bounds=(t[k] - spacing, t[k] + spacing),
+                          method="bounded", options={"xatol": 1e-10 * max(abs(float(t[-1])), 1.0)})
+    return sign * max(sign * float(q[k]), -float(res.fun))
+
+
+def _unsampled_peaks(system, sol, g: int, window: tuple[float, float], extremes: list, max_events: int
+                     ) -> tuple[int, str]:
+    """Raise ``extremes`` (``[max, min]`` of ``q_g`` over ``window``, from samples) to any peak between the samples.
+
+    Sampling misses a peak narrower than its spacing (another guide's contact sets the tape
+    ringing at a natural frequency far above the run-out's). The exact backend's guard search
+    is certified (no crossing missed), so the flangeless system is run over the window again
+    from its state at the window's start with two probe contacts on the guide just beyond the
+    extremes (``PROBE_MARGIN`` relative): a contact start is a higher peak, polished where it
+    happens, and the probes move out to it; none, and the extremes hold. The probes change
+    nothing before their first contact, the only event read. Returns ``(status, message)``:
+    non-zero when a probe run failed, or the peaks kept rising for ``MAX_PROBES`` runs.
+    """
+    t0, t1 = window
+    q0, v0 = (a[0] for a in sol.sample([t0]))
+    # the forcing from the window's start: cos(w (t0 + s) + phi)
+    harmonics = [(f, w, phi + w * t0) for f, w, phi in system.harmonics]
+    unit = np.eye(system.n)[g]
+    base = len(system.contacts)
+    for _ in range(MAX_PROBES):
+        margin = PROBE_MARGIN * max(abs(extremes[0]), abs(extremes[1]), 1e-300)
+        probes = [Contact(unit, extremes[0] + margin, law="spring", stiffness=1.0),
+                  Contact(-unit, -extremes[1] + margin, law="spring", stiffness=1.0)]
+        probe = MechanicalSystem(M=system.M, C=system.C, K=system.K, harmonics=harmonics,
+                                 contacts=[*system.contacts, *probes], friction=system.friction)
+        run = simulate_mechanical(probe, t1 - t0, q0, v0, max_events=max_events, energy=False)
+        ev = run.events
+        hit = np.flatnonzero((ev["kind"] == "contact_start") & (ev["index"] >= base))
+        if hit.size == 0:
+            return (0, "") if run.status == 0 else (int(run.status), f"the probe run failed: {run.message}")
+        k = int(hit[0])
+        side = 0 if int(ev["index"][k]) == base else 1
+        sign = 1.0 if side == 0 else -1.0
+        # the peak follows the crossing of the probe's level within the ringing's quarter period
+        t_hit = t0 + float(ev["t"][k])
+        near = np.linspace(t_hit, min(t_hit + (t1 - t0) / 64.0, t1), 257)
+        extremes[side] = sign * max(sign * extremes[side], sign * _peak(sol, g, sign, near))
+    return -1, (f"the deflection's peaks at guide {g} kept rising past {MAX_PROBES} probes of the exact guard search; "
+                "the extremes are not certain")
 
 
 def critical_clearance(path: TapePath, guide: int, **options) -> float:

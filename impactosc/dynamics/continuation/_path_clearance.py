@@ -119,12 +119,10 @@ def critical_clearance_boundary(path: TapePath, guide: int, parameters=("clearan
     and a user system's).
 
     The extreme deflection is located exactly along the orbit (the extrema of the guard's value
-    are events of the Taylor integrator), where :func:`~impactosc.sweeps.critical_clearance`
-    samples each turn and polishes the largest sample: where another guide's contact sets the
-    tape ringing at a natural frequency far above the run-out's, a peak narrower than the
-    sample spacing is missed (a two-guide path whose first guide touches its flanges, with a
-    run-out of 9.75e-5 m: 1.00224e-5 m measured with the default 512 samples a turn,
-    1.00464e-5 m with 2048 or more and here). Such a path is nonlinear, and a map period takes many
+    are events of the Taylor integrator), as :func:`~impactosc.sweeps.critical_clearance`
+    locates it by samples checked with the exact backend's certified guard search (a peak
+    between the samples, where another guide's contact sets the tape ringing, is found).
+    Such a path is nonlinear, and a map period takes many
     events: each point then costs far more than a measurement (11 points in about 200 s,
     against about a second for the linear path). The curve is that of the periodic orbit it
     starts from (the one a run from rest settles near).
