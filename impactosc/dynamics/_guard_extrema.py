@@ -16,6 +16,7 @@ import threading
 
 import numpy as np
 
+from .._util.cache import BuiltOnce
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import gated_sum, numeric
 
@@ -99,15 +100,11 @@ class _Extrema:
         return found
 
 
-_extrema: dict[tuple[tuple, float], _Extrema] = {}
+_extrema: BuiltOnce[_Extrema] = BuiltOnce()
 
 
 def _extrema_integrator(system: HybridSystem, tol: float) -> _Extrema:
-    key = (system.structure, tol)
-    found = _extrema.get(key)
-    if found is None:
-        found = _extrema[key] = _Extrema(system, tol)
-    return found
+    return _extrema.get((system.structure, tol), lambda: _Extrema(system, tol))
 
 
 def guard_extrema(system: HybridSystem, rule, structure: tuple, sol, p) -> tuple:

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from .._util.cache import BuiltOnce
 from ..backends._hybrid import simulate_system
 from ..backends._hybrid_heyoka import DEFAULT_TOL
 from ..model.hybrid._definition import HybridSystem
@@ -128,15 +129,11 @@ class _Tangent:
         return np.array(ta.state[self.n_all:]).reshape(self.n_all, self.width)
 
 
-_tangents: dict[tuple[tuple, float], _Tangent] = {}
+_tangents: BuiltOnce[_Tangent] = BuiltOnce()
 
 
 def _tangent(system: HybridSystem, tol: float) -> _Tangent:
-    key = (system.structure, tol)
-    found = _tangents.get(key)
-    if found is None:
-        found = _tangents[key] = _Tangent(system, tol)
-    return found
+    return _tangents.get((system.structure, tol), lambda: _Tangent(system, tol))
 
 
 class HybridMap:

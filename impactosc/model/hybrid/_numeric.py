@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..._util.cache import BuiltOnce
+
 if TYPE_CHECKING:  # annotations only: the definition imports this module for its period
     from ._definition import HybridSystem
 
@@ -129,15 +131,12 @@ class Numeric:
         return hy.subs(expr, self._subs)
 
 
-_by_structure: dict[tuple, Numeric] = {}
+_by_structure: BuiltOnce[Numeric] = BuiltOnce()
 
 
 def numeric(system: HybridSystem) -> Numeric:
     """The :class:`Numeric` of ``system``'s structure (cached: shared across parameter values)."""
-    found = _by_structure.get(system.structure)
-    if found is None:
-        found = _by_structure[system.structure] = Numeric(system)
-    return found
+    return _by_structure.get(system.structure, lambda: Numeric(system))
 
 
 def evaluator(num: Numeric, exprs, label: str):
