@@ -14,9 +14,10 @@ import cmath
 import numpy as np
 
 from ..._util.jit import HAVE_NUMBA, njit
-from ._forms import integrals, rdot, rmv, setup_piece, state_at
+from ._forms import integrals, rdot, rmv, state_at
 from ._guards import search
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, STICK
+from ._setup import setup_piece
 
 if HAVE_NUMBA:
     from numba.typed import List
@@ -27,15 +28,15 @@ __all__ = ["advance", "run_modes", "new_table", "push_mode", "holding_force"]
 
 
 @njit
-def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
-            t0, q0, v0, t_end, energy):
+def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om, fh, constants, vq, vv, vq0, vv0,
+            csym, t0, q0, v0, t_end, energy):
     """One piece from ``(t0, q0, v0)`` to its first guard or ``t_end``, in one compiled call.
 
     Returns ``(tau, guard, status, q1, v1, work, dissipation)`` (:func:`setup_piece`,
     :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`).
     """
     a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X = setup_piece(
-        lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0)
+        lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om, fh, constants, t0, q0, v0)
     armed = np.ones(W.shape[0], dtype=np.bool_)
     tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, t_end - t0)
     if status != 0:
@@ -74,20 +75,21 @@ def holding_force(table, row, i, om, fh, C, t, q, v):
 
 @njit
 def new_table(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-              guard_index, guard_sign, motion, info, weights, friction_row):
-    """A typed list of mode rows holding this first one (built here: typing the row in Python costs ms)."""
+              guard_index, guard_sign, motion, info, weights, friction_row, constants):
+    """A typed list of mode rows holding this first one (built here: typing the row in Python costs ms);
+    a row is :meth:`._modes.Mode.entry` and the mode's :func:`._setup.mode_constants`."""
     table = List()
     table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-                  guard_index, guard_sign, motion, info, weights, friction_row))
+                  guard_index, guard_sign, motion, info, weights, friction_row, constants))
     return table
 
 
 @njit
 def push_mode(table, lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0,
-              guard_kind, guard_index, guard_sign, motion, info, weights, friction_row):
+              guard_kind, guard_index, guard_sign, motion, info, weights, friction_row, constants):
     """Append a mode row to ``table`` (:func:`new_table`)."""
     table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-                  guard_index, guard_sign, motion, info, weights, friction_row))
+                  guard_index, guard_sign, motion, info, weights, friction_row, constants))
 
 
 @njit
@@ -120,10 +122,10 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
     escale = 0.0
     cap = ev_t.shape[0]
     while True:
-        (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-         guard_index, guard_sign, motion, info, _, _) = table[mi]
-        tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om,
-                                           fh, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy)
+        (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, _, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+         guard_index, guard_sign, motion, info, _, _, constants) = table[mi]
+        tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om,
+                                           fh, constants, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy)
         pc_t[n_pc] = t
         pc_mode[n_pc] = mi
         pc_q[n_pc] = q
