@@ -43,7 +43,7 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om,
         return tau, g, status, q0, v0, 0.0, 0.0
     if g < 0:
         tau = t_end - t0
-    q1, v1 = state_at(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau)
+    q1, v1 = state_at(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau)
     work = diss = 0.0
     if energy:
         work, diss = integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)

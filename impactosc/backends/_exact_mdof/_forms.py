@@ -105,18 +105,28 @@ def rdot(a, b):
 
 
 @njit
-def modal_at(lam, a, P, beta, res, omt, tau):
-    """The modal coordinates ``eta(tau)`` of the piece (complex)."""
+def modal_at(lam, pair, a, P, beta, res, omt, tau):
+    """The modal coordinates ``eta(tau)`` of the piece (complex).
+
+    One exponential per conjugate pair of eigenvalues (``pair``, :func:`._modes._conjugate_pairs`:
+    ``e^{conj(lambda) tau} = conj(e^{lambda tau})``) and one per harmonic, shared by every mode.
+    """
     m2 = lam.shape[0]
+    jt = omt.shape[0]
+    harmonic = np.empty(jt, dtype=np.complex128)
+    for j in range(jt):
+        harmonic[j] = cmath.exp(1j * omt[j] * tau)
+    own = np.empty(m2, dtype=np.complex128)
     eta = np.empty(m2, dtype=np.complex128)
     for k in range(m2):
-        s = a[k] * cmath.exp(lam[k] * tau)
-        for j in range(omt.shape[0]):
-            mu = 1j * omt[j]
+        p = pair[k]
+        own[k] = np.conj(own[p]) if 0 <= p < k else cmath.exp(lam[k] * tau)
+        s = a[k] * own[k]
+        for j in range(jt):
             if res[k, j]:
-                s += beta[k, j] * E(lam[k], mu, tau)
+                s += beta[k, j] * E(lam[k], 1j * omt[j], tau)
             else:
-                s += P[k, j] * cmath.exp(mu * tau)
+                s += P[k, j] * harmonic[j]
         eta[k] = s
     return eta
 
@@ -134,9 +144,9 @@ def zero_at(Xi, X, omt, tau):
 
 
 @njit
-def state_at(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau):
+def state_at(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau):
     """``(q, v)`` at ``tau`` after the piece start: ``q = q0 + Re(Vq eta + Vq0 xi)``, ``v = Re(Vv eta + Vv0 xi)``."""
-    eta = modal_at(lam, a, P, beta, res, omt, tau)
+    eta = modal_at(lam, pair, a, P, beta, res, omt, tau)
     xi = zero_at(Xi, X, omt, tau)
     q = q0 + re_cmv(vq, eta)
     v = re_cmv(vv, eta)
@@ -165,15 +175,16 @@ def integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csy
     if tau <= 0.0:
         return 0.0, 0.0
     if Xi.shape[1] > 0:
-        return _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)
+        return _integrals_quadrature(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh,
+                                     t0)
     m2 = lam.shape[0]
     jt = omt.shape[0]
     n = vv.shape[0]
     for k in range(m2):
         for j in range(jt):
             if res[k, j]:
-                return _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh,
-                                             t0)
+                return _integrals_quadrature(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om,
+                                             fh, t0)
     # the velocity's terms: c[p] e^{z[p] tau}
     c = np.zeros((m2 + jt, n), dtype=np.complex128)
     z = np.zeros(m2 + jt, dtype=np.complex128)
@@ -226,7 +237,7 @@ def integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csy
 
 
 @njit
-def _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0):
+def _integrals_quadrature(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0):
     """:func:`integrals` by composite 16-node Gauss-Legendre on sub-intervals no longer than half
     the shortest period of the piece (the integrands are sums of exponentials and harmonics),
     for pieces with resonant terms or rigid-body motion.
@@ -244,7 +255,7 @@ def _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, ta
         left = h * i
         for p in range(_GL_NODES.shape[0]):
             s = left + 0.5 * h * (_GL_NODES[p] + 1.0)
-            eta = modal_at(lam, a, P, beta, res, omt, s)
+            eta = modal_at(lam, pair, a, P, beta, res, omt, s)
             xi = zero_at(Xi, X, omt, s)
             v = re_cmv(vv, eta)
             if xi.shape[0] > 0:

@@ -144,8 +144,8 @@ class _Runner:
         qs = np.empty((taus.size, self.system.n))
         vs = np.empty_like(qs)
         for i, tau in enumerate(taus):
-            qs[i], vs[i] = _forms.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0,
-                                            Xi, X, q0, float(tau))
+            qs[i], vs[i] = _forms.state_at(mode.vq, mode.vv, mode.lam, mode.pair, a, P, beta, res, omt, mode.vq0,
+                                            mode.vv0, Xi, X, q0, float(tau))
         return qs, vs
 
     # --- forces needed by the transition rule -------------------------------------------------
