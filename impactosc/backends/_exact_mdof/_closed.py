@@ -15,7 +15,7 @@ import numpy as np
 
 from ..._util.jit import HAVE_NUMBA, njit
 from ._forms import integrals, rdot, rmv, state_at
-from ._guards import search
+from ._guards import search, workspace
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, STICK
 from ._setup import setup_piece
 
@@ -29,16 +29,18 @@ __all__ = ["advance", "run_modes", "new_table", "push_mode", "holding_force"]
 
 @njit
 def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om, fh, constants, vq, vv, vq0, vv0,
-            csym, t0, q0, v0, t_end, energy):
+            csym, t0, q0, v0, t_end, energy, work):
     """One piece from ``(t0, q0, v0)`` to its first guard or ``t_end``, in one compiled call.
 
     Returns ``(tau, guard, status, q1, v1, work, dissipation)`` (:func:`setup_piece`,
-    :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`).
+    :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`); ``work``: the
+    search's buffers (:func:`._guards.workspace`).
     """
     a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X = setup_piece(
         lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om, fh, constants, t0, q0, v0)
-    armed = np.ones(W.shape[0], dtype=np.bool_)
-    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, t_end - t0)
+    G, S, TT, Z, Cg, mag = work
+    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, t_end - t0, G, S, TT, Z, Cg,
+                            mag)
     if status != 0:
         return tau, g, status, q0, v0, 0.0, 0.0
     if g < 0:
@@ -121,11 +123,22 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
     work = diss = fric = loss = 0.0
     escale = 0.0
     cap = ev_t.shape[0]
+    ng = 0
+    nt = 0
+    for row in table:  # the search's buffers, for the largest mode built so far
+        ng = max(ng, row[4].shape[0])
+        nt = max(nt, row[0].shape[0] + om.shape[0])
+    buffers = workspace(ng, nt)
+    unpacked = -1
+    (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, _, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+     guard_index, guard_sign, motion, info, _, _, constants) = table[mi]
     while True:
-        (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, _, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-         guard_index, guard_sign, motion, info, _, _, constants) = table[mi]
+        if mi != unpacked:  # a row of arrays unpacked costs a reference count each: only on a mode change
+            (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, _, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+             guard_index, guard_sign, motion, info, _, _, constants) = table[mi]
+            unpacked = mi
         tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om,
-                                           fh, constants, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy)
+                                           fh, constants, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy, buffers)
         pc_t[n_pc] = t
         pc_mode[n_pc] = mi
         pc_q[n_pc] = q
