@@ -38,8 +38,8 @@ def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om,
     """
     a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X = setup_piece(
         lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om, fh, constants, t0, q0, v0)
-    G, S, TT, Z, Cg, mag = work
-    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, t_end - t0, G, S, TT, Z, Cg,
+    G, S, TT, terms, mag = work
+    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, t_end - t0, G, S, TT, terms,
                             mag)
     if status != 0:
         return tau, g, status, q0, v0, 0.0, 0.0

@@ -55,37 +55,68 @@ _START_ULPS = 64.0
 
 
 @njit_inline
-def _h(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, tau):
-    """``(h, h')`` of guard ``g`` at ``tau``: its constant part (``G[_CST, g]``) ``+ poly +
-    Re[sum_p Cg[g, p] e^{Z_p tau} + resonant terms]`` (:func:`_terms`)."""
+def _h_exp(terms, g, nt, tau):
+    """``(h, h')`` of guard ``g`` at ``tau`` without its rigid-body polynomial and resonant terms:
+    ``terms[1 + g, nt] + Re sum_{p < nt} terms[1 + g, p] e^{terms[0, p] tau}`` (:func:`_terms`).
+
+    One array: an array argument costs an atomic reference count at every call, here the
+    hottest call of a run.
+    """
     h = 0j
     dh = 0j
-    for p in range(nt):
-        c = Cg[g, p]
-        if c == 0j:
-            continue
-        e = c * cmath.exp(Z[p] * tau)
-        h += e
-        dh += Z[p] * e
+    if tau == 0.0:  # e^0 = 1: the same sums without the exponentials
+        for p in range(nt):
+            c = terms[1 + g, p]
+            h += c
+            dh += terms[0, p] * c
+    else:
+        for p in range(nt):
+            c = terms[1 + g, p]
+            if c == 0j:
+                continue
+            z = terms[0, p]
+            e = c * cmath.exp(z * tau)
+            h += e
+            dh += z * e
+    return terms[1 + g, nt].real + h.real, dh.real
+
+
+@njit
+def _h_more(g, lam, omt, rk, rj, RG, poly, tau):
+    """The rigid-body polynomial's and the resonant terms' share of guard ``g``'s ``(h, h')`` at ``tau``
+    (pieces that have them only: :func:`_h`)."""
     ph = 0.0
     pd = 0.0
     for p in range(poly.shape[1] - 1, -1, -1):  # Horner: the polynomial and its derivative
         pd = pd * tau + ph
         ph = ph * tau + poly[g, p]
+    h = 0j
+    dh = 0j
     for r in range(rk.shape[0]):
         lk = lam[rk[r]]
         mu = 1j * omt[rj[r]]
         e = E(lk, mu, tau)
         h += RG[g, r] * e
         dh += RG[g, r] * (lk * e + cmath.exp(mu * tau))
-    return G[_CST, g] + ph + h.real, pd + dh.real
+    return ph + h.real, pd + dh.real
+
+
+@njit_inline
+def _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, tau):
+    """``(h, h')`` of guard ``g`` at ``tau`` (:func:`_h_exp`, plus :func:`_h_more` when ``more``)."""
+    h, d = _h_exp(terms, g, nt, tau)
+    if more:
+        hm, dm = _h_more(g, lam, omt, rk, rj, RG, poly, tau)
+        h += hm
+        d += dm
+    return h, d
 
 
 @njit
 def _h_state(st, tau):
-    """:func:`_h` for the shared root refinement, which passes one state: ``st = (g, nt, Z, Cg, G, ...)``."""
-    g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly = st
-    return _h(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, tau)
+    """:func:`_h` for the shared root refinement, which passes one state: ``st = (terms, g, nt, more, ...)``."""
+    terms, g, nt, more, lam, omt, rk, rj, RG, poly = st
+    return _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, tau)
 
 
 #: Rows of the per-guard buffer ``G`` of :func:`workspace`: ``h`` and ``h'`` at the start of the
@@ -97,20 +128,21 @@ _HA, _DA, _START, _KNOWN, _CST, _WSIZE, _SSIZE = range(7)
 @njit
 def workspace(ng, nt):
     """Buffers of :func:`search` for up to ``ng`` guards and ``nt`` exponential terms, lent by the
-    caller so that a piece allocates nothing: ``(G, S, T, Z, Cg, mag)``."""
-    return (np.zeros((7, ng)), np.empty((3, _STACK)), np.empty((2, nt)), np.empty(nt, dtype=np.complex128),
-            np.empty((ng, nt), dtype=np.complex128), np.empty((ng, nt)))
+    caller so that a piece allocates nothing: ``(G, S, T, terms, mag)``."""
+    return (np.zeros((7, ng)), np.empty((3, _STACK)), np.empty((2, nt)),
+            np.empty((ng + 1, nt + 1), dtype=np.complex128), np.empty((ng, nt)))
 
 
 @njit_inline
-def _terms(lam, W, omt, D, c0, G, Z, Cg, mag):
+def _terms(lam, W, omt, D, c0, G, terms, mag):
     """A piece's guards as sums of exponentials, written into the workspace; returns their number ``nt``.
 
-    ``Z``: the exponents every guard shares (one eigenvalue per conjugate pair, whose partner's
-    coefficients :func:`._setup.setup_piece` folded to zero, and ``i omega_j`` per harmonic);
-    ``Cg[g, p]``: guard ``g``'s coefficient of ``e^{Z_p tau}`` and ``mag`` its size; ``G``'s rows
-    ``_CST``, ``_WSIZE``, ``_SSIZE``: the constant part (``c0`` and the constant forces' share)
-    and its sizes.
+    ``terms[0, p]``: the exponents every guard shares (one eigenvalue per conjugate pair, whose
+    partner's coefficients :func:`._setup.setup_piece` folded to zero, and ``i omega_j`` per
+    harmonic); ``terms[1 + g, p]``: guard ``g``'s coefficient of ``e^{terms[0, p] tau}`` and
+    ``mag[g, p]`` its size; ``terms[1 + g, nt]`` and ``G``'s row ``_CST``: its constant part
+    (``c0`` and the constant forces' share), ``G``'s rows ``_WSIZE``, ``_SSIZE``: the sizes of
+    that part.
     """
     ng = W.shape[0]
     p = 0
@@ -119,9 +151,9 @@ def _terms(lam, W, omt, D, c0, G, Z, Cg, mag):
         for g in range(ng):
             used = used or W[g, k] != 0j
         if used:
-            Z[p] = lam[k]
+            terms[0, p] = lam[k]
             for g in range(ng):
-                Cg[g, p] = W[g, k]
+                terms[1 + g, p] = W[g, k]
                 mag[g, p] = abs(W[g, k])
             p += 1
     for g in range(ng):
@@ -130,9 +162,9 @@ def _terms(lam, W, omt, D, c0, G, Z, Cg, mag):
         G[_SSIZE, g] = abs(c0[g])
     for j in range(omt.shape[0]):
         if omt[j] != 0.0:
-            Z[p] = 1j * omt[j]
+            terms[0, p] = 1j * omt[j]
             for g in range(ng):
-                Cg[g, p] = D[g, j]
+                terms[1 + g, p] = D[g, j]
                 mag[g, p] = abs(D[g, j])
             p += 1
         else:
@@ -140,11 +172,13 @@ def _terms(lam, W, omt, D, c0, G, Z, Cg, mag):
                 G[_CST, g] += D[g, j].real
                 G[_WSIZE, g] += abs(D[g, j].real)
                 G[_SSIZE, g] += abs(D[g, j])
+    for g in range(ng):
+        terms[1 + g, p] = G[_CST, g]
     return p
 
 
 @njit_inline
-def _window_terms(g, nt, Z, mag, G, lam, omt, rk, rj, RG, poly, a, b, T):
+def _window_terms(g, nt, terms, mag, G, lam, omt, rk, rj, RG, poly, a, b, T):
     """Guard ``g``'s terms on the window ``[a, b]``, for :func:`_slacks` and the ceiling test.
 
     Fills ``T[0]`` (each oscillating term's largest size on the window: ``|W| e^{max(Re lambda a,
@@ -171,11 +205,12 @@ def _window_terms(g, nt, Z, mag, G, lam, omt, rk, rj, RG, poly, a, b, T):
         m = mag[g, p]
         if m == 0.0:
             continue
-        grow = Z[p].real
+        z = terms[0, p]
+        grow = z.real
         if grow != 0.0:
             m *= math.exp(max(grow * a, grow * b))
         T[0, count] = m
-        T[1, count] = abs(Z[p])
+        T[1, count] = abs(z)
         count += 1
         moving += m
     for r in range(rk.shape[0]):
@@ -216,7 +251,7 @@ _STACK = 160
 
 
 @njit_inline
-def _first_rising(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, a, ha, da, b, hmin, S, count, c2, c3, T):
+def _first_rising(terms, g, nt, more, lam, omt, rk, rj, RG, poly, a, ha, da, b, hmin, S, count, c2, c3, T):
     """First crossing of guard ``g`` from negative to non-negative in ``(a, b]``.
 
     The bracketing of :func:`impactosc._util.roots.first_rising` (the same decision on every
@@ -228,7 +263,7 @@ def _first_rising(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, a, ha, da, b, hmi
     ``S``: the stack (right ends of the intervals to come, their ``h`` and ``h'``), rows of length
     :data:`_STACK` the caller lends; ``count, c2, c3, T``: the window's terms (:func:`_window_terms`).
     """
-    hb, db = _h(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, b)
+    hb, db = _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, b)
     end_h, end_d = hb, db
     top = 0
     S[0, 0], S[1, 0], S[2, 0] = b, hb, db
@@ -246,7 +281,7 @@ def _first_rising(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, a, ha, da, b, hmi
             if top + 1 >= _STACK:
                 return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
             mid = a + 0.5 * (b - a)
-            hm, dm = _h(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, mid)
+            hm, dm = _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, mid)
             top += 1
             S[0, top], S[1, top], S[2, top] = mid, hm, dm
         else:
@@ -256,13 +291,13 @@ def _first_rising(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, a, ha, da, b, hmi
 
 
 @njit_inline
-def _size(g, nt, Z, mag, G, RG, poly):
+def _size(g, nt, terms, mag, G, RG, poly):
     """The sizes of guard ``g``'s terms and of its derivative's at ``tau = 0`` (their rounding scales)."""
     s = G[_SSIZE, g] + abs(poly[g, 0])
     d = abs(poly[g, 1]) if poly.shape[1] > 1 else 0.0
     for p in range(nt):
         s += mag[g, p]
-        d += mag[g, p] * abs(Z[p])
+        d += mag[g, p] * abs(terms[0, p])
     for r in range(RG.shape[1]):
         d += abs(RG[g, r])
     return s, d
@@ -272,12 +307,13 @@ def _size(g, nt, Z, mag, G, RG, poly):
 def guard_values(lam, W, omt, D, rk, rj, RG, c0, poly, tau):
     """``(h, h')`` of every guard at ``tau`` (for the transition rule and the tests)."""
     ng = W.shape[0]
-    G, _, _, Z, Cg, mag = workspace(ng, lam.shape[0] + omt.shape[0])
-    nt = _terms(lam, W, omt, D, c0, G, Z, Cg, mag)
+    G, _, _, terms, mag = workspace(ng, lam.shape[0] + omt.shape[0])
+    nt = _terms(lam, W, omt, D, c0, G, terms, mag)
+    more = rk.shape[0] > 0 or poly.shape[1] > 1
     hs = np.empty(ng)
     ds = np.empty(ng)
     for g in range(ng):
-        hs[g], ds[g] = _h(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, tau)
+        hs[g], ds[g] = _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, tau)
     return hs, ds
 
 
@@ -311,7 +347,7 @@ def _leave_band(st, tol, t0, T):
 
 
 @njit
-def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, T, G, S, TT, Z, Cg, mag):
+def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, T, G, S, TT, terms, mag):
     """The first guard that rises through zero in ``(0, T]``: ``(tau, guard, status)``.
 
     ``guard`` is -1 when none does before ``T``. A guard that starts on its zero (within
@@ -320,11 +356,12 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, T, G, S, TT
     not clearly rising (it just fired; a lift-off or a release at the kinetic level, where it
     starts flat) is followed out of the rounding band: its search starts where it has left
     the band downwards (a sign change inside the band is rounding, not a crossing), or it is
-    reported where it rises out of the band. ``G, S, TT, Z, Cg, mag``: the buffers of
+    reported where it rises out of the band. ``G, S, TT, terms, mag``: the buffers of
     :func:`workspace`, large enough for this piece.
     """
     ng = W.shape[0]
-    nt = _terms(lam, W, omt, D, c0, G, Z, Cg, mag)
+    nt = _terms(lam, W, omt, D, c0, G, terms, mag)
+    more = rk.shape[0] > 0 or poly.shape[1] > 1  # a rigid-body polynomial or resonant terms
     nu = 0.0
     for k in range(lam.shape[0]):
         nu = max(nu, abs(lam[k]))
@@ -336,14 +373,14 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, T, G, S, TT
     for g in range(ng):
         G[_START, g] = 0.0
         G[_KNOWN, g] = 1.0  # G[_HA], G[_DA] hold h, h' at the start of the guard's next interval
-        h0, d0 = _h(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, 0.0)
-        size, dsize = _size(g, nt, Z, mag, G, RG, poly)
+        h0, d0 = _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, 0.0)
+        size, dsize = _size(g, nt, terms, mag, G, RG, poly)
         tol = _START_ULPS * _EPS * (size + cscale[g])
         dtol = _START_ULPS * _EPS * (dsize + dscale[g])
         if h0 >= -tol and (d0 > dtol or h0 > tol):
             return 0.0, g, 0
         if h0 >= -tol:
-            outcome, tau, h, d = _leave_band((g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly), tol, t0, T)
+            outcome, tau, h, d = _leave_band((terms, g, nt, more, lam, omt, rk, rj, RG, poly), tol, t0, T)
             if outcome == _ROOT and tau < cand_tau:
                 cand_tau, cand_g = tau, g
             G[_START, g] = tau if outcome == _BELOW else T
@@ -364,20 +401,21 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, T, G, S, TT
             hi_g = min(b, best)  # a crossing after the best one so far cannot win
             if hi_g <= lo_g:
                 continue
-            count, c2, c3, ceiling = _window_terms(g, nt, Z, mag, G, lam, omt, rk, rj, RG, poly, lo_g, hi_g, TT)
+            count, c2, c3, ceiling = _window_terms(g, nt, terms, mag, G, lam, omt, rk, rj, RG, poly, lo_g, hi_g,
+                                                   TT)
             if ceiling < 0.0:
                 G[_KNOWN, g] = 0.0  # below zero all the way: nothing to evaluate
                 continue
             if G[_KNOWN, g] == 0.0:
-                G[_HA, g], G[_DA, g] = _h(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, lo_g)
+                G[_HA, g], G[_DA, g] = _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, lo_g)
                 G[_KNOWN, g] = 1.0
-            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly, lo_g,
+            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(terms, g, nt, more, lam, omt, rk, rj, RG, poly, lo_g,
                                                                   G[_HA, g], G[_DA, g], hi_g, hmin, S, count, c2,
                                                                   c3, TT)
             if status == SEARCH_FAILED:
                 return lo_g, g, status
             if hit:
-                tau = refine(_h_state, (g, nt, Z, Cg, G, lam, omt, rk, rj, RG, poly), lo, hi, hlo, hhi, t0)
+                tau = refine(_h_state, (terms, g, nt, more, lam, omt, rk, rj, RG, poly), lo, hi, hlo, hhi, t0)
                 if tau < best:
                     best, best_g = tau, g
             G[_HA, g], G[_DA, g] = hb, db
