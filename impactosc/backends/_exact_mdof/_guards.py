@@ -130,7 +130,7 @@ def workspace(ng, nt):
     """Buffers of :func:`search` for up to ``ng`` guards and ``nt`` exponential terms, lent by the
     caller so that a piece allocates nothing: ``(G, S, T, terms, mag)``."""
     return (np.zeros((7, ng)), np.empty((3, _STACK)), np.empty((2, nt)),
-            np.empty((ng + 1, nt + 1), dtype=np.complex128), np.empty((ng, nt)))
+            np.empty((ng + 1, nt + 1), dtype=np.complex128), np.empty((ng + 1, nt)))
 
 
 @njit_inline
@@ -140,9 +140,9 @@ def _terms(lam, W, omt, D, c0, G, terms, mag):
     ``terms[0, p]``: the exponents every guard shares (one eigenvalue per conjugate pair, whose
     partner's coefficients :func:`._setup.setup_piece` folded to zero, and ``i omega_j`` per
     harmonic); ``terms[1 + g, p]``: guard ``g``'s coefficient of ``e^{terms[0, p] tau}`` and
-    ``mag[g, p]`` its size; ``terms[1 + g, nt]`` and ``G``'s row ``_CST``: its constant part
-    (``c0`` and the constant forces' share), ``G``'s rows ``_WSIZE``, ``_SSIZE``: the sizes of
-    that part.
+    ``mag[1 + g, p]`` its size (``mag[0, p]``: the exponent's); ``terms[1 + g, nt]`` and ``G``'s
+    row ``_CST``: its constant part (``c0`` and the constant forces' share), ``G``'s rows
+    ``_WSIZE``, ``_SSIZE``: the sizes of that part.
     """
     ng = W.shape[0]
     p = 0
@@ -152,9 +152,10 @@ def _terms(lam, W, omt, D, c0, G, terms, mag):
             used = used or W[g, k] != 0j
         if used:
             terms[0, p] = lam[k]
+            mag[0, p] = abs(lam[k])
             for g in range(ng):
                 terms[1 + g, p] = W[g, k]
-                mag[g, p] = abs(W[g, k])
+                mag[1 + g, p] = abs(W[g, k])
             p += 1
     for g in range(ng):
         G[_CST, g] = c0[g]
@@ -163,9 +164,10 @@ def _terms(lam, W, omt, D, c0, G, terms, mag):
     for j in range(omt.shape[0]):
         if omt[j] != 0.0:
             terms[0, p] = 1j * omt[j]
+            mag[0, p] = omt[j]
             for g in range(ng):
                 terms[1 + g, p] = D[g, j]
-                mag[g, p] = abs(D[g, j])
+                mag[1 + g, p] = abs(D[g, j])
             p += 1
         else:
             for g in range(ng):
@@ -202,15 +204,14 @@ def _window_terms(g, nt, terms, mag, G, lam, omt, rk, rj, RG, poly, a, b, T):
             c3 += abs(poly[g, p]) * p * (p - 1) * (p - 2) * x ** (p - 3)
     count = 0
     for p in range(nt):
-        m = mag[g, p]
+        m = mag[1 + g, p]
         if m == 0.0:
             continue
-        z = terms[0, p]
-        grow = z.real
+        grow = terms[0, p].real
         if grow != 0.0:
             m *= math.exp(max(grow * a, grow * b))
         T[0, count] = m
-        T[1, count] = abs(z)
+        T[1, count] = mag[0, p]
         count += 1
         moving += m
     for r in range(rk.shape[0]):
@@ -296,8 +297,8 @@ def _size(g, nt, terms, mag, G, RG, poly):
     s = G[_SSIZE, g] + abs(poly[g, 0])
     d = abs(poly[g, 1]) if poly.shape[1] > 1 else 0.0
     for p in range(nt):
-        s += mag[g, p]
-        d += mag[g, p] * abs(terms[0, p])
+        s += mag[1 + g, p]
+        d += mag[1 + g, p] * mag[0, p]
     for r in range(RG.shape[1]):
         d += abs(RG[g, r])
     return s, d
