@@ -162,14 +162,21 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
             if tau == 0.0 or info[0] != 0.0:
                 return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
             u = rdot(normals[c], v)
-            vn = v - (1.0 + restitution[c]) * u / nmn[c] * mn[c] if u > 0.0 else v.copy()
+            scale = (1.0 + restitution[c]) * u / nmn[c] if u > 0.0 else 0.0
+            vn = np.empty(v.shape[0])
+            q_abs = 0.0
+            vn_abs = 0.0
+            for i in range(v.shape[0]):  # loops: the vector expressions allocated a temporary each
+                vn[i] = v[i] - scale * mn[c, i]
+                q_abs += abs(q[i])
+                vn_abs += abs(vn[i])
             for i in range(fr_coord.shape[0]):
                 s = 1 if vn[fr_coord[i]] > 0.0 else (-1 if vn[fr_coord[i]] < 0.0 else 0)
                 if s != motion[i]:
                     return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
             if can_rest[c]:
                 wn = -rdot(normals[c], vn)
-                forces = f_norm + info[1] + info[2] * np.abs(q).sum() + c_norm * np.abs(vn).sum()
+                forces = f_norm + info[1] + info[2] * q_abs + c_norm * vn_abs
                 if wn <= 0.0 or wn * wn <= 2.0 * push_margin * mn_norm[c] * forces * chatter_height * max(1.0, gaps[c]):
                     return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
             if energy:
