@@ -21,8 +21,8 @@ import math
 
 from .jit import njit_inline
 
-__all__ = ["decide", "first_rising", "refine", "decide_jit", "first_rising_jit", "refine_jit", "MAX_BRACKET_STEPS",
-           "SEARCH_FAILED", "BISECT", "NO_CROSSING", "CROSSING"]
+__all__ = ["decide", "first_rising", "refine", "refine_from", "decide_jit", "first_rising_jit", "refine_jit",
+           "refine_from_jit", "MAX_BRACKET_STEPS", "SEARCH_FAILED", "BISECT", "NO_CROSSING", "CROSSING"]
 
 _EPS = 2.0**-52
 #: Intervals one guard search may examine in one window: a few hundred are typical (a
@@ -101,18 +101,15 @@ def first_rising(fun, state, a, ha, da, b, M2, M3, hmin):
     return False, a, a, ha, ha, end_h, end_d, 0
 
 
-def refine(fun, state, lo, hi, hlo, hhi, t0):
-    """Root of ``h = fun(state, tau)[0]`` in a bracket where it rises through 0 (``hlo < 0 <= hhi``).
+def refine_from(fun, state, lo, hi, x, t0):
+    """Root of ``h = fun(state, tau)[0]`` in a bracket where it rises through 0, from the start ``x``.
 
     Safeguarded Newton: a Newton step is taken when it stays inside the shrinking bracket
     and converges fast enough, a bisection otherwise, so the iteration is as robust as
     bisection and converges quadratically near the root. It stops when the step is below
-    one ulp of ``t0 + tau``.
+    one ulp of ``t0 + tau``. A start outside ``(lo, hi)`` is replaced by the midpoint.
     """
-    if hhi == 0.0:
-        return hi
     tol = _EPS * (abs(t0) + hi)
-    x = lo - hlo * (hi - lo) / (hhi - hlo)  # regula falsi start
     if not lo < x < hi:
         x = 0.5 * (lo + hi)
     dx_old = hi - lo
@@ -141,6 +138,19 @@ def refine(fun, state, lo, hi, hlo, hhi, t0):
             return xn
         x = xn
     return x
+
+
+#: The compiled copy of :func:`refine_from`, inlined into its compiled callers.
+refine_from_jit = njit_inline(refine_from)
+
+
+def refine(fun, state, lo, hi, hlo, hhi, t0):
+    """Root of ``h = fun(state, tau)[0]`` in a bracket where it rises through 0 (``hlo < 0 <= hhi``):
+    :func:`refine_from` from the regula falsi point."""
+    if hhi == 0.0:
+        return hi
+    x = lo - hlo * (hi - lo) / (hhi - hlo)  # regula falsi start
+    return refine_from_jit(fun, state, lo, hi, x, t0)
 
 
 #: The compiled copies, inlined into compiled callers (see :func:`impactosc._jit.njit_inline`).

@@ -38,6 +38,7 @@ import numpy as np
 from ..._util.jit import njit, njit_inline
 from ..._util.roots import BISECT, CROSSING, MAX_BRACKET_STEPS, SEARCH_FAILED
 from ..._util.roots import decide_jit as decide
+from ..._util.roots import refine_from_jit as refine_from
 from ..._util.roots import refine_jit as refine
 from ._forms import E
 
@@ -258,8 +259,9 @@ def _first_rising(terms, g, nt, more, lam, omt, rk, rj, RG, poly, a, ha, da, b, 
     The bracketing of :func:`impactosc._util.roots.first_rising` (the same decision on every
     interval, :func:`impactosc._util.roots.decide`), with the chord slacks of every interval
     from :func:`_slacks` (small fast terms bounded by their size) instead of one pair of
-    derivative bounds for the whole window. Returns ``(found, lo, hi, h(lo), h(hi), h(b), h'(b),
-    status)`` as that function does; ``status`` is ``SEARCH_FAILED`` on non-finite values, more
+    derivative bounds for the whole window. Returns ``(found, lo, hi, h(lo), h(hi), h'(lo), h'(hi),
+    h(b), h'(b), status)`` as that function does (with the derivatives at the bracket, for
+    :func:`_newton_start`); ``status`` is ``SEARCH_FAILED`` on non-finite values, more
     than ``MAX_BRACKET_STEPS`` intervals or a stack deeper than :data:`_STACK` (never a hang).
     ``S``: the stack (right ends of the intervals to come, their ``h`` and ``h'``), rows of length
     :data:`_STACK` the caller lends; ``count, c2, c3, T``: the window's terms (:func:`_window_terms`).
@@ -274,13 +276,13 @@ def _first_rising(terms, g, nt, more, lam, omt, rk, rj, RG, poly, a, ha, da, b, 
         evaluations += 1
         s2, s3 = _slacks(count, c2, c3, T, b - a)
         if evaluations > MAX_BRACKET_STEPS or not math.isfinite(ha + hb + da + db + s2 + s3):
-            return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
+            return False, a, b, ha, hb, da, db, end_h, end_d, SEARCH_FAILED
         outcome = decide(ha, hb, da, db, s2, s3, b - a, hmin)
         if outcome == CROSSING:
-            return True, a, b, ha, hb, end_h, end_d, 0
+            return True, a, b, ha, hb, da, db, end_h, end_d, 0
         if outcome == BISECT:
             if top + 1 >= _STACK:
-                return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
+                return False, a, b, ha, hb, da, db, end_h, end_d, SEARCH_FAILED
             mid = a + 0.5 * (b - a)
             hm, dm = _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, mid)
             top += 1
@@ -288,7 +290,30 @@ def _first_rising(terms, g, nt, more, lam, omt, rk, rj, RG, poly, a, ha, da, b, 
         else:
             top -= 1
             a, ha, da = b, hb, db
-    return False, a, a, ha, ha, end_h, end_d, 0
+    return False, a, a, ha, ha, da, da, end_h, end_d, 0
+
+
+@njit_inline
+def _newton_start(lo, hi, hlo, hhi, dlo, dhi):
+    """Where the refinement of a bracketed crossing starts: the cubic Hermite interpolant of the
+    inverse ``tau(h)`` at ``h = 0``.
+
+    The bracketing proved ``h`` increasing on ``[lo, hi]`` (``h' > 0`` at both ends), so its
+    inverse is smooth there, with the slopes ``1 / h'``; the cubic through both ends and slopes
+    is off by ``O(w^4)`` where the chord (regula falsi) is off by ``O(w^2)``, which spares about
+    one Newton step. Where the slopes are not both positive (an interval decided by its width
+    alone) the chord's point.
+    """
+    dh = hhi - hlo
+    s = -hlo / dh
+    chord = lo + s * (hi - lo)
+    if not (dlo > 0.0 and dhi > 0.0):
+        return chord
+    s2 = s * s
+    s3 = s2 * s
+    x = ((2.0 * s3 - 3.0 * s2 + 1.0) * lo + (s3 - 2.0 * s2 + s) * dh / dlo + (3.0 * s2 - 2.0 * s3) * hi
+         + (s3 - s2) * dh / dhi)
+    return x if lo < x < hi else chord
 
 
 @njit_inline
@@ -410,13 +435,15 @@ def search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, T, G, S, TT
             if G[_KNOWN, g] == 0.0:
                 G[_HA, g], G[_DA, g] = _h(terms, g, nt, more, lam, omt, rk, rj, RG, poly, lo_g)
                 G[_KNOWN, g] = 1.0
-            hit, lo, hi, hlo, hhi, hb, db, status = _first_rising(terms, g, nt, more, lam, omt, rk, rj, RG, poly, lo_g,
-                                                                  G[_HA, g], G[_DA, g], hi_g, hmin, S, count, c2,
-                                                                  c3, TT)
+            hit, lo, hi, hlo, hhi, dlo, dhi, hb, db, status = _first_rising(
+                terms, g, nt, more, lam, omt, rk, rj, RG, poly, lo_g, G[_HA, g], G[_DA, g], hi_g, hmin, S, count, c2,
+                c3, TT)
             if status == SEARCH_FAILED:
                 return lo_g, g, status
             if hit:
-                tau = refine(_h_state, (terms, g, nt, more, lam, omt, rk, rj, RG, poly), lo, hi, hlo, hhi, t0)
+                st = (terms, g, nt, more, lam, omt, rk, rj, RG, poly)
+                x = _newton_start(lo, hi, hlo, hhi, dlo, dhi)
+                tau = hi if hhi == 0.0 else refine_from(_h_state, st, lo, hi, x, t0)
                 if tau < best:
                     best, best_g = tau, g
             G[_HA, g], G[_DA, g] = hb, db
