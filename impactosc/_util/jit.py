@@ -35,7 +35,8 @@ except ImportError:  # pragma: no cover - exercised only where numba is absent
 COMPILED_MODULES = ("model/_rule.py", "model/_wall.py", "engine/_stuck.py", "engine/_chatter.py", "_util/roots.py",
                     "backends/exact/_piece.py", "backends/exact/_family.py", "backends/exact/_loop.py",
                     "backends/_exact_mdof/_forms.py", "backends/_exact_mdof/_guards.py",
-                    "backends/_exact_mdof/_closed.py", "backends/_exact_mdof/_modes.py")
+                    "backends/_exact_mdof/_closed.py", "backends/_exact_mdof/_modes.py",
+                    "backends/_exact_mdof/_setup.py")
 
 
 def _drop_stale_caches() -> None:

@@ -21,7 +21,8 @@ import math
 
 from .jit import njit_inline
 
-__all__ = ["first_rising", "refine", "first_rising_jit", "refine_jit", "MAX_BRACKET_STEPS", "SEARCH_FAILED"]
+__all__ = ["decide", "first_rising", "refine", "refine_from", "decide_jit", "first_rising_jit", "refine_jit",
+           "refine_from_jit", "MAX_BRACKET_STEPS", "SEARCH_FAILED", "BISECT", "NO_CROSSING", "CROSSING"]
 
 _EPS = 2.0**-52
 #: Intervals one guard search may examine in one window: a few hundred are typical (a
@@ -30,6 +31,38 @@ MAX_BRACKET_STEPS = 100_000
 #: ``status`` of :func:`first_rising` when the search gave up (non-finite values or bounds,
 #: or :data:`MAX_BRACKET_STEPS` intervals): never a hang, the run ends with status -1.
 SEARCH_FAILED = 1
+
+
+#: Outcomes of :func:`decide` on one interval: bisect it, it holds no crossing, it brackets one.
+BISECT, NO_CROSSING, CROSSING = 0, 1, 2
+
+
+def decide(ha, hb, da, db, slack2, slack3, width, hmin):
+    """What an interval ``[a, b]`` of the bracketing holds: :data:`BISECT`, :data:`NO_CROSSING` or :data:`CROSSING`.
+
+    ``ha, hb`` and ``da, db``: ``h`` and ``h'`` at its ends; ``slack2`` and ``slack3``: how far
+    ``h`` and ``h'`` can stray from their chords on it (``M2 w^2 / 8`` and ``M3 w^2 / 8`` with
+    bounds ``M2``, ``M3`` of the second and third derivative, or any tighter bound); ``width = b - a``.
+    ``h`` of one sign beyond the slack holds no crossing; ``h'`` of one sign beyond its slack
+    makes ``h`` monotonic, with a crossing from negative to non-negative exactly when
+    ``ha < 0 <= hb``; an interval at most ``hmin`` wide is decided by its end values. The one
+    decision of every bracketing (the 1-DOF pieces, the stuck releases, the n-DOF guards).
+    """
+    if ha >= 0.0 and hb >= 0.0 and min(ha, hb) > slack2:
+        return NO_CROSSING  # h > 0 on [a, b]
+    if ha < 0.0 and hb < 0.0 and max(ha, hb) < -slack2:
+        return NO_CROSSING  # h < 0 on [a, b]
+    if min(da, db) > slack3:  # h increasing: one crossing at most
+        return CROSSING if ha < 0.0 <= hb else NO_CROSSING
+    if max(da, db) < -slack3:  # h decreasing: it cannot rise through 0
+        return NO_CROSSING
+    if width <= hmin:
+        return CROSSING if ha < 0.0 <= hb else NO_CROSSING
+    return BISECT
+
+
+#: The compiled copy of :func:`decide`, inlined into its compiled callers.
+decide_jit = njit_inline(decide)
 
 
 def first_rising(fun, state, a, ha, da, b, M2, M3, hmin):
@@ -54,25 +87,11 @@ def first_rising(fun, state, a, ha, da, b, M2, M3, hmin):
             # Never a hang: non-finite values or bounds would send the bisection down to
             # ulp-wide intervals over the whole window.
             return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
-        slack2 = 0.125 * M2 * width * width  # max distance of h from its chord
-        decided = False
-        if ha >= 0.0 and hb >= 0.0 and min(ha, hb) > slack2:
-            decided = True  # h > 0 on [a, b]
-        elif ha < 0.0 and hb < 0.0 and max(ha, hb) < -slack2:
-            decided = True  # h < 0 on [a, b]
-        else:
-            slack3 = 0.125 * M3 * width * width
-            if min(da, db) > slack3:  # h increasing: one crossing at most
-                if ha < 0.0 <= hb:
-                    return True, a, b, ha, hb, end_h, end_d, 0
-                decided = True
-            elif max(da, db) < -slack3:  # h decreasing: it cannot rise through 0
-                decided = True
-            elif width <= hmin:
-                if ha < 0.0 <= hb:
-                    return True, a, b, ha, hb, end_h, end_d, 0
-                decided = True
-        if decided:
+        # max distances of h and h' from their chords
+        outcome = decide_jit(ha, hb, da, db, 0.125 * M2 * width * width, 0.125 * M3 * width * width, width, hmin)
+        if outcome == CROSSING:
+            return True, a, b, ha, hb, end_h, end_d, 0
+        if outcome == NO_CROSSING:
             stack.pop()
             a, ha, da = b, hb, db
         else:
@@ -82,18 +101,15 @@ def first_rising(fun, state, a, ha, da, b, M2, M3, hmin):
     return False, a, a, ha, ha, end_h, end_d, 0
 
 
-def refine(fun, state, lo, hi, hlo, hhi, t0):
-    """Root of ``h = fun(state, tau)[0]`` in a bracket where it rises through 0 (``hlo < 0 <= hhi``).
+def refine_from(fun, state, lo, hi, x, t0):
+    """Root of ``h = fun(state, tau)[0]`` in a bracket where it rises through 0, from the start ``x``.
 
     Safeguarded Newton: a Newton step is taken when it stays inside the shrinking bracket
     and converges fast enough, a bisection otherwise, so the iteration is as robust as
     bisection and converges quadratically near the root. It stops when the step is below
-    one ulp of ``t0 + tau``.
+    one ulp of ``t0 + tau``. A start outside ``(lo, hi)`` is replaced by the midpoint.
     """
-    if hhi == 0.0:
-        return hi
     tol = _EPS * (abs(t0) + hi)
-    x = lo - hlo * (hi - lo) / (hhi - hlo)  # regula falsi start
     if not lo < x < hi:
         x = 0.5 * (lo + hi)
     dx_old = hi - lo
@@ -122,6 +138,19 @@ def refine(fun, state, lo, hi, hlo, hhi, t0):
             return xn
         x = xn
     return x
+
+
+#: The compiled copy of :func:`refine_from`, inlined into its compiled callers.
+refine_from_jit = njit_inline(refine_from)
+
+
+def refine(fun, state, lo, hi, hlo, hhi, t0):
+    """Root of ``h = fun(state, tau)[0]`` in a bracket where it rises through 0 (``hlo < 0 <= hhi``):
+    :func:`refine_from` from the regula falsi point."""
+    if hhi == 0.0:
+        return hi
+    x = lo - hlo * (hi - lo) / (hhi - hlo)  # regula falsi start
+    return refine_from_jit(fun, state, lo, hi, x, t0)
 
 
 #: The compiled copies, inlined into compiled callers (see :func:`impactosc._jit.njit_inline`).

@@ -14,9 +14,10 @@ import cmath
 import numpy as np
 
 from ..._util.jit import HAVE_NUMBA, njit
-from ._forms import integrals, rdot, rmv, setup_piece, state_at
-from ._guards import search
+from ._forms import integrals, rdot, rmv, state_at
+from ._guards import search, workspace
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, STICK
+from ._setup import setup_piece
 
 if HAVE_NUMBA:
     from numba.typed import List
@@ -27,22 +28,24 @@ __all__ = ["advance", "run_modes", "new_table", "push_mode", "holding_force"]
 
 
 @njit
-def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, vq, vv, vq0, vv0, csym,
-            t0, q0, v0, t_end, energy):
+def advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om, fh, constants, vq, vv, vq0, vv0,
+            csym, t0, q0, v0, t_end, energy, work):
     """One piece from ``(t0, q0, v0)`` to its first guard or ``t_end``, in one compiled call.
 
     Returns ``(tau, guard, status, q1, v1, work, dissipation)`` (:func:`setup_piece`,
-    :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`).
+    :func:`search`, :func:`state_at`, and with ``energy`` :func:`integrals`); ``work``: the
+    search's buffers (:func:`._guards.workspace`).
     """
     a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X = setup_piece(
-        lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0)
-    armed = np.ones(W.shape[0], dtype=np.bool_)
-    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, armed, t0, t_end - t0)
+        lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om, fh, constants, t0, q0, v0)
+    G, S, TT, terms, mag = work
+    tau, g, status = search(lam, W, omt, D, rk, rj, RG, c0, cscale, dscale, poly, t0, t_end - t0, G, S, TT, terms,
+                            mag)
     if status != 0:
         return tau, g, status, q0, v0, 0.0, 0.0
     if g < 0:
         tau = t_end - t0
-    q1, v1 = state_at(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau)
+    q1, v1 = state_at(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau)
     work = diss = 0.0
     if energy:
         work, diss = integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)
@@ -74,20 +77,21 @@ def holding_force(table, row, i, om, fh, C, t, q, v):
 
 @njit
 def new_table(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-              guard_index, guard_sign, motion, info, weights, friction_row):
-    """A typed list of mode rows holding this first one (built here: typing the row in Python costs ms)."""
+              guard_index, guard_sign, motion, info, weights, friction_row, constants):
+    """A typed list of mode rows holding this first one (built here: typing the row in Python costs ms);
+    a row is :meth:`._modes.Mode.entry` and the mode's :func:`._setup.mode_constants`."""
     table = List()
     table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-                  guard_index, guard_sign, motion, info, weights, friction_row))
+                  guard_index, guard_sign, motion, info, weights, friction_row, constants))
     return table
 
 
 @njit
 def push_mode(table, lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0,
-              guard_kind, guard_index, guard_sign, motion, info, weights, friction_row):
+              guard_kind, guard_index, guard_sign, motion, info, weights, friction_row, constants):
     """Append a mode row to ``table`` (:func:`new_table`)."""
     table.append((lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-                  guard_index, guard_sign, motion, info, weights, friction_row))
+                  guard_index, guard_sign, motion, info, weights, friction_row, constants))
 
 
 @njit
@@ -119,11 +123,22 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
     work = diss = fric = loss = 0.0
     escale = 0.0
     cap = ev_t.shape[0]
+    ng = 0
+    nt = 0
+    for row in table:  # the search's buffers, for the largest mode built so far
+        ng = max(ng, row[4].shape[0])
+        nt = max(nt, row[0].shape[0] + om.shape[0])
+    buffers = workspace(ng, nt)
+    unpacked = -1
+    (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, _, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+     guard_index, guard_sign, motion, info, _, _, constants) = table[mi]
     while True:
-        (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
-         guard_index, guard_sign, motion, info, _, _) = table[mi]
-        tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om,
-                                           fh, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy)
+        if mi != unpacked:  # a row of arrays unpacked costs a reference count each: only on a mode change
+            (lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, _, gc, kmode, const, vq, vv, vq0, vv0, guard_kind,
+             guard_index, guard_sign, motion, info, _, _, constants) = table[mi]
+            unpacked = mi
+        tau, g, st, q1, v1, w, d = advance(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gc, kmode, const, om,
+                                           fh, constants, vq, vv, vq0, vv0, csym, t, q, v, t_end, energy, buffers)
         pc_t[n_pc] = t
         pc_mode[n_pc] = mi
         pc_q[n_pc] = q
@@ -147,14 +162,21 @@ def run_modes(table, index_of, mi, code, spring_bit, rest_bit, fric_unit, om, fh
             if tau == 0.0 or info[0] != 0.0:
                 return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
             u = rdot(normals[c], v)
-            vn = v - (1.0 + restitution[c]) * u / nmn[c] * mn[c] if u > 0.0 else v.copy()
+            scale = (1.0 + restitution[c]) * u / nmn[c] if u > 0.0 else 0.0
+            vn = np.empty(v.shape[0])
+            q_abs = 0.0
+            vn_abs = 0.0
+            for i in range(v.shape[0]):  # loops: the vector expressions allocated a temporary each
+                vn[i] = v[i] - scale * mn[c, i]
+                q_abs += abs(q[i])
+                vn_abs += abs(vn[i])
             for i in range(fr_coord.shape[0]):
                 s = 1 if vn[fr_coord[i]] > 0.0 else (-1 if vn[fr_coord[i]] < 0.0 else 0)
                 if s != motion[i]:
                     return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
             if can_rest[c]:
                 wn = -rdot(normals[c], vn)
-                forces = f_norm + info[1] + info[2] * np.abs(q).sum() + c_norm * np.abs(vn).sum()
+                forces = f_norm + info[1] + info[2] * q_abs + c_norm * vn_abs
                 if wn <= 0.0 or wn * wn <= 2.0 * push_margin * mn_norm[c] * forces * chatter_height * max(1.0, gaps[c]):
                     return n_ev, n_pc, tau, g, st, mi, code, zero_time, t, q, v, work, diss, fric, loss, escale
             if energy:

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..._util.jit import njit
 
-__all__ = ["RESONANCE", "setup_piece", "modal_at", "zero_at", "state_at", "integrals", "E", "cmv", "rmv", "re_cmv",
+__all__ = ["RESONANCE", "modal_at", "zero_at", "state_at", "integrals", "E", "cmv", "rmv", "re_cmv",
            "rdot"]
 
 #: Relative distance ``|mu - lambda| / max(|lambda|, |mu|)`` below which a pair keeps the stable form ``E``.
@@ -105,232 +105,35 @@ def rdot(a, b):
 
 
 @njit
-def setup_piece(lam, pair, gin, gv, wk, N, gin0, gv0, wk0, ga, gu, gc, kmode, const, om, fh, t0, q0, v0):
-    """The coefficients of the piece that starts at ``(t0, q0, v0)`` in a mode.
+def modal_at(lam, pair, a, P, beta, res, omt, tau):
+    """The modal coordinates ``eta(tau)`` of the piece (complex).
 
-    Returns ``(a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X)``: the
-    modal amplitudes of the classical form, the particular amplitudes, the modal forcing, the
-    resonance flags, for every guard its exponential, harmonic and resonant coefficients and
-    constant, the frequencies (``omt[0] = 0``), the rounding scales of each guard's value and
-    derivative at the start (:func:`_rounding_scales`), and the zero-eigenvalue block: each
-    guard's polynomial coefficients
-    ``poly[g, p]`` (of ``tau^p``) and the block's coordinates
-    ``xi = sum_p Xi[p] tau^p + sum_j X[j] e^{i omega_j tau}``.
+    One exponential per conjugate pair of eigenvalues (``pair``, :func:`._modes._conjugate_pairs`:
+    ``e^{conj(lambda) tau} = conj(e^{lambda tau})``) and one per harmonic, shared by every mode.
     """
     m2 = lam.shape[0]
-    nh = om.shape[0]
-    jt = nh + 1
-    omt = np.zeros(jt)
-    omt[1:] = om
-    n = q0.shape[0]
-    eta0 = cmv(gv, v0)
-    f0 = np.empty(n)
-    for i in range(n):
-        s = const[i]
-        for m in range(n):
-            s -= kmode[i, m] * q0[m]
-        f0[i] = s
-    beta = np.empty((m2, jt), dtype=np.complex128)
-    phase = np.empty(nh, dtype=np.complex128)
-    for j in range(nh):
-        phase[j] = cmath.exp(1j * om[j] * t0)
-    for k in range(m2):
-        b = 0j
-        for i in range(n):
-            b += gin[k, i] * f0[i]
-        beta[k, 0] = b
-        for j in range(nh):
-            b = 0j
-            for i in range(n):
-                b += gin[k, i] * fh[j, i]
-            beta[k, j + 1] = b * phase[j]
-    P = np.zeros((m2, jt), dtype=np.complex128)
-    res = np.zeros((m2, jt), dtype=np.bool_)
-    a = eta0.copy()
-    nres = 0
-    for k in range(m2):
-        for j in range(jt):
-            mu = 1j * omt[j]
-            d = mu - lam[k]
-            if abs(d) <= RESONANCE * max(abs(lam[k]), omt[j]):
-                res[k, j] = True
-                nres += 1
-            else:
-                P[k, j] = beta[k, j] / d
-                a[k] -= P[k, j]
-    W, D, RG, rk, rj = _guard_terms(lam, pair, wk, gu, om, fh, t0, a, P, beta, res, nres)
-    ng = wk.shape[0]
-    c0 = np.empty(ng)
-    for g in range(ng):
-        s = gc[g]
-        for i in range(n):
-            s += ga[g, i] * q0[i]
-        c0[g] = s
-    cscale, dscale = _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, res)
-    Xi, X = _zero_block(N, gin0, gv0, om, fh, t0, q0, v0, const, kmode)
-    k0 = N.shape[0]
-    poly = np.zeros((ng, k0 + 1))
-    if k0 > 0:
-        for g in range(ng):
-            for p in range(k0 + 1):
-                poly[g, p] = (wk0[g] @ Xi[p]).real
-            for j in range(nh):
-                D[g, j + 1] += wk0[g] @ X[j + 1]
-    return a, P, beta, res, W, D, RG, rk, rj, c0, omt, cscale, dscale, poly, Xi, X
-
-
-@njit
-def _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, res):
-    """Every guard's rounding scales at the piece start: ``(value, derivative)``.
-
-    The closed form rebuilds a guard from the modal state, ``h(0) = c0 + Re sum_k wk_k (eta0_k
-    - sum_j P_kj) + ...``, whose terms can be far larger than ``h`` or its terms after they
-    cancel: the modal velocities ``gv v0`` of coordinates the guard does not see (a neighbour
-    moving fast while the guarded one is at rest), the particular amplitudes of a preloaded
-    spring (``const - K q0``, two large forces that cancel). The sizes of these terms before
-    the cancellation are the scales of the rounding of ``h(0)`` and ``h'(0)``; without them a
-    guard at rest on its zero looks clearly crossed (a reversal or an impact fired again at
-    once, with no time passing).
-    """
-    m2 = lam.shape[0]
-    ng = wk.shape[0]
     jt = omt.shape[0]
-    n = q0.shape[0]
-    f0abs = np.empty(n)  # the size of the terms of const - K q0
-    for i in range(n):
-        s = abs(const[i])
-        for m in range(n):
-            s += abs(kmode[i, m] * q0[m])
-        f0abs[i] = s
-    cscale = np.empty(ng)
-    for g in range(ng):
-        s = abs(gc[g])
-        for i in range(n):
-            s += abs(ga[g, i] * q0[i])
-        cscale[g] = s
-    dscale = np.zeros(ng)
-    # |re| + |im| for the size of a complex number: within sqrt(2) of it, and no square root
-    for k in range(m2):
-        eta_abs = 0.0
-        for i in range(n):
-            eta_abs += (abs(gv[k, i].real) + abs(gv[k, i].imag)) * abs(v0[i])
-        vk = eta_abs
-        dk = abs(lam[k]) * eta_abs
-        for j in range(jt):
-            babs = 0.0
-            for i in range(n):
-                gki = abs(gin[k, i].real) + abs(gin[k, i].imag)
-                babs += gki * (f0abs[i] if j == 0 else abs(fh[j - 1, i].real) + abs(fh[j - 1, i].imag))
-            if res[k, j]:
-                dk += babs
-            else:
-                d = abs(1j * omt[j] - lam[k])
-                vk += babs / d
-                dk += babs * (abs(lam[k]) + omt[j]) / d
-        for g in range(ng):
-            w = abs(wk[g, k].real) + abs(wk[g, k].imag)
-            cscale[g] += w * vk
-            dscale[g] += w * dk
-    return cscale, dscale
-
-
-@njit
-def _zero_block(N, gin0, gv0, om, fh, t0, q0, v0, const, kmode):
-    """The zero-eigenvalue block ``xi' = N xi + beta_0 + sum_j beta_j e^{i omega_j tau}`` (``N`` nilpotent).
-
-    Its solution is a polynomial plus harmonics: with ``X_j = (i omega_j - N)^-1 beta_j`` and
-    ``x = xi(0) - sum_j X_j``,
-    ``xi = sum_p tau^p (N^p x + N^(p-1) beta_0) / p! + sum_j X_j e^{i omega_j tau}``
-    (``N^k0 = 0`` ends the sum at ``p = k0``): rigid-body motion, a multiple root of the
-    characteristic polynomial that an eigenbasis cannot hold.
-    """
-    k0 = N.shape[0]
-    nh = om.shape[0]
-    Xi = np.zeros((k0 + 1, k0), dtype=np.complex128)
-    X = np.zeros((nh + 1, k0), dtype=np.complex128)
-    if k0 == 0:
-        return Xi, X
-    x = gv0 @ (v0 + 0j)
-    b0 = gin0 @ (const - kmode @ q0 + 0j)
-    eye = np.eye(k0) + 0j
-    for j in range(nh):
-        bj = gin0 @ (fh[j] * cmath.exp(1j * om[j] * t0))
-        X[j + 1] = np.linalg.solve(1j * om[j] * eye - N, bj)
-        x = x - X[j + 1]
-    np_x = x
-    np_b = b0
-    fact = 1.0
-    Xi[0] = x
-    for p in range(1, k0 + 1):
-        fact *= p
-        Xi[p] = (N @ np_x + np_b) / fact
-        np_x = N @ np_x
-        np_b = N @ np_b
-    return Xi, X
-
-
-@njit
-def _guard_terms(lam, pair, wk, gu, om, fh, t0, a, P, beta, res, nres):
-    """Every guard's exponential, harmonic and resonant coefficients ``(W, D, RG, rk, rj)`` of a piece."""
-    m2 = lam.shape[0]
-    nh = om.shape[0]
-    jt = nh + 1
-    ng = wk.shape[0]
-    W = np.empty((ng, m2), dtype=np.complex128)
-    D = np.zeros((ng, jt), dtype=np.complex128)
-    rk = np.empty(nres, dtype=np.int64)
-    rj = np.empty(nres, dtype=np.int64)
-    RG = np.zeros((ng, nres), dtype=np.complex128)
-    r = 0
-    for k in range(m2):
-        for j in range(jt):
-            if res[k, j]:
-                rk[r], rj[r] = k, j
-                r += 1
-    for g in range(ng):
-        for k in range(m2):
-            W[g, k] = wk[g, k] * a[k]
-        # A conjugate pair in one term: Re(W1 e^{l t} + W2 e^{conj(l) t}) = Re((W1 + conj(W2)) e^{l t}),
-        # half the exponentials in the guard search (whose loops skip the zero partner).
-        for k in range(m2):
-            if pair[k] > k:
-                W[g, k] += np.conj(W[g, pair[k]])
-                W[g, pair[k]] = 0j
-        for j in range(jt):
-            s = 0j
-            for k in range(m2):
-                s += wk[g, k] * P[k, j]
-            D[g, j] = s
-        for j in range(nh):  # the guard's direct dependence on the harmonic forces
-            s = 0j
-            for i in range(fh.shape[1]):
-                s += gu[g, i] * fh[j, i]
-            D[g, j + 1] += s * cmath.exp(1j * om[j] * t0)
-        for rr in range(nres):
-            RG[g, rr] = wk[g, rk[rr]] * beta[rk[rr], rj[rr]]
-    return W, D, RG, rk, rj
-
-
-@njit
-def modal_at(lam, a, P, beta, res, omt, tau):
-    """The modal coordinates ``eta(tau)`` of the piece (complex)."""
-    m2 = lam.shape[0]
+    harmonic = np.empty(jt, dtype=np.complex128)
+    for j in range(jt):
+        harmonic[j] = cmath.exp(1j * omt[j] * tau)
+    own = np.empty(m2, dtype=np.complex128)
     eta = np.empty(m2, dtype=np.complex128)
     for k in range(m2):
-        s = a[k] * cmath.exp(lam[k] * tau)
-        for j in range(omt.shape[0]):
-            mu = 1j * omt[j]
+        p = pair[k]
+        own[k] = np.conj(own[p]) if 0 <= p < k else cmath.exp(lam[k] * tau)
+        s = a[k] * own[k]
+        for j in range(jt):
             if res[k, j]:
-                s += beta[k, j] * E(lam[k], mu, tau)
+                s += beta[k, j] * E(lam[k], 1j * omt[j], tau)
             else:
-                s += P[k, j] * cmath.exp(mu * tau)
+                s += P[k, j] * harmonic[j]
         eta[k] = s
     return eta
 
 
 @njit
 def zero_at(Xi, X, omt, tau):
-    """The zero-eigenvalue block's coordinates ``xi(tau)`` (:func:`_zero_block`)."""
+    """The zero-eigenvalue block's coordinates ``xi(tau)`` (:func:`._setup._zero_block`)."""
     k0 = Xi.shape[1]
     xi = np.zeros(k0, dtype=np.complex128)
     for p in range(Xi.shape[0] - 1, -1, -1):
@@ -341,9 +144,9 @@ def zero_at(Xi, X, omt, tau):
 
 
 @njit
-def state_at(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau):
+def state_at(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, q0, tau):
     """``(q, v)`` at ``tau`` after the piece start: ``q = q0 + Re(Vq eta + Vq0 xi)``, ``v = Re(Vv eta + Vv0 xi)``."""
-    eta = modal_at(lam, a, P, beta, res, omt, tau)
+    eta = modal_at(lam, pair, a, P, beta, res, omt, tau)
     xi = zero_at(Xi, X, omt, tau)
     q = q0 + re_cmv(vq, eta)
     v = re_cmv(vv, eta)
@@ -372,15 +175,16 @@ def integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csy
     if tau <= 0.0:
         return 0.0, 0.0
     if Xi.shape[1] > 0:
-        return _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0)
+        return _integrals_quadrature(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh,
+                                     t0)
     m2 = lam.shape[0]
     jt = omt.shape[0]
     n = vv.shape[0]
     for k in range(m2):
         for j in range(jt):
             if res[k, j]:
-                return _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh,
-                                             t0)
+                return _integrals_quadrature(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om,
+                                             fh, t0)
     # the velocity's terms: c[p] e^{z[p] tau}
     c = np.zeros((m2 + jt, n), dtype=np.complex128)
     z = np.zeros(m2 + jt, dtype=np.complex128)
@@ -433,7 +237,7 @@ def integrals(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csy
 
 
 @njit
-def _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0):
+def _integrals_quadrature(vq, vv, lam, pair, a, P, beta, res, omt, vq0, vv0, Xi, X, tau, csym, om, fh, t0):
     """:func:`integrals` by composite 16-node Gauss-Legendre on sub-intervals no longer than half
     the shortest period of the piece (the integrands are sums of exponentials and harmonics),
     for pieces with resonant terms or rigid-body motion.
@@ -451,7 +255,7 @@ def _integrals_quadrature(vq, vv, lam, a, P, beta, res, omt, vq0, vv0, Xi, X, ta
         left = h * i
         for p in range(_GL_NODES.shape[0]):
             s = left + 0.5 * h * (_GL_NODES[p] + 1.0)
-            eta = modal_at(lam, a, P, beta, res, omt, s)
+            eta = modal_at(lam, pair, a, P, beta, res, omt, s)
             xi = zero_at(Xi, X, omt, s)
             v = re_cmv(vv, eta)
             if xi.shape[0] > 0:

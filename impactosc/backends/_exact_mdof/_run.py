@@ -21,7 +21,7 @@ import numpy as np
 from ..._util.jit import HAVE_NUMBA
 from ...model._mechanical import MechanicalSystem
 from ...results._mechanical import MechanicalSolution
-from . import _closed, _forms, _records
+from . import _closed, _forms, _records, _setup
 from ._modes import ENTER, IMPACT, LEAVE, LIFT, RELEASE, SLIP_END, Mode, build_mode, describe
 from ._records import KIND_NAMES, EventLog
 
@@ -89,6 +89,7 @@ class _Runner:
         self.max_zero_time = _MAX_ZERO_TIME * (1 + nc + nf)
         self.keys: list[tuple] = []
         self.rows: dict[tuple, int] = {}
+        self.constants: dict[tuple, tuple] = {}  # each mode's _setup.mode_constants
 
 
     def k_norm(self, mode: Mode) -> float:
@@ -109,10 +110,13 @@ class _Runner:
         if mode is None:
             mode = build_mode(self.system, key)
             # the row first, then its numbers: a run in another thread never finds a number without its row
+            constants = _setup.mode_constants(mode.lam, mode.gin, mode.gv, mode.wk, mode.ga, mode.gu, mode.gc,
+                                              mode.kmode, mode.const, self.om, self.fh)
             if self.table is None:
-                self.table = _closed.new_table(*mode.entry())
+                self.table = _closed.new_table(*mode.entry(), constants)
             else:
-                _closed.push_mode(self.table, *mode.entry())
+                _closed.push_mode(self.table, *mode.entry(), constants)
+            self.constants[key] = constants
             self.keys.append(key)
             self.rows[key] = len(self.keys) - 1
             if self.coded:
@@ -131,17 +135,17 @@ class _Runner:
                 + sum((s + 1) * int(u) for s, u in zip(motion, self.fric_unit, strict=True)))
 
     def setup(self, mode: Mode, t0: float, q0: np.ndarray, v0: np.ndarray):
-        return _forms.setup_piece(mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0,
-                                   mode.wk0, mode.ga, mode.gu, mode.gc, mode.kmode, mode.const, self.om, self.fh, t0,
-                                   q0, v0)
+        return _setup.setup_piece(mode.lam, mode.pair, mode.gin, mode.gv, mode.wk, mode.N, mode.gin0, mode.gv0,
+                                  mode.wk0, mode.ga, mode.gc, mode.kmode, mode.const, self.om, self.fh,
+                                  self.constants[mode.key], t0, q0, v0)
 
     def evaluate(self, mode: Mode, piece, q0: np.ndarray, taus: np.ndarray):
         a, P, beta, res, _, _, _, _, _, _, omt, _, _, _, Xi, X = piece
         qs = np.empty((taus.size, self.system.n))
         vs = np.empty_like(qs)
         for i, tau in enumerate(taus):
-            qs[i], vs[i] = _forms.state_at(mode.vq, mode.vv, mode.lam, a, P, beta, res, omt, mode.vq0, mode.vv0,
-                                            Xi, X, q0, float(tau))
+            qs[i], vs[i] = _forms.state_at(mode.vq, mode.vv, mode.lam, mode.pair, a, P, beta, res, omt, mode.vq0,
+                                            mode.vv0, Xi, X, q0, float(tau))
         return qs, vs
 
     # --- forces needed by the transition rule -------------------------------------------------
