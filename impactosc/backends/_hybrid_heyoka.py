@@ -32,11 +32,30 @@ transition (the engine's :class:`~impactosc.engine._hybrid.Switch`: reset, entry
 conditions, a guard the new state lies on), writes the new state and two indicators, and
 records the event, in a few microseconds of Python per event. A callback that returns
 False stops the run: the event limit, an accumulation of events, a failed transition.
+
+Frozen modes
+------------
+In a *frozen* mode every state's rate is identically zero (a mass stuck by friction):
+heyoka would step through it a fraction of a forcing period at a time, for ever if it
+never ends. A system with a forcing period ``T`` and frozen modes gets one more event,
+armed in its frozen modes only: ``sin(2 pi t / T)`` rising through zero, a tick at each
+whole period. Two ticks in a row with no event between them mean a whole period in the
+frozen mode without an event; the guards there are functions of the time alone, periodic
+with ``T``, so none will ever fire: the loop jumps to the last whole period before
+``t_end`` (:func:`~impactosc.engine._hybrid.period_jump`, the integrals moved on by whole
+periods' increments) and integrates the rest. A stuck phase of any length costs at most
+about two periods of steps.
+
+``max_wall_time`` splits the one ``propagate_until`` into calls of at most
+:data:`WALL_TIME_STEPS` steps and checks the clock between them: heyoka's steps do not
+depend on the previous one, so the run is the same, step for step.
 """
 
 from __future__ import annotations
 
+import math
 import threading
+import time
 
 import numpy as np
 
@@ -50,12 +69,15 @@ from ..engine._hybrid import (
     InstantAccumulation,
     Switch,
     check_state,
+    frozen_dense,
+    frozen_modes,
+    period_jump,
 )
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import Numeric, gated_sum, numeric
 from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 
-__all__ = ["run_system", "compiled", "CompiledSystem", "dense_states"]
+__all__ = ["run_system", "run_counted", "compiled", "CompiledSystem", "dense_states", "WALL_TIME_STEPS"]
 
 DEFAULT_TOL = 2.0**-52
 #: The usable tolerances (those of the built-in heyoka backend: below eps nothing improves while
@@ -68,6 +90,9 @@ MIN_TOL, MAX_TOL = 1e-18, 1e-2
 #: (``zeno_tol``). heyoka's automatic cooldown is not used: it grows like ``1 / |h'|`` and, at
 #: the double root of a release from sticking, hid the next genuine stop for seconds.
 DEFAULT_COOLDOWN = 1e-12
+#: Integrator steps between two looks at the clock when a run has ``max_wall_time`` (~1 us a step:
+#: the limit is overrun by ~10 ms at most; each look costs one more ``propagate_until`` call, ~5 us).
+WALL_TIME_STEPS = 10_000
 
 
 class _Holder:
@@ -118,6 +143,41 @@ class _Callback:
         return run.crossing(ta, g)
 
 
+class _Tick:
+    """The callback of the period tick of the frozen modes (see the module docstring).
+
+    Keeps the event and piece counts, the time and the state at the last tick; at a tick
+    with the same counts (a whole period in a frozen mode without an event) it notes the
+    jump and stops the propagation, and the loop jumps (:func:`_propagate`).
+    """
+
+    __slots__ = ("holder", "last", "jump", "off")
+
+    def __init__(self, holder: _Holder):
+        self.holder = holder
+        self.reset()
+
+    def reset(self, off: bool = False) -> None:
+        self.last: tuple | None = None
+        self.jump: tuple | None = None
+        self.off = off
+
+    def __deepcopy__(self, memo):
+        return self
+
+    def __call__(self, ta, d_sgn) -> bool:
+        if self.off:
+            return True
+        switch = self.holder.run.switch
+        mark = (len(switch.events), len(switch.pieces))
+        last = self.last
+        if last is not None and last[0] == mark:
+            self.jump = (last[1], last[2], ta.time, ta.state.copy())
+            return False
+        self.last = (mark, ta.time, ta.state.copy())
+        return True
+
+
 class CompiledSystem:
     """The cached integrator of one system structure and tolerance, and what the loop reads from it."""
 
@@ -133,6 +193,15 @@ class CompiledSystem:
         rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
         self.holder = _Holder()
         events = _events(system, num, ind, hy.par[P + M], self.holder, cooldown)
+        frozen = [m for m, f in enumerate(frozen_modes(system)) if f]
+        self.tick: _Tick | None = None
+        if system.period is not None and frozen:
+            # the tick at each whole period, armed in the frozen modes only (the constant 1 elsewhere)
+            self.tick = _Tick(self.holder)
+            armed = hy.par[P + M] * _indicator(frozen, ind)
+            wave = hy.sin(2.0 * math.pi * hy.time / num.with_params(system.period))
+            events.append(hy.t_event(armed * wave + (1.0 - armed) - START_NUDGE, direction=hy.event_direction.positive,
+                                     callback=self.tick, cooldown=cooldown))
         # pars left out: heyoka sizes them to the highest index the expressions use (see load)
         self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all, t_events=events,
                                      tol=tol, compact_mode=False)
@@ -381,8 +450,19 @@ def check_tol(tol) -> float:
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
                max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
                zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
-               until: tuple[str, int] | None = None) -> HybridSolution:
+               until: tuple[str, int] | None = None, max_wall_time: float | None = None) -> HybridSolution:
     """Run ``system`` with heyoka from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
+    return run_counted(system, t_end, state0, mode=mode, t0=t0, max_events=max_events, tol=tol, cooldown=cooldown,
+                       zeno_tol=zeno_tol, graze_tol=graze_tol, touch_tol=touch_tol, until=until,
+                       max_wall_time=max_wall_time)[0]
+
+
+def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
+                max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
+                zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
+                until: tuple[str, int] | None = None,
+                max_wall_time: float | None = None) -> tuple[HybridSolution, int]:
+    """:func:`run_system`, and the number of integrator steps the run took (the built-in ``Solution.n_steps``)."""
     t0 = _v.real("t0", t0)
     t_end = _v.real("t_end", t_end)
     if not t_end > t0:
@@ -396,25 +476,38 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
     if until is not None:
         switch.stop_after(*until)
+    deadline = None
+    if max_wall_time is not None:
+        deadline = time.monotonic() + _v.positive("max_wall_time", max_wall_time)
     mode0 = switch.initial_mode(mode, t0, y0)
     with comp.lock:
         run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
         comp.holder.run = run
         try:
-            _propagate(run, comp, t0, y0, t_end)
+            steps = _propagate(run, comp, t0, y0, t_end, deadline)
         finally:
             comp.holder.run = None
         ta = comp.ta
         t_final = ta.time if run.status or switch.done else t_end
         state_final = ta.state.copy()
-    return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
-                          switch.events, switch.pieces, state_final, run.mode, _Dense(system, tol, cooldown),
-                          run.accumulation_time)
+    if run.status == 1 and deadline is not None and not run.message:
+        run.message = (f"The wall-time limit max_wall_time={max_wall_time!r} s was reached at t={t_final!r}; "
+                       "results up to t_final are kept.")
+    solution = HybridSolution(system, "heyoka", t_end, t_final, run.status,
+                              run.message or STATUS_MESSAGES[run.status], switch.events, switch.pieces, state_final,
+                              run.mode, _Dense(system, tol, cooldown), run.accumulation_time)
+    return solution, steps
 
 
-def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float) -> None:
+def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float,
+               deadline: float | None = None) -> int:
     """The run from ``(t0, y0)``: the transitions at the start, then one ``propagate_until`` (more after a
-    lost root); its end is in ``run.status``/``run.message`` and the integrator's time and state."""
+    lost root, a frozen mode's jump, or every :data:`WALL_TIME_STEPS` steps with a ``deadline``); its end
+    is in ``run.status``/``run.message`` and the integrator's time and state. Returns the number of steps.
+
+    ``deadline``: the ``time.monotonic()`` after which the run stops with status 1 (its message is
+    written by the caller).
+    """
     import heyoka as hy
 
     ta, switch = comp.ta, run.switch
@@ -422,13 +515,38 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
     ta.time = t0
     ta.state[:] = y0
     switch.pieces.append((t0, run.mode, tuple(y0)))
+    tick = comp.tick
+    period = math.nan
+    if tick is not None:
+        tick.reset()
+        period = switch.system.period_value() or math.nan  # the tick exists only with a period
+    max_steps = 0 if deadline is None else WALL_TIME_STEPS
+    step_limit = hy.taylor_outcome.step_limit
+    steps = 0
     try:
         g = switch.pending(run.mode, t0, y0)
         ta.state[:] = run.transition(g, t0, y0) if g >= 0 else y0
         if comp.has_events:
             ta.reset_cooldowns()
         while True:
-            outcome = ta.propagate_until(t_end)[0]
+            res = ta.propagate_until(t_end, max_steps=max_steps)
+            outcome = res[0]
+            steps += res[3]
+            if outcome == step_limit and not run.status:
+                if time.monotonic() > deadline:  # type: ignore[operator]
+                    run.status = 1
+                    break
+                continue
+            if tick is not None and tick.jump is not None and not run.status and not switch.done:
+                # a whole period in a frozen mode without an event: on to the last whole period
+                t1, y1, t2, y2 = tick.jump
+                jump = period_jump(switch, run.mode, period, t_end, t1, y1, t2, y2.tolist())
+                # no jump (less than a period left, or guards that are not periodic): no more ticks
+                tick.reset(off=jump is None and t_end - t2 >= period)
+                if jump is not None:
+                    ta.time, ta.state[:] = jump
+                    switch.pieces.append((jump[0], run.mode, tuple(jump[1])))
+                continue
             if run.resting is not None and not run.status and not switch.done:
                 # a guard's events accumulated: its rest mode from the accumulation time on
                 g, t_rest = run.resting
@@ -450,18 +568,19 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
             ta.state[:] = run.transition(g, t_root, y_root)
     except InstantAccumulation as exc:
         run.status, run.message, run.accumulation_time = 2, str(exc), ta.time
-        return
+        return steps
     except Exception as exc:  # no admissible mode, a callback's error or heyoka's: keep what was computed
         if run.status == 0:
             run.status = -1
             run.message = str(exc) if type(exc) is RuntimeError else f"{type(exc).__name__}: {exc}"
-        return
+        return steps
     if switch.done and run.status == 0:
         run.message = switch.done_message()
     elif run.status == 0 and outcome != hy.taylor_outcome.time_limit:
         # not a callback's stop: a non-finite state (err_nf_state) or another failure
         run.status = -1
         run.message = f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode {switch.system.mode_names[run.mode]!r}"
+    return steps
 
 
 def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list]:
@@ -517,7 +636,21 @@ def dense_states(system: HybridSystem, tol: float, cooldown: float, mode: int, t
 
 def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,
            times) -> np.ndarray:
-    """The states at ``times`` (not before ``t_start``) in ``mode`` from ``state``, events off."""
+    """The states at ``times`` (not before ``t_start``) in ``mode`` from ``state``, events off.
+
+    A frozen mode's whole periods are skipped (:func:`~impactosc.engine._hybrid.frozen_dense`).
+    """
+    period = None
+    if system.period is not None and frozen_modes(system)[mode]:
+        values = dict(zip(system.parameter_names, params, strict=True))
+        period = system.with_parameters(**values).period_value()
+    return frozen_dense(system, period, mode, t_start, state, times,
+                        lambda grid: _integrated(system, tol, cooldown, params, mode, t_start, state, grid))
+
+
+def _integrated(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,
+                times: np.ndarray) -> np.ndarray:
+    """:func:`_dense` by integration from ``t_start`` to every time."""
     comp = compiled(system, tol, cooldown)
     times = np.asarray(times, dtype=float)
     grid, where = np.unique(times, return_inverse=True)
