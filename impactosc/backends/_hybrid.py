@@ -37,10 +37,12 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
         ``touch_tol`` (a state within ``touch_tol (1 + max |y|)`` of a guard it crosses
         fires it at once, default 1e-12), ``cooldown`` (how long a guard is ignored after it
         fired, default 1e-12 time units); heyoka: ``tol`` (in [1e-18, 1e-2], default machine
-        epsilon); scipy: ``method`` (default DOP853), ``rtol``, ``atol`` (default 1e-12), ``max_step``
-        (default a 32nd of the forcing period, unbounded without one: ``solve_ivp`` sees a guard
-        only at its step ends, and in a mode where the state is constant its steps grow without
-        bound, so a guard that moves with the time alone needs it).
+        epsilon), ``max_wall_time`` (seconds; the run stops there with status 1 and keeps what it
+        computed, the clock read every 10,000 steps); scipy: ``method`` (default DOP853), ``rtol``,
+        ``atol`` (default 1e-12), ``max_step`` (default a 32nd of the forcing period, unbounded
+        without one: ``solve_ivp`` sees a guard only at its step ends, and in a mode where the
+        state is constant its steps grow without bound, so a guard that moves with the time
+        alone needs it).
 
     Returns
     -------
@@ -48,6 +50,11 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
 
     Examples
     --------
+    A mode in which every state's rate is zero (a mass stuck by friction) is *frozen*: with a
+    forcing period, a whole period there without an event means none ever comes, and both loops
+    jump to the last whole period before ``t_end`` (the integrals moved on by whole periods), so
+    a mass stuck for ever costs about two periods of steps, whatever ``t_end``.
+
     The bouncing ball stops at its Zeno time ``sqrt(2 h / g) (1 + 2 e / (1 - e))``:
 
     >>> import impactosc

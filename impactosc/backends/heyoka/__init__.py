@@ -502,7 +502,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     tol = check_tol(tol)
     if piece_loop_reason(osc, max_wall_time) is None:
         return run_on_hybrid_loop(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=sample_at,
-                                  tol=tol)
+                                  tol=tol, max_wall_time=max_wall_time)
     deadline = None
     if max_wall_time is not None:
         deadline = time.monotonic() + _v.positive("max_wall_time", max_wall_time)

@@ -30,9 +30,15 @@ from ...engine._hybrid import CROSSING
 from ...model._oscillator import Oscillator
 from ...model.hybrid import oscillator_system
 from ...results._solution import Solution, _Recorder
-from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_system
+from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_counted
 
 __all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
+
+#: The scale of the replayed system's integrals (``oscillator_system(integral_scale=...)``): a power of
+#: two keeps them exact and out of heyoka's error norm, which is relative to the largest state
+#: (unscaled, ``Q2 ~ (K d)^2 t`` reached 1e3 by t = 50 on the contact case, and at tol=1e-2 event
+#: times moved by 0.16).
+INTEGRAL_SCALE = 2.0**-40
 
 #: True until the hybrid loop resolves a stuck mode's release in closed form: until then every member
 #: stays on the piece loop (run_on_hybrid_loop runs the replay path on request).
@@ -63,7 +69,7 @@ def piece_loop_reason(osc: Oscillator, max_wall_time) -> str | None:
 @lru_cache(maxsize=64)
 def _system(osc: Oscillator):
     """``oscillator_system(osc, energy=True)`` and the built-in mode and event kind of each hybrid mode and guard."""
-    system = oscillator_system(osc, energy=True)
+    system = oscillator_system(osc, energy=True, integral_scale=INTEGRAL_SCALE)
     modes = []
     for name in system.mode_names:
         modes.append(Mode(_REGIONS[name[:-1]], _MOTIONS[name[-1]], True))
@@ -84,7 +90,7 @@ def _system(osc: Oscillator):
 
 
 def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
-                       sample_at=(), tol: float) -> Solution:
+                       sample_at=(), tol: float, max_wall_time: float | None = None) -> Solution:
     """Run ``osc`` on the one heyoka event loop and replay the run into the built-in :class:`Solution`.
 
     The arguments are those of :func:`impactosc.backends.heyoka.run` (already checked);
@@ -94,9 +100,14 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     v0 = 0.0 if abs(v0) <= 5e-324 else v0
     start = initial_mode(osc, 0.0, x0, v0)
     name = system.mode_names[index[(start.region, start.motion)]]
-    hybrid = run_system(system, t_end, [x0, v0], mode=name, max_events=max_events, tol=tol)
+    hybrid, steps = run_counted(system, t_end, [x0, v0], mode=name, max_events=max_events, tol=tol,
+                                max_wall_time=max_wall_time)
     rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
     _replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
+    rec.steps += steps  # the loop's integrator steps (the replay's pieces carry none)
+    if hybrid.status == 1 and "max_wall_time" in hybrid.message:
+        rec.message = (f"The wall-time limit max_wall_time={max_wall_time!r} s was reached; "
+                       "results up to t_final are kept.")
     if len(sample_at):
         _samples(hybrid, rec, modes, sample_at)
     return Solution(rec, t_end)
@@ -122,6 +133,7 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     for k, c in enumerate(cols):
         if c >= 0:
             incr[:, k] = ends[:, c] - after[:, c]
+    incr /= INTEGRAL_SCALE
     increments = incr.tolist()
     walls = {1: osc.gap_upper, -1: -osc.gap_lower}
     t_prev, x_prev, mode = 0.0, float(y0[0]), start
@@ -181,5 +193,5 @@ class _Evaluator:
         state = [x, v] + [0.0] * len(system.integrals)
         times = np.asarray(times, dtype=float)
         out = dense_states(system, self.tol, DEFAULT_COOLDOWN, index[(mode.region, mode.motion)], t0, state, times)
-        q = out[:, slots["Q"]] if "Q" in slots else np.zeros(times.shape)
+        q = out[:, slots["Q"]] / INTEGRAL_SCALE if "Q" in slots else np.zeros(times.shape)
         return out[:, 0].copy(), out[:, 1].copy(), np.asarray(q, dtype=float).copy()

@@ -11,7 +11,7 @@ from ._friction import stick_slip
 __all__ = ["oscillator_system"]
 
 
-def oscillator_system(osc: Oscillator, *, energy: bool = False) -> HybridSystem:
+def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: float = 1.0) -> HybridSystem:
     """The member ``osc`` of the family as a :class:`HybridSystem` (paper eq. 3 and its family).
 
     ``X'' + 2 zeta X' + X + beta sgn(X') = sum_i F_i cos(Omega_i t + phase_i) - flange(X)``
@@ -29,6 +29,12 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False) -> HybridSystem:
     reports (its rms flange force and energy balance): ``Q2 = int (K d)^2 dt`` (spring flanges),
     ``W = int V f dt`` (the forcing's work) and, with damping, ``VV = int V^2 dt`` (the damping
     loss is ``2 zeta VV``).
+
+    ``integral_scale`` multiplies every integrand (so every integral). A Taylor integrator
+    controls its error relative to the largest state: integrals that grow large (``Q2``
+    grows like ``(K d)^2 t``) would loosen the control of ``x`` and ``v``; with a small power of
+    two (the built-in heyoka backend takes ``2**-40``) they stay out of it, and the
+    integrals divided by it are the same numbers to rounding.
 
     Raises
     ------
@@ -50,6 +56,8 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False) -> HybridSystem:
 
     if not isinstance(osc, Oscillator):
         raise TypeError(f"osc must be an impactosc.Oscillator, got {osc!r}")
+    if not (isinstance(integral_scale, (int, float)) and math.isfinite(integral_scale) and integral_scale > 0.0):
+        raise ValueError(f"integral_scale must be a finite number > 0, got {integral_scale!r}")
     if osc.exponent != 1.0 and not osc.rigid:
         raise ValueError(f"exponent={osc.exponent!r}: a power-law flange d^p is not analytic at d = 0, where each "
                          "contact starts; oscillator_system writes linear (exponent=1) and rigid flanges only")
@@ -90,6 +98,9 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False) -> HybridSystem:
             ints["W"] = v * forcing  # 0 while stuck (V = 0)
             if osc.zeta != 0.0:
                 ints["VV"] = v * v
+        if integral_scale != 1.0:
+            ints = {q: integral_scale * r for q, r in ints.items()}
+            stuck = {q: integral_scale * r for q, r in stuck.items()}
         m, g = stick_slip(prefix, v, force, beta, beta_s, rates={x: v}, integrands=ints, stick_integrands=stuck,
                           entry=region)
         modes += m
