@@ -37,14 +37,16 @@ Frozen modes
 ------------
 In a *frozen* mode every state's rate is identically zero (a mass stuck by friction):
 heyoka would step through it a fraction of a forcing period at a time, for ever if it
-never ends. A system with a forcing period ``T`` and frozen modes gets one more event,
-armed in its frozen modes only: ``sin(2 pi t / T)`` rising through zero, a tick at each
-whole period. Two ticks in a row with no event between them mean a whole period in the
-frozen mode without an event; the guards there are functions of the time alone, periodic
-with ``T``, so none will ever fire: the loop jumps to the last whole period before
-``t_end`` (:func:`~impactosc.engine._hybrid.period_jump`, the integrals moved on by whole
-periods' increments) and integrates the rest. A stuck phase of any length costs at most
-about two periods of steps.
+never ends. With a forcing period ``T`` its guards are functions of the time alone,
+periodic with ``T``, and their extrema recur every period (extremum checks, above): the
+callbacks of the events armed in a frozen mode then also call a watch
+(:class:`_FrozenWatch`), which notes the first call and, at a call a period or more later
+with no event in between, stops the propagation; none will ever fire, and the loop jumps to
+the last whole period before ``t_end`` (:func:`~impactosc.engine._hybrid.period_jump`, the
+integrals moved on by whole periods' increments, one period integrated again) and integrates
+the rest. A stuck phase of any length costs at most about three periods of steps, and the
+loop pays nothing elsewhere. A frozen mode with no event that depends on the time gets a
+tick of its own, ``sin(2 pi t / T)`` rising through zero, in a shared event.
 
 ``max_wall_time`` splits the one ``propagate_until`` into calls of at most
 :data:`WALL_TIME_STEPS` steps and checks the clock between them: heyoka's steps do not
@@ -72,6 +74,7 @@ from ..engine._hybrid import (
     frozen_dense,
     frozen_modes,
     period_jump,
+    usable_period,
 )
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import Numeric, gated_sum, numeric
@@ -143,18 +146,20 @@ class _Callback:
         return run.crossing(ta, g)
 
 
-class _Tick:
-    """The callback of the period tick of the frozen modes (see the module docstring).
+class _FrozenWatch:
+    """Watches the events of the frozen modes for a whole period without a transition (module docstring).
 
-    Keeps the event and piece counts, the time and the state at the last tick; at a tick
-    with the same counts (a whole period in a frozen mode without an event) it notes the
-    jump and stops the propagation, and the loop jumps (:func:`_propagate`).
+    Called by the callbacks of the frozen modes' events after they did their work. Keeps the
+    event and piece counts, the time and the state at its first call; at a call a period or
+    more later with the same counts (no event in between) it notes ``jump = (t1, y1)`` and
+    stops the propagation, and the loop jumps (:func:`_propagate`).
     """
 
-    __slots__ = ("holder", "last", "jump", "off")
+    __slots__ = ("holder", "period", "last", "jump", "off")
 
     def __init__(self, holder: _Holder):
         self.holder = holder
+        self.period = math.inf
         self.reset()
 
     def reset(self, off: bool = False) -> None:
@@ -163,19 +168,41 @@ class _Tick:
         self.off = off
 
     def __deepcopy__(self, memo):
-        return self
+        return self  # heyoka copies callbacks deeply: every copy watches the one run (see _Callback)
 
-    def __call__(self, ta, d_sgn) -> bool:
+    def __call__(self, ta) -> bool:
         if self.off:
             return True
         switch = self.holder.run.switch
         mark = (len(switch.events), len(switch.pieces))
         last = self.last
-        if last is not None and last[0] == mark:
-            self.jump = (last[1], last[2], ta.time, ta.state.copy())
+        if last is None or last[0] != mark:
+            self.last = (mark, ta.time, ta.state.copy())
+        elif ta.time - last[1] >= self.period:
+            self.jump = (last[1], last[2])
             return False
-        self.last = (mark, ta.time, ta.state.copy())
         return True
+
+
+class _WatchedCallback(_Callback):
+    """A shared event's callback that, in the frozen modes, also calls the :class:`_FrozenWatch`."""
+
+    __slots__ = ("watch", "frozen", "watched")
+
+    def __init__(self, holder: _Holder, watch: _FrozenWatch, modes):
+        super().__init__(holder)
+        self.watch = watch
+        self.frozen = set(modes)
+        self.watched: list[bool] = []
+
+    def freeze(self, modes: int) -> _Callback:
+        self.watched = [m in self.frozen for m in range(modes)]
+        return super().freeze(modes)
+
+    def __call__(self, ta, d_sgn) -> bool:
+        if not super().__call__(ta, d_sgn):
+            return False
+        return not self.watched[self.holder.run.mode] or self.watch(ta)
 
 
 class CompiledSystem:
@@ -192,16 +219,13 @@ class CompiledSystem:
         n_all = len(num.states)
         rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
         self.holder = _Holder()
-        events = _events(system, num, ind, hy.par[P + M], self.holder, cooldown)
-        frozen = [m for m, f in enumerate(frozen_modes(system)) if f]
-        self.tick: _Tick | None = None
+        frozen = {m for m, f in enumerate(frozen_modes(system)) if f}
+        self.watch: _FrozenWatch | None = None
+        watch = None
         if system.period is not None and frozen:
-            # the tick at each whole period, armed in the frozen modes only (the constant 1 elsewhere)
-            self.tick = _Tick(self.holder)
-            armed = hy.par[P + M] * _indicator(frozen, ind)
-            wave = hy.sin(2.0 * math.pi * hy.time / num.with_params(system.period))
-            events.append(hy.t_event(armed * wave + (1.0 - armed) - START_NUDGE, direction=hy.event_direction.positive,
-                                     callback=self.tick, cooldown=cooldown))
+            self.watch = _FrozenWatch(self.holder)
+            watch = (self.watch, frozen, hy.sin(2.0 * math.pi * hy.time / num.with_params(system.period)))
+        events = _events(system, num, ind, hy.par[P + M], self.holder, cooldown, watch)
         # pars left out: heyoka sizes them to the highest index the expressions use (see load)
         self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all, t_events=events,
                                      tol=tol, compact_mode=False)
@@ -223,8 +247,13 @@ class CompiledSystem:
                 pars[index] = value
 
 
-def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldown: float) -> list:
-    """The heyoka events of every guard and extremum check, shared as the module docstring says."""
+def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldown: float, watch=None) -> list:
+    """The heyoka events of every guard and extremum check, shared as the module docstring says.
+
+    ``watch``: ``(watch, frozen modes, period wave)``: the callbacks of the events armed in a
+    frozen mode call the watch; a frozen mode without an event that depends on the time (its
+    guards' extrema recur every period) gets a tick, the wave rising through zero once a period.
+    """
     import heyoka as hy
 
     # One slot per distinct (expression, direction): the guards that share it in different
@@ -254,7 +283,15 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
     # mode's (a gated sum, like the vector field), so a step isolates the roots of a few
     # polynomials, not one per guard (eq. 3: 20 slots in 4 events).
     bins: list[tuple[int, set, list]] = []  # (direction, modes, slots)
-    for expr, d, modes, cb in slots.values():
+    members = list(slots.values())
+    if watch is not None:
+        # the modes whose events recur with the time: an extremum check with the time in it
+        timed = {m for expr, _, modes, cb in members for m in modes
+                 if cb.extrema.get(m) and "t" in _words(str(expr))}
+        untimed = watch[1] - timed
+        if untimed:
+            members.append((watch[2], 1, untimed, _Callback(holder)))
+    for expr, d, modes, cb in members:
         for b_d, b_modes, b_slots in bins:
             if b_d == d and not (b_modes & modes):
                 b_modes.update(modes)
@@ -264,10 +301,11 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
             bins.append((d, set(modes), [(expr, modes, cb)]))
     direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative, 0: hy.event_direction.any}
     events = []
-    for d, modes, members in bins:
-        merged = _Callback(holder)
+    for d, modes, binned in bins:
+        watched = modes & watch[1] if watch is not None else set()
+        merged = _WatchedCallback(holder, watch[0], watched) if watched else _Callback(holder)  # type: ignore[index]
         terms = []
-        for expr, ms, cb in members:
+        for expr, ms, cb in binned:
             merged.cross.update(cb.cross)  # type: ignore[union-attr]
             merged.extrema.update(cb.extrema)  # type: ignore[union-attr, arg-type]
             terms.append(_indicator(sorted(ms), ind) * expr)
@@ -515,12 +553,14 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
     ta.time = t0
     ta.state[:] = y0
     switch.pieces.append((t0, run.mode, tuple(y0)))
-    tick = comp.tick
+    watch = comp.watch
     period = math.nan
-    if tick is not None:
-        tick.reset()
-        period = switch.system.period_value() or math.nan  # the tick exists only with a period
+    if watch is not None:
+        found = usable_period(switch.system)
+        watch.reset(off=found is None)
+        period = watch.period = found if found is not None else math.inf
     max_steps = 0 if deadline is None else WALL_TIME_STEPS
+    last_missed: tuple[int, float] | None = None  # the last crossing lost to rounding and applied
     step_limit = hy.taylor_outcome.step_limit
     steps = 0
     try:
@@ -537,15 +577,8 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
                     run.status = 1
                     break
                 continue
-            if tick is not None and tick.jump is not None and not run.status and not switch.done:
-                # a whole period in a frozen mode without an event: on to the last whole period
-                t1, y1, t2, y2 = tick.jump
-                jump = period_jump(switch, run.mode, period, t_end, t1, y1, t2, y2.tolist())
-                # no jump (less than a period left, or guards that are not periodic): no more ticks
-                tick.reset(off=jump is None and t_end - t2 >= period)
-                if jump is not None:
-                    ta.time, ta.state[:] = jump
-                    switch.pieces.append((jump[0], run.mode, tuple(jump[1])))
+            if watch is not None and watch.jump is not None and not run.status and not switch.done:
+                _jump(comp, run, watch, period, t_end)
                 continue
             if run.resting is not None and not run.status and not switch.done:
                 # a guard's events accumulated: its rest mode from the accumulation time on
@@ -564,6 +597,16 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
             g, t_past = run.missed
             run.missed = None
             t_root, y_root = _first_root(comp, run, g, t_past)
+            t_start, _, y_start = switch.pieces[-1]
+            if t_root <= t_start and switch.leaves(g, run.mode, t_start, list(y_start)):
+                # The "root" is the piece start, where the guard moves away from the side it fires
+                # towards (a release with v = v' = 0: rounding took v a hair the wrong way, and back):
+                # not a crossing. Applying it re-entered the same piece at the same instant, for ever.
+                continue
+            if (g, t_root) == last_missed:
+                raise RuntimeError(f"guard {switch.system.guard_names[g]!r}: the crossing lost to rounding at "
+                                   f"t={t_root!r} was found again after its transition")
+            last_missed = (g, t_root)
             ta.time = t_root
             ta.state[:] = run.transition(g, t_root, y_root)
     except InstantAccumulation as exc:
@@ -581,6 +624,42 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
         run.status = -1
         run.message = f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode {switch.system.mode_names[run.mode]!r}"
     return steps
+
+
+def _jump(comp: CompiledSystem, run: _Run, watch: _FrozenWatch, period: float, t_end: float) -> None:
+    """A whole period in a frozen mode without an event from ``watch.jump = (t1, y1)`` on: on to the
+    last whole period before ``t_end`` (:func:`~impactosc.engine._hybrid.period_jump`).
+
+    The state a period after ``t1`` is integrated again from ``(t1, y1)``, events off (the
+    integrals' increment over exactly one period); the run goes on from the jump, or from where
+    it stopped when there is nothing to jump (the watch is then off for the rest of the run).
+    """
+    ta, switch = comp.ta, run.switch
+    t1, y1 = watch.jump  # type: ignore[misc]
+    t_now, y_now = ta.time, ta.state.copy()
+    on = comp.P + comp.M
+    events_on = on < len(comp.pars)
+    if events_on:
+        comp.pars[on] = 0.0
+    try:
+        ta.time = t1
+        ta.state[:] = y1
+        ta.propagate_until(t1 + period)
+        y2 = ta.state.tolist()
+    finally:
+        if events_on:
+            comp.pars[on] = 1.0
+    jump = period_jump(switch, run.mode, period, t_end, t1, y1, t1 + period, y2)
+    if jump is not None and jump[0] >= t_now:
+        ta.time = jump[0]
+        ta.state[:] = jump[1]
+        switch.pieces.append((jump[0], run.mode, tuple(jump[1])))
+        ta.reset_cooldowns()
+        watch.reset()
+    else:
+        ta.time = t_now
+        ta.state[:] = y_now
+        watch.reset(off=True)
 
 
 def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list]:
@@ -643,7 +722,7 @@ def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int,
     period = None
     if system.period is not None and frozen_modes(system)[mode]:
         values = dict(zip(system.parameter_names, params, strict=True))
-        period = system.with_parameters(**values).period_value()
+        period = usable_period(system.with_parameters(**values))
     return frozen_dense(system, period, mode, t_start, state, times,
                         lambda grid: _integrated(system, tol, cooldown, params, mode, t_start, state, grid))
 

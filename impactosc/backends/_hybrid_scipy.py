@@ -35,6 +35,7 @@ from ..engine._hybrid import (
     frozen_dense,
     frozen_modes,
     period_jump,
+    usable_period,
 )
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import rules
@@ -74,7 +75,7 @@ class _Loop:
         self.cooldown = cooldown
         self.cool, self.cool_until = -1, -np.inf  # a guard that fired (or rounded) just now: off until then
         # a frozen mode of a periodic system: (events so far, time, state) where its event-free period began
-        self.period = system.period_value()
+        self.period = usable_period(system)
         self.frozen = frozen_modes(system) if self.period is not None else ()
         self.window: tuple | None = None
 
@@ -244,7 +245,7 @@ class _Dense:
 
     def __call__(self, mode: int, t_start: float, state, times) -> np.ndarray:
         """The states at ``times`` (a frozen mode's whole periods skipped, see ``frozen_dense``)."""
-        return frozen_dense(self.system, self.system.period_value(), mode, t_start, state, times,
+        return frozen_dense(self.system, usable_period(self.system), mode, t_start, state, times,
                             lambda grid: self._integrated(mode, t_start, state, grid))
 
     def _integrated(self, mode: int, t_start: float, state, times) -> np.ndarray:

@@ -17,6 +17,7 @@ from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, plan, rules
 
 __all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "frozen_modes", "period_jump",
+           "usable_period",
            "frozen_dense", "CROSSING",
            "GRAZING", "MARKER", "REST", "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE"]
 
@@ -342,6 +343,17 @@ def frozen_modes(system: HybridSystem) -> tuple[bool, ...]:
         n = system.dimension
         found = _frozen[system.structure] = tuple(all(r == zero for r in rates[:n]) for rates in numeric(system).rates)
     return found
+
+
+def usable_period(system: HybridSystem) -> float | None:
+    """The system's forcing period, or None without one or where it is not a finite number
+    (``2 pi / Omega`` overflows for ``Omega ~ 1e-300``): frozen modes are then stepped through."""
+    if system.period is None:
+        return None
+    try:
+        return system.period_value()
+    except (ValueError, OverflowError, ZeroDivisionError):
+        return None
 
 
 def period_jump(switch: Switch, mode: int, period: float, t_end: float, t1: float, y1, t2: float,

@@ -134,6 +134,8 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
         if c >= 0:
             incr[:, k] = ends[:, c] - after[:, c]
     incr /= INTEGRAL_SCALE
+    # a flange's impulse int K d is >= 0: a touch (d ~ 0 throughout) may integrate d's rounding
+    np.maximum(incr[:, 0], 0.0, out=incr[:, 0])
     increments = incr.tolist()
     walls = {1: osc.gap_upper, -1: -osc.gap_lower}
     t_prev, x_prev, mode = 0.0, float(y0[0]), start
