@@ -106,3 +106,16 @@ def _first_rise(h, lo: float, hi: float) -> float:
     values = np.array([h(t) for t in grid])
     k = int(np.argmax((values[:-1] < 0.0) & (values[1:] >= 0.0)))
     return float(brentq(h, grid[k], grid[k + 1], xtol=1e-14))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_frozen_mode_without_a_timed_guard_is_jumped_over_too(backend):
+    """No guard of the frozen mode moves with the time (nothing recurs each period to watch): its
+    integral ``int cos(w t)^2 dt`` still does, and heyoka would step through it; a tick of its own."""
+    x, w = symbols("x w")
+    hold = impactosc.HybridMode("hold", {x: 0.0}, integrands={"I": hy.cos(w * hy.time) ** 2})
+    system = HybridSystem("x", {"w": 0.5}, [hold], [impactosc.Guard("far", x - 2.0, 1, armed="hold", to="hold")],
+                          integrals=["I"], period=2.0 * math.pi / w, name="held")
+    sol = impactosc.simulate(system, 1e12, [0.0], backend=backend)
+    assert sol.status == 0 and sol.t_final == 1e12 and not sol.events
+    assert sol.integrals["I"] == pytest.approx(square_integral(1.0, 0.5, 1e12), rel=1e-11)
