@@ -2,8 +2,8 @@
 
 ``run_on_hybrid_loop(osc, ...)`` runs a member that ``oscillator_system`` writes on the user
 systems' heyoka loop and replays it into the built-in ``Solution``
-(``impactosc/backends/heyoka/_replay.py``). ``simulate(osc, backend="heyoka")`` does not route
-there yet (a stuck phase is stepped through, see ``piece_loop_reason``). Checked against the closed-form ``exact``
+(``impactosc/backends/heyoka/_replay.py``); ``simulate(osc, backend="heyoka")`` routes every
+spring-flange member there (``piece_loop_reason``). Checked against the closed-form ``exact``
 backend first, then against the user system's own run (the same loop: the same numbers to
 rounding, where the old piece loop differed by ~6e-13 over the contact case).
 """
@@ -32,7 +32,13 @@ def hybrid(osc, t_end, x0, v0, *, record="full", max_events=10**6, sample_at=())
 
 
 def test_the_dispatch_names_why_a_member_stays_on_the_piece_loop():
-    assert "stuck phase" in piece_loop_reason(CONTACT, None)
+    assert piece_loop_reason(CONTACT, None) is None
+    assert piece_loop_reason(CONTACT, 10.0) is None
+    assert piece_loop_reason(MEMBERS["static friction, damping"], None) is None
+    assert "rigid flange" in piece_loop_reason(CONTACT.replace(flange="rigid"), None)
+    assert "power-law" in piece_loop_reason(CONTACT.replace(exponent=1.5), None)
+    assert "harmonics" in piece_loop_reason(MEMBERS["harmonic, one flange"], None)  # Omega_2 / Omega = 2.44
+    assert piece_loop_reason(CONTACT.replace(harmonics=[(0.1, 3.3, 0.2)]), None) is None  # 3 Omega
 
 
 @pytest.mark.parametrize("case", list(MEMBERS))

@@ -1,5 +1,16 @@
 """heyoka backend: Taylor integration with guards located on each step's Taylor polynomial.
 
+Which loop runs a member
+------------------------
+:func:`run` dispatches in one place (:func:`~impactosc.backends.heyoka._replay.piece_loop_reason`):
+a member with spring flanges (``exponent == 1``) whose forcing repeats with ``2 pi / Omega``
+runs as :func:`~impactosc.model.hybrid.oscillator_system` on the user systems' heyoka loop
+(:mod:`impactosc.backends._hybrid_heyoka`), its events replayed into the built-in
+:class:`~impactosc.Solution` (:mod:`._replay`). Rigid flanges (chatter and rest on the wall,
+:mod:`impactosc.engine._chatter`), power-law flanges (the boundary layer below) and harmonics
+that are not whole multiples of ``Omega`` run on the piece loop that the rest of this module
+describes: :class:`_Stepper` driven by :func:`impactosc.engine.drive`.
+
 Integrators
 -----------
 The integrators are compiled per *shape* of family member and tolerance (and per thread),

@@ -12,11 +12,15 @@ modes map onto the engine's ``Mode(region, motion)`` and its guards onto the bui
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
 What the hybrid loop does not express stays on the piece loop of this package
-(:func:`piece_loop_reason` says which and why, in one place). For now that is every member:
-the hybrid loop steps through a stuck phase with heyoka (the release guards on the forcing's
-Taylor polynomials), which for a mass stuck for a very long time costs a step per fraction of
-a forcing period, where the piece loop solves the release in closed form
-(:mod:`impactosc.engine._stuck`). :func:`run_on_hybrid_loop` runs the replay path directly.
+(:func:`piece_loop_reason` says which and why, in one place): rigid flanges (chatter and rest
+on the wall are the engine's local model, :mod:`impactosc.engine._chatter`) and power-law
+flanges (``d^p`` has no Taylor series at the contact's start: the piece stepper's boundary
+layer), and harmonics that are not whole multiples of ``Omega`` (the stuck phase below needs a
+forcing periodic with ``2 pi / Omega``). Every other spring-flange member runs here by default. A stuck phase
+costs at most about two forcing periods of steps whatever its length: the stick modes are
+*frozen* (every state's rate zero) and the loop jumps over whole periods
+(:func:`~impactosc.engine._hybrid.period_jump`); the piece loop solves each release in
+closed form instead (:mod:`impactosc.engine._stuck`).
 """
 
 from __future__ import annotations
@@ -40,30 +44,37 @@ __all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
 #: times moved by 0.16).
 INTEGRAL_SCALE = 2.0**-40
 
-#: True until the hybrid loop resolves a stuck mode's release in closed form: until then every member
-#: stays on the piece loop (run_on_hybrid_loop runs the replay path on request).
-_STUCK_PHASES_STEPPED = True
-
 _REGIONS = {"free": 0, "upper": 1, "lower": -1}
 _MOTIONS = {"0": 0, "+": 1, "-": -1}
 
 
-def piece_loop_reason(osc: Oscillator, max_wall_time) -> str | None:
+def piece_loop_reason(osc: Oscillator, max_wall_time=None) -> str | None:
     """Why ``osc`` runs on the piece loop rather than the one hybrid loop, or None when it does not.
 
-    The one place that decides the dispatch of the heyoka backend.
+    The one place that decides the dispatch of the heyoka backend: spring flanges
+    (``exponent == 1``) run on the hybrid loop; rigid and power-law flanges on the piece loop.
+    ``max_wall_time`` is accepted by both loops.
     """
-    if _STUCK_PHASES_STEPPED:
-        return ("a stuck phase: the hybrid loop integrates it step by step (its release guards over the "
-                "forcing's Taylor polynomials), where the piece loop solves its release in closed form; a mass "
-                "stuck for 1e12 time units would take ~1e11 steps")
     if osc.rigid:
         return "a rigid flange: its chatter and rest on the wall are the engine's local model"
     if osc.exponent != 1.0:
         return "a power-law flange: d^p needs the boundary layer of the piece stepper"
-    if max_wall_time is not None:
-        return "max_wall_time: the hybrid loop has no wall-time limit yet"
+    if not _periodic_forcing(osc):
+        return ("harmonics that are not whole multiples of Omega: the forcing is not periodic with the system's "
+                "period 2 pi / Omega, so a stuck phase cannot be jumped over whole periods (the hybrid loop would "
+                "step through it); the piece loop solves each release in closed form")
     return None
+
+
+def _periodic_forcing(osc: Oscillator) -> bool:
+    """Whether every forcing term repeats with ``2 pi / Omega`` (or none depends on the time)."""
+    omegas = [Om for F, Om, _ in osc.terms if F != 0.0]
+    if all(Om == 0.0 for Om in omegas):
+        return True
+    if osc.Omega <= 0.0:
+        return False
+    ratios = [Om / osc.Omega for Om in omegas]
+    return all(r >= 0.5 and abs(r - round(r)) <= 4.0 * 2.0**-52 * r for r in ratios)
 
 
 @lru_cache(maxsize=64)

@@ -1,0 +1,71 @@
+"""Issue 27 item 4: spring-flange members run on the one hybrid heyoka loop by default.
+
+``simulate(osc, backend="heyoka")`` replays the hybrid run into the built-in ``Solution`` for
+every linear spring-flange member whose forcing repeats with ``2 pi / Omega``; rigid and
+power-law flanges (and harmonics that are not whole multiples of ``Omega``) stay on the piece
+loop (``piece_loop_reason`` says why). Checked against the closed-form ``exact`` backend.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import impactosc
+from impactosc.backends.heyoka import _replay
+
+
+def _spy(monkeypatch) -> list:
+    """Record the members that reach the hybrid loop."""
+    seen: list = []
+    original = _replay.run_on_hybrid_loop
+
+    def spy(osc, *args, **kwargs):
+        seen.append(osc)
+        return original(osc, *args, **kwargs)
+
+    monkeypatch.setattr("impactosc.backends.heyoka.run_on_hybrid_loop", spy)
+    return seen
+
+
+def test_a_spring_member_runs_on_the_hybrid_loop_and_a_rigid_one_does_not(monkeypatch):
+    seen = _spy(monkeypatch)
+    spring = impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
+    impactosc.simulate(spring, 20.0)
+    assert seen == [spring]
+    impactosc.simulate(impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, flange="rigid", restitution=0.8), 20.0)
+    impactosc.simulate(spring.replace(exponent=1.5), 20.0)
+    assert seen == [spring]
+
+
+def test_creep_with_a_release_from_a_long_stick_in_the_flange_agrees_with_exact():
+    """A tape drive's member (Omega ~ 1.5e-4): it sticks in the flange and is released with v = v' = 0.
+
+    Rounding took v a hair the wrong way right after the release; the loop took that for a
+    crossing lost inside a step and applied it at the piece start, where the release fired
+    again: the same instant for ever (a hang on this branch before the fix).
+    """
+    osc = impactosc.Oscillator(F=3.2830188679245285, Omega=0.0001548192732628624, beta=0.0077490468691723555,
+                               K=1e4)
+    ref = impactosc.simulate(osc, 1148.2922896552739, backend="exact", record="events")
+    sol = impactosc.simulate(osc, 1148.2922896552739, record="events", max_wall_time=60.0)
+    assert sol.status == 0, sol.message
+    assert sol.counts == ref.counts and ref.counts["release"] == 1
+    np.testing.assert_allclose(sol.events.t[:-1], ref.events.t[:-1], rtol=0, atol=1e-7)
+    # the release: the force + beta falls through 0 at the slope F Omega |sin| ~ 5e-4, so a rounding
+    # of the spring force K d (~1e-12 of it) moves it by ~1e-8 / 5e-4; exact and the piece loop
+    # differ by 1.2e-6 there too
+    assert sol.events.t[-1] == pytest.approx(ref.events.t[-1], abs=1e-5)
+    assert sol.mean_flange_force() == pytest.approx(ref.mean_flange_force(), rel=1e-8)
+
+
+@pytest.mark.parametrize("x0", [0.0, 1.01])
+def test_a_builtin_member_stuck_for_ever_costs_a_few_periods(x0):
+    """Stuck between the flanges (F < beta), or in the upper flange (|F cos - x - K d| <= 2.11 < beta): to t = 1e12."""
+    osc = impactosc.Oscillator(F=0.1, Omega=0.5, beta=2.5, K=100.0)
+    sol = impactosc.simulate(osc, 1e12, x0, 0.0, record="stats")
+    assert sol.status == 0 and sol.t_final == 1e12
+    assert sum(sol.counts.values()) == 0 and sol.x_final == x0 and sol.v_final == 0.0
+    assert sol.n_steps < 1000
+    if x0 > 1.0:  # the flange's impulse K d t, to the rounding of 1e11 periods' sums
+        assert sol.flange_impulse(1) == pytest.approx(100.0 * (x0 - 1.0) * 1e12, rel=1e-12)
