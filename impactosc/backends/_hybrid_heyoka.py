@@ -200,9 +200,10 @@ class _WatchedCallback(_Callback):
         return super().freeze(modes)
 
     def __call__(self, ta, d_sgn) -> bool:
-        if not super().__call__(ta, d_sgn):
-            return False
-        return not self.watched[self.holder.run.mode] or self.watch(ta)
+        go = _Callback.__call__(self, ta, d_sgn)  # named, not super(): this runs at every event
+        if go and self.watched[self.holder.run.mode]:
+            return self.watch(ta)
+        return go
 
 
 class CompiledSystem:
