@@ -2,14 +2,14 @@
 
 Which loop runs a member
 ------------------------
-:func:`run` dispatches in one place (:func:`~impactosc.backends.heyoka._replay.piece_loop_reason`):
+:func:`run` dispatches in one place (``piece_loop_reason`` in ``backends/heyoka/_replay.py``):
 a member with spring flanges (``exponent == 1``) whose forcing repeats with ``2 pi / Omega``
 runs as :func:`~impactosc.model.hybrid.oscillator_system` on the user systems' heyoka loop
-(:mod:`impactosc.backends._hybrid_heyoka`), its events replayed into the built-in
-:class:`~impactosc.Solution` (:mod:`._replay`). Rigid flanges (chatter and rest on the wall,
-:mod:`impactosc.engine._chatter`), power-law flanges (the boundary layer below) and harmonics
-that are not whole multiples of ``Omega`` run on the piece loop that the rest of this module
-describes: :class:`_Stepper` driven by :func:`impactosc.engine.drive`.
+(``backends/_hybrid_heyoka.py``), its events replayed into the built-in
+:class:`~impactosc.Solution`. Rigid flanges (chatter and rest on the wall, ``engine/_chatter.py``),
+power-law flanges (the boundary layer below) and harmonics that are not whole multiples of
+``Omega`` run on the piece loop that the rest of this module describes: a piece stepper driven
+by the engine's ``drive``.
 
 Integrators
 -----------
