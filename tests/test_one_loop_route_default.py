@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import impactosc
 from impactosc.backends.heyoka import _replay
@@ -73,3 +75,27 @@ def test_a_builtin_member_stuck_for_ever_costs_a_few_periods(x0):
     np.testing.assert_array_equal(v, 0.0)
     if x0 > 1.0:  # the flange's impulse K d t, to the rounding of 1e11 periods' sums
         assert sol.flange_impulse(1) == pytest.approx(100.0 * (x0 - 1.0) * 1e12, rel=1e-12)
+
+
+# v0 is 0 or at least 1e-6: a start within the loop's touch tolerance (1e-12) of v = 0 is a stop
+# at t = 0 there, where the piece loop and exact stop at v0 / a (5e-201 for v0 = 1e-200), or
+# record nothing (v0 <= 1e-300)
+speeds = st.one_of(st.just(0.0), st.floats(1e-6, 1.0), st.floats(-1.0, -1e-6))
+
+
+@given(F=st.floats(0.0, 0.5, allow_subnormal=False), Omega=st.floats(0.1, 3.0), phase=st.floats(0.0, 2.0 * np.pi),
+       extra=st.floats(1.5, 3.0), K=st.floats(0.0, 4.0).map(lambda e: 10.0**e),
+       x0=st.floats(-1.3, 1.3), v0=speeds, t_end=st.floats(3.0, 9.0).map(lambda e: 10.0**e))
+def test_a_member_that_sticks_for_good_agrees_with_exact_to_any_end_time(F, Omega, phase, extra, K, x0, v0, t_end):
+    """beta >= F + 1.5: once stuck between the flanges (|x| <= 1) the mass never moves again, and the
+    hybrid loop jumps over the periods that the exact backend solves in closed form."""
+    osc = impactosc.Oscillator(F=F, Omega=Omega, beta=F + extra, K=K, phase=phase)
+    ref = impactosc.simulate(osc, t_end, x0, v0, backend="exact", record="events")
+    sol = impactosc.simulate(osc, t_end, x0, v0, record="events", max_wall_time=60.0)
+    assert sol.status == ref.status == 0, sol.message
+    assert sol.counts == ref.counts
+    np.testing.assert_allclose(sol.events.t, ref.events.t, rtol=0, atol=1e-9)
+    assert (sol.x_final, sol.v_final) == pytest.approx((ref.x_final, ref.v_final), abs=1e-9)
+    # integrals over up to 1e9 time units: the forcing's phase there is known to ~eps Omega t
+    assert sol.flange_impulse() == pytest.approx(ref.flange_impulse(), rel=1e-8, abs=1e-9)
+    assert sol.forcing_work == pytest.approx(ref.forcing_work, rel=1e-8, abs=1e-9)
