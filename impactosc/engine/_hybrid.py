@@ -368,6 +368,8 @@ def period_jump(switch: Switch, mode: int, period: float, t_end: float, t1: floa
     or when a guard lies on zero at ``t2`` (an event at that very instant).
     """
     k = math.floor((t_end - t2) / period)
+    if k >= 1 and t2 + k * period > t_end:  # rounded past the end time
+        k -= 1
     if k < 1:
         return None
     if switch.num.armed_in[mode]:
