@@ -65,6 +65,18 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
     >>> sol = impactosc.simulate(ball, 10.0, [1.0, 0.0])
     >>> sol.status, round(sol.accumulation_time, 12)
     (2, 4.063712768872)
+
+    A mass held by dry friction against a weak harmonic force never moves: its stick mode is
+    frozen, and the run to ``t = 1e12`` jumps over whole forcing periods:
+
+    >>> import heyoka as hy
+    >>> from impactosc import stick_slip
+    >>> A, w, mu = symbols("A w mu")
+    >>> modes, guards = stick_slip("m", v, A * hy.cos(w * hy.time) - x, mu, rates={x: v})
+    >>> stuck = HybridSystem("x v", {"A": 0.1, "w": 0.5, "mu": 0.5}, modes, guards, period=6.283185307179586 / w)
+    >>> sol = impactosc.simulate(stuck, 1e12, [0.0, 0.0])
+    >>> sol.status, sol.t_final, sol.mode_final, len(sol.events)
+    (0, 1000000000000.0, 'm0', 0)
     """
     _v.choice("backend", backend, SYSTEM_BACKENDS)
     # simulate()'s arguments for the built-in oscillator that a user system does not take: refused, not ignored
