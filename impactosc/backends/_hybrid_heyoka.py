@@ -200,8 +200,10 @@ class _WatchedCallback(_Callback):
         return super().freeze(modes)
 
     def __call__(self, ta, d_sgn) -> bool:
+        run = self.holder.run
+        mode = run.mode
         go = _Callback.__call__(self, ta, d_sgn)  # named, not super(): this runs at every event
-        if go and self.watched[self.holder.run.mode]:
+        if go and run.mode == mode and self.watched[mode]:  # not a transition: an extremum check, a marker
             return self.watch(ta)
         return go
 
