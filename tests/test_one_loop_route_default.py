@@ -99,3 +99,34 @@ def test_a_member_that_sticks_for_good_agrees_with_exact_to_any_end_time(F, Omeg
     # integrals over up to 1e9 time units: the forcing's phase there is known to ~eps Omega t
     assert sol.flange_impulse() == pytest.approx(ref.flange_impulse(), rel=1e-8, abs=1e-9)
     assert sol.forcing_work == pytest.approx(ref.forcing_work, rel=1e-8, abs=1e-9)
+
+
+def test_a_slip_that_starts_at_a_triple_root_of_its_stop_is_not_a_stick():
+    """At rest on x = -1 with F cos(t + pi) - x = 1 - cos t and no friction: the net force is zero and
+    turns positive (v ~ t^3 / 6). The hybrid loop's stop guard fired at t = 0 (its second derivative
+    sin(pi) ~ 1e-16 by rounding), stuck, released, stopped, for ever: status -1 where exact has no event."""
+    osc = impactosc.Oscillator(F=1.0, Omega=1.0, beta=0.0, K=1.0, phase=np.pi)
+    ref = impactosc.simulate(osc, 1.0, -1.0, 0.0, backend="exact")
+    sol = impactosc.simulate(osc, 1.0, -1.0, 0.0)
+    assert sol.status == 0, sol.message
+    assert sol.counts == ref.counts
+    assert (sol.x_final, sol.v_final) == pytest.approx((ref.x_final, ref.v_final), abs=1e-12)
+
+
+@pytest.mark.slow  # a subprocess
+def test_heyoka_warnings_of_the_hybrid_loop_do_not_reach_stdout():
+    """The hybrid loop's integrator may be the first heyoka builds: its logger must write to stderr."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import impactosc as io\n"
+            "print('table start', flush=True)\n"
+            "io.simulate(io.Oscillator(F=1.0, Omega=1.0, beta=0.0, K=1.0, phase=3.141592653589793), 1.0, -1.0, 0.0)\n"
+            "print('table end', flush=True)\n")
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "PYTHONPATH": repo})
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == ["table start", "table end"]
+    assert "[warning]" in out.stderr

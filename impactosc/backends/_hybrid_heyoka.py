@@ -502,8 +502,13 @@ def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: fl
                 max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
                 zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
                 until: tuple[str, int] | None = None,
-                max_wall_time: float | None = None) -> tuple[HybridSolution, int]:
-    """:func:`run_system`, and the number of integrator steps the run took (the built-in ``Solution.n_steps``)."""
+                max_wall_time: float | None = None, quiet_at_start: str | None = None) -> tuple[HybridSolution, int]:
+    """:func:`run_system`, and the number of integrator steps the run took (the built-in ``Solution.n_steps``).
+
+    ``quiet_at_start``: a guard that the initial state does not fire even where it lies on it
+    (the built-in engine's slip-end guard after a release at the start: its double or triple
+    root there is where the slip begins, see ``engine.initial_mode``).
+    """
     t0 = _v.real("t0", t0)
     t_end = _v.real("t_end", t_end)
     if not t_end > t0:
@@ -525,7 +530,8 @@ def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: fl
         run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
         comp.holder.run = run
         try:
-            steps = _propagate(run, comp, t0, y0, t_end, deadline)
+            quiet = system.guard_names.index(quiet_at_start) if quiet_at_start is not None else -1
+            steps = _propagate(run, comp, t0, y0, t_end, deadline, quiet)
         finally:
             comp.holder.run = None
         ta = comp.ta
@@ -541,13 +547,13 @@ def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: fl
 
 
 def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float,
-               deadline: float | None = None) -> int:
+               deadline: float | None = None, quiet: int = -1) -> int:
     """The run from ``(t0, y0)``: the transitions at the start, then one ``propagate_until`` (more after a
     lost root, a frozen mode's jump, or every :data:`WALL_TIME_STEPS` steps with a ``deadline``); its end
     is in ``run.status``/``run.message`` and the integrator's time and state. Returns the number of steps.
 
     ``deadline``: the ``time.monotonic()`` after which the run stops with status 1 (its message is
-    written by the caller).
+    written by the caller); ``quiet``: a guard the initial state does not fire (see :func:`run_counted`).
     """
     import heyoka as hy
 
@@ -567,7 +573,7 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
     step_limit = hy.taylor_outcome.step_limit
     steps = 0
     try:
-        g = switch.pending(run.mode, t0, y0)
+        g = switch.pending(run.mode, t0, y0, quiet)
         ta.state[:] = run.transition(g, t0, y0) if g >= 0 else y0
         if comp.has_events:
             ta.reset_cooldowns()

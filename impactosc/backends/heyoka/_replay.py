@@ -34,7 +34,8 @@ from ...engine._hybrid import CROSSING
 from ...model._oscillator import Oscillator
 from ...model.hybrid import oscillator_system
 from ...results._solution import Solution, _Recorder
-from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_counted
+from .._hybrid_heyoka import DEFAULT_COOLDOWN, compiled, dense_states, run_counted
+from ._ode import log_on_stderr
 
 __all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
 
@@ -108,11 +109,16 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     ``osc`` must be a member that :func:`piece_loop_reason` accepts.
     """
     system, modes, index, guards, slots = _system(osc)
+    log_on_stderr(lambda: compiled(system, tol))  # heyoka's warnings on stderr, not in piped output
     v0 = 0.0 if abs(v0) <= 5e-324 else v0
     start = initial_mode(osc, 0.0, x0, v0)
     name = system.mode_names[index[(start.region, start.motion)]]
+    # a slip that starts at rest (the engine's slip-end guard not armed): its stop guard's double or
+    # triple root at the start is where the slip begins, not a stop (a zero net force that turns
+    # with F cos(t + pi) - x = 1 - cos t stuck and released at t = 0 for ever)
+    quiet = f"{name} stop" if not start.armed and start.motion != 0 else None
     hybrid, steps = run_counted(system, t_end, [x0, v0], mode=name, max_events=max_events, tol=tol,
-                                max_wall_time=max_wall_time)
+                                max_wall_time=max_wall_time, quiet_at_start=quiet)
     rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
     _replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
     rec.steps += steps  # the loop's integrator steps (the replay's pieces carry none)
