@@ -113,10 +113,12 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     v0 = 0.0 if abs(v0) <= 5e-324 else v0
     start = initial_mode(osc, 0.0, x0, v0)
     name = system.mode_names[index[(start.region, start.motion)]]
-    # a slip that starts at rest (the engine's slip-end guard not armed): its stop guard's double or
-    # triple root at the start is where the slip begins, not a stop (a zero net force that turns
-    # with F cos(t + pi) - x = 1 - cos t stuck and released at t = 0 for ever)
-    quiet = f"{name} stop" if not start.armed and start.motion != 0 else None
+    # The initial state is not an event (engine.initial_mode): a slip's stop guard does not fire at
+    # the start, where the loop would take a speed within its touch tolerance (1e-12) for zero. A
+    # slip that starts at rest has a double or triple root of v there (a zero net force that turns,
+    # F cos(t + pi) - x = 1 - cos t, stuck and released at t = 0 for ever); one that starts at
+    # v0 = 1e-300 against a force stops a step later, recorded at its time as the engine does.
+    quiet = f"{name} stop" if start.motion != 0 else None
     hybrid, steps = run_counted(system, t_end, [x0, v0], mode=name, max_events=max_events, tol=tol,
                                 max_wall_time=max_wall_time, quiet_at_start=quiet)
     rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
@@ -132,7 +134,7 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
 
 def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int, t_end: float) -> None:
     """Feed ``rec`` with the pieces and events of ``hybrid`` as the engine's ``drive`` would."""
-    events = [e for e in hybrid._raw_events if e[2] == CROSSING]
+    events = _crossings_without_touches(hybrid._raw_events, guards)
     n = len(events)
     y0 = hybrid._pieces[0][2]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
@@ -186,6 +188,29 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     else:
         status, message = -1, f"the heyoka backend failed after t={t_final!r}: {message}"
     rec.finish(t_final, float(y1[0]), float(y1[1]), mode, status, message)
+
+
+def _crossings_without_touches(raw_events, guards) -> list:
+    """The crossings of a hybrid run, each touch of a flange as the reversal it is.
+
+    A touch (``|X|`` reaches the flange with ``V = 0``, a double root of the contact guard) can
+    be located as a flange entered, the stop in it and the flange left, all at one instant:
+    a contact of zero length. The engine records a reversal alone; so does the replay: one
+    crossing of the stop guard from the mode before the entry to the mode after the exit.
+    """
+    out = [e for e in raw_events if e[2] == CROSSING]
+    kept: list = []
+    i, n = 0, len(out)
+    while i < n:
+        if (i + 2 < n and out[i][0] == out[i + 1][0] == out[i + 2][0] and guards[out[i][1]][0] == CONTACT_START
+                and guards[out[i + 1][1]][0] is None and guards[out[i + 2][1]][0] == CONTACT_END):
+            enter, stop, leave = out[i:i + 3]
+            kept.append((stop[0], stop[1], CROSSING, enter[3], leave[4], enter[5], leave[6]))
+            i += 3
+        else:
+            kept.append(out[i])
+            i += 1
+    return kept
 
 
 def _samples(hybrid, rec: _Recorder, modes, sample_at) -> None:
