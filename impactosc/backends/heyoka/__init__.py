@@ -2,14 +2,12 @@
 
 Which loop runs a member
 ------------------------
-:func:`run` dispatches in one place (``piece_loop_reason`` in ``backends/heyoka/_replay.py``):
-a member with spring flanges (``exponent == 1``) whose forcing repeats with ``2 pi / Omega``
-runs as :func:`~impactosc.model.hybrid.oscillator_system` on the user systems' heyoka loop
-(``backends/_hybrid_heyoka.py``), its events replayed into the built-in
-:class:`~impactosc.Solution`. Rigid flanges (chatter and rest on the wall, ``engine/_chatter.py``),
-power-law flanges (the boundary layer below) and harmonics that are not whole multiples of
-``Omega`` run on the piece loop that the rest of this module describes: a piece stepper driven
-by the engine's ``drive``.
+:func:`run` dispatches in one place (``piece_loop_reason`` in ``backends/heyoka/_replay.py``).
+For now every member runs on the piece loop that the rest of this module describes (a piece
+stepper driven by the engine's ``drive``): the hybrid loop of user systems
+(``backends/_hybrid_heyoka.py``), which runs a spring-flange member as
+:func:`~impactosc.model.hybrid.oscillator_system` and replays its events into the built-in
+:class:`~impactosc.Solution`, still fails degenerate runs that the piece loop gets right.
 
 Integrators
 -----------

@@ -12,14 +12,17 @@ modes map onto the engine's ``Mode(region, motion)`` and its guards onto the bui
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
 What the hybrid loop does not express stays on the piece loop of this package
-(:func:`piece_loop_reason` says which and why, in one place): rigid flanges (chatter and rest
-on the wall are the engine's local model, :mod:`impactosc.engine._chatter`) and power-law
-flanges (``d^p`` has no Taylor series at the contact's start: the piece stepper's boundary
-layer), and harmonics that are not whole multiples of ``Omega`` (the stuck phase below needs a
-forcing periodic with ``2 pi / Omega``). Every other spring-flange member runs here by default. A stuck phase
-costs at most about two forcing periods of steps whatever its length: the stick modes are
-*frozen* (every state's rate zero) and the loop jumps over whole periods
-(:func:`~impactosc.engine._hybrid.period_jump`); the piece loop solves each release in
+(:func:`piece_loop_reason` says which and why, in one place). For now that is every member:
+the property tests found degenerate runs that the hybrid loop fails (status -1) and the piece
+loop gets right (a release guard that touches zero, a friction-free stop at a net force of
+rounding size); :func:`run_on_hybrid_loop` runs the replay path on request. Beyond those, rigid
+flanges (chatter and rest on the wall are the engine's local model,
+:mod:`impactosc.engine._chatter`), power-law flanges (``d^p`` has no Taylor series at the
+contact's start: the piece stepper's boundary layer) and harmonics that are not whole multiples
+of ``Omega`` (the stuck phase below needs a forcing periodic with ``2 pi / Omega``) stay there.
+A stuck phase costs the hybrid loop at most about three forcing periods of steps whatever its
+length: the stick modes are *frozen* (every state's rate zero) and the loop jumps over whole
+periods (:func:`~impactosc.engine._hybrid.period_jump`); the piece loop solves each release in
 closed form instead (:mod:`impactosc.engine._stuck`).
 """
 
@@ -49,13 +52,32 @@ _REGIONS = {"free": 0, "upper": 1, "lower": -1}
 _MOTIONS = {"0": 0, "+": 1, "-": -1}
 
 
+#: Not yet the default: on degenerate members the property tests (300 examples, several seeds)
+#: found runs that the piece loop and exact get right and the hybrid loop does not: a release guard
+#: that touches zero (F = beta_s, stuck at rest: |F cos t| reaches beta at t = 2 pi k) is taken for a
+#: crossing lost to rounding whose root search then fails (status -1); with beta = 0 and a net force
+#: of ~1e-53 a stop has no admissible mode (status -1). See tests/test_one_loop_route_default.py.
+_DEGENERATE_CASES_FAIL = True
+
+
 def piece_loop_reason(osc: Oscillator, max_wall_time=None) -> str | None:
     """Why ``osc`` runs on the piece loop rather than the one hybrid loop, or None when it does not.
 
-    The one place that decides the dispatch of the heyoka backend: spring flanges
-    (``exponent == 1``) run on the hybrid loop; rigid and power-law flanges on the piece loop.
-    ``max_wall_time`` is accepted by both loops.
+    The one place that decides the dispatch of the heyoka backend. For now every member: the
+    hybrid loop still fails degenerate runs that the piece loop gets right (a release guard that
+    touches zero, friction-free stops at a net force of rounding size). Once those are fixed,
+    spring flanges (``exponent == 1``) with a forcing periodic in ``2 pi / Omega`` run on the
+    hybrid loop; rigid and power-law flanges stay on the piece loop. ``max_wall_time`` is
+    accepted by both loops.
     """
+    if _DEGENERATE_CASES_FAIL:
+        return ("degenerate runs: a release guard that touches zero (F = beta_s at rest) or a friction-free stop at "
+                "a net force of rounding size fail on the hybrid loop (status -1) where the piece loop is right")
+    return _hybrid_loop_reason(osc)
+
+
+def _hybrid_loop_reason(osc: Oscillator) -> str | None:
+    """What keeps ``osc`` off the hybrid loop once it is the default (rigid, power-law flanges, harmonics)."""
     if osc.rigid:
         return "a rigid flange: its chatter and rest on the wall are the engine's local model"
     if osc.exponent != 1.0:
