@@ -2,8 +2,8 @@
 
 ``run_on_hybrid_loop(osc, ...)`` runs a member that ``oscillator_system`` writes on the user
 systems' heyoka loop and replays it into the built-in ``Solution``
-(``impactosc/backends/heyoka/_replay.py``). ``simulate(osc, backend="heyoka")`` does not route
-there yet (a stuck phase is stepped through, see ``piece_loop_reason``). Checked against the closed-form ``exact``
+(``impactosc/backends/heyoka/_replay.py``); ``simulate(osc, backend="heyoka")`` does not route
+there yet (degenerate runs fail, see ``piece_loop_reason``). Checked against the closed-form ``exact``
 backend first, then against the user system's own run (the same loop: the same numbers to
 rounding, where the old piece loop differed by ~6e-13 over the contact case).
 """
@@ -14,7 +14,12 @@ import numpy as np
 import pytest
 
 import impactosc
-from impactosc.backends.heyoka._replay import piece_loop_reason, run_on_hybrid_loop
+from impactosc.backends.heyoka._replay import (
+    INTEGRAL_SCALE,
+    _hybrid_loop_reason,
+    piece_loop_reason,
+    run_on_hybrid_loop,
+)
 from impactosc.model.hybrid import oscillator_system
 
 CONTACT = impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
@@ -32,7 +37,14 @@ def hybrid(osc, t_end, x0, v0, *, record="full", max_events=10**6, sample_at=())
 
 
 def test_the_dispatch_names_why_a_member_stays_on_the_piece_loop():
-    assert "stuck phase" in piece_loop_reason(CONTACT, None)
+    assert "degenerate" in piece_loop_reason(CONTACT, None)
+    # what keeps a member off the hybrid loop once it is the default
+    assert _hybrid_loop_reason(CONTACT) is None
+    assert _hybrid_loop_reason(MEMBERS["static friction, damping"]) is None
+    assert "rigid flange" in _hybrid_loop_reason(CONTACT.replace(flange="rigid"))
+    assert "power-law" in _hybrid_loop_reason(CONTACT.replace(exponent=1.5))
+    assert "harmonics" in _hybrid_loop_reason(MEMBERS["harmonic, one flange"])  # Omega_2 / Omega = 2.44
+    assert _hybrid_loop_reason(CONTACT.replace(harmonics=[(0.1, 3.3, 0.2)])) is None  # 3 Omega
 
 
 @pytest.mark.parametrize("case", list(MEMBERS))
@@ -65,11 +77,22 @@ def test_builtin_heyoka_agrees_with_the_closed_forms(case):
 def test_builtin_heyoka_is_the_user_systems_run():
     """The same loop: the event times of the user system with the same integrals, to rounding."""
     sol = hybrid(CONTACT, 400.0, 0.95, 0.0)
-    own = impactosc.simulate(oscillator_system(CONTACT, energy=True), 400.0, [0.95, 0.0])
+    own = impactosc.simulate(oscillator_system(CONTACT, energy=True, integral_scale=INTEGRAL_SCALE), 400.0,
+                             [0.95, 0.0])
     assert len(sol.events) == 328
     np.testing.assert_allclose(sol.events.t, own.event_times(), rtol=0, atol=1e-14)
-    assert sol.flange_impulse() == pytest.approx(own.integrals["Q"], rel=1e-14)
-    assert sol.forcing_work == pytest.approx(own.integrals["W"], rel=1e-14)
+    assert sol.flange_impulse() == pytest.approx(own.integrals["Q"] / INTEGRAL_SCALE, rel=1e-14)
+    assert sol.forcing_work == pytest.approx(own.integrals["W"] / INTEGRAL_SCALE, rel=1e-14)
+
+
+def test_large_integrals_do_not_loosen_the_control_of_the_motion():
+    """heyoka's error is relative to the largest state: unscaled, Q2 ~ 1e3 by t = 50 moved event times by 0.16
+    at tol = 1e-2 (scaled by INTEGRAL_SCALE they stay within the tolerance of the closed forms)."""
+    ref = impactosc.simulate(CONTACT, 50.0, 0.95, 0.0, backend="exact")
+    sol = run_on_hybrid_loop(CONTACT, 50.0, 0.95, 0.0, record="full", max_events=10**6, tol=1e-2)
+    assert sol.counts == ref.counts
+    np.testing.assert_allclose(sol.events.t, ref.events.t, rtol=0, atol=1e-2)
+    assert sol.flange_impulse() == pytest.approx(ref.flange_impulse(), rel=1e-2)
 
 
 @pytest.mark.parametrize("record", ["events", "stats"])

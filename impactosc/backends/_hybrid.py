@@ -37,10 +37,12 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
         ``touch_tol`` (a state within ``touch_tol (1 + max |y|)`` of a guard it crosses
         fires it at once, default 1e-12), ``cooldown`` (how long a guard is ignored after it
         fired, default 1e-12 time units); heyoka: ``tol`` (in [1e-18, 1e-2], default machine
-        epsilon); scipy: ``method`` (default DOP853), ``rtol``, ``atol`` (default 1e-12), ``max_step``
-        (default a 32nd of the forcing period, unbounded without one: ``solve_ivp`` sees a guard
-        only at its step ends, and in a mode where the state is constant its steps grow without
-        bound, so a guard that moves with the time alone needs it).
+        epsilon), ``max_wall_time`` (seconds; the run stops there with status 1 and keeps what it
+        computed, the clock read every 10,000 steps); scipy: ``method`` (default DOP853), ``rtol``,
+        ``atol`` (default 1e-12), ``max_step`` (default a 32nd of the forcing period, unbounded
+        without one: ``solve_ivp`` sees a guard only at its step ends, and in a mode where the
+        state is constant its steps grow without bound, so a guard that moves with the time
+        alone needs it).
 
     Returns
     -------
@@ -48,6 +50,11 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
 
     Examples
     --------
+    A mode in which every state's rate is zero (a mass stuck by friction) is *frozen*: with a
+    forcing period, a whole period there without an event means none ever comes, and both loops
+    jump to the last whole period before ``t_end`` (the integrals moved on by whole periods), so
+    a mass stuck for ever costs about two periods of steps, whatever ``t_end``.
+
     The bouncing ball stops at its Zeno time ``sqrt(2 h / g) (1 + 2 e / (1 - e))``:
 
     >>> import impactosc
@@ -58,6 +65,18 @@ def simulate_system(system, t_end: float, state0, v0: float = 0.0, *, backend: s
     >>> sol = impactosc.simulate(ball, 10.0, [1.0, 0.0])
     >>> sol.status, round(sol.accumulation_time, 12)
     (2, 4.063712768872)
+
+    A mass held by dry friction against a weak harmonic force never moves: its stick mode is
+    frozen, and the run to ``t = 1e12`` jumps over whole forcing periods:
+
+    >>> import heyoka as hy
+    >>> from impactosc import stick_slip
+    >>> A, w, mu = symbols("A w mu")
+    >>> modes, guards = stick_slip("m", v, A * hy.cos(w * hy.time) - x, mu, rates={x: v})
+    >>> stuck = HybridSystem("x v", {"A": 0.1, "w": 0.5, "mu": 0.5}, modes, guards, period=6.283185307179586 / w)
+    >>> sol = impactosc.simulate(stuck, 1e12, [0.0, 0.0])
+    >>> sol.status, sol.t_final, sol.mode_final, len(sol.events)
+    (0, 1000000000000.0, 'm0', 0)
     """
     _v.choice("backend", backend, SYSTEM_BACKENDS)
     # simulate()'s arguments for the built-in oscillator that a user system does not take: refused, not ignored

@@ -32,11 +32,32 @@ transition (the engine's :class:`~impactosc.engine._hybrid.Switch`: reset, entry
 conditions, a guard the new state lies on), writes the new state and two indicators, and
 records the event, in a few microseconds of Python per event. A callback that returns
 False stops the run: the event limit, an accumulation of events, a failed transition.
+
+Frozen modes
+------------
+In a *frozen* mode every state's rate is identically zero (a mass stuck by friction):
+heyoka would step through it a fraction of a forcing period at a time, for ever if it
+never ends. With a forcing period ``T`` its guards are functions of the time alone,
+periodic with ``T``, and their extrema recur every period (extremum checks, above): the
+callbacks of the events armed in a frozen mode then also call a watch
+(:class:`_FrozenWatch`), which notes the first call and, at a call a period or more later
+with no event in between, stops the propagation; none will ever fire, and the loop jumps to
+the last whole period before ``t_end`` (:func:`~impactosc.engine._hybrid.period_jump`, the
+integrals moved on by whole periods' increments, one period integrated again) and integrates
+the rest. A stuck phase of any length costs at most about three periods of steps, and the
+loop pays nothing elsewhere. A frozen mode with no event that depends on the time gets a
+tick of its own, ``sin(2 pi t / T)`` rising through zero, in a shared event.
+
+``max_wall_time`` splits the one ``propagate_until`` into calls of at most
+:data:`WALL_TIME_STEPS` steps and checks the clock between them: heyoka's steps do not
+depend on the previous one, so the run is the same, step for step.
 """
 
 from __future__ import annotations
 
+import math
 import threading
+import time
 
 import numpy as np
 
@@ -50,12 +71,16 @@ from ..engine._hybrid import (
     InstantAccumulation,
     Switch,
     check_state,
+    frozen_dense,
+    frozen_modes,
+    period_jump,
+    usable_period,
 )
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import Numeric, gated_sum, numeric
 from ..results._hybrid import STATUS_MESSAGES, HybridSolution
 
-__all__ = ["run_system", "compiled", "CompiledSystem", "dense_states"]
+__all__ = ["run_system", "run_counted", "compiled", "CompiledSystem", "dense_states", "WALL_TIME_STEPS"]
 
 DEFAULT_TOL = 2.0**-52
 #: The usable tolerances (those of the built-in heyoka backend: below eps nothing improves while
@@ -68,6 +93,9 @@ MIN_TOL, MAX_TOL = 1e-18, 1e-2
 #: (``zeno_tol``). heyoka's automatic cooldown is not used: it grows like ``1 / |h'|`` and, at
 #: the double root of a release from sticking, hid the next genuine stop for seconds.
 DEFAULT_COOLDOWN = 1e-12
+#: Integrator steps between two looks at the clock when a run has ``max_wall_time`` (~1 us a step:
+#: the limit is overrun by ~10 ms at most; each look costs one more ``propagate_until`` call, ~5 us).
+WALL_TIME_STEPS = 10_000
 
 
 class _Holder:
@@ -119,6 +147,68 @@ class _Callback:
         return run.crossing(ta, g) if g >= 0 else True
 
 
+class _FrozenWatch:
+    """Watches the events of the frozen modes for a whole period without a transition (module docstring).
+
+    Called by the callbacks of the frozen modes' events after they did their work. Keeps the
+    event and piece counts, the time and the state at its first call; at a call a period or
+    more later with the same counts (no event in between) it notes ``jump = (t1, y1)`` and
+    stops the propagation, and the loop jumps (:func:`_propagate`).
+    """
+
+    __slots__ = ("holder", "period", "last", "jump", "off")
+
+    def __init__(self, holder: _Holder):
+        self.holder = holder
+        self.period = math.inf
+        self.reset()
+
+    def reset(self, off: bool = False) -> None:
+        self.last: tuple | None = None
+        self.jump: tuple | None = None
+        self.off = off
+
+    def __deepcopy__(self, memo):
+        return self  # heyoka copies callbacks deeply: every copy watches the one run (see _Callback)
+
+    def __call__(self, ta) -> bool:
+        if self.off:
+            return True
+        switch = self.holder.run.switch
+        mark = (len(switch.events), len(switch.pieces))
+        last = self.last
+        if last is None or last[0] != mark:
+            self.last = (mark, ta.time, ta.state.copy())
+        elif ta.time - last[1] >= self.period:
+            self.jump = (last[1], last[2])
+            return False
+        return True
+
+
+class _WatchedCallback(_Callback):
+    """A shared event's callback that, in the frozen modes, also calls the :class:`_FrozenWatch`."""
+
+    __slots__ = ("watch", "frozen", "watched")
+
+    def __init__(self, holder: _Holder, watch: _FrozenWatch, modes):
+        super().__init__(holder)
+        self.watch = watch
+        self.frozen = set(modes)
+        self.watched: list[bool] = []
+
+    def freeze(self, modes: int) -> _Callback:
+        self.watched = [m in self.frozen for m in range(modes)]
+        return super().freeze(modes)
+
+    def __call__(self, ta, d_sgn) -> bool:
+        run = self.holder.run
+        mode = run.mode
+        go = _Callback.__call__(self, ta, d_sgn)  # named, not super(): this runs at every event
+        if go and run.mode == mode and self.watched[mode]:  # not a transition: an extremum check, a marker
+            return self.watch(ta)
+        return go
+
+
 class CompiledSystem:
     """The cached integrator of one system structure and tolerance, and what the loop reads from it."""
 
@@ -133,7 +223,13 @@ class CompiledSystem:
         n_all = len(num.states)
         rates = [gated_sum([num.rates[m][i] for m in range(M)], ind) for i in range(n_all)]
         self.holder = _Holder()
-        events = _events(system, num, ind, hy.par[P + M], self.holder, cooldown)
+        frozen = {m for m, f in enumerate(frozen_modes(system)) if f}
+        self.watch: _FrozenWatch | None = None
+        watch = None
+        if system.period is not None and frozen:
+            self.watch = _FrozenWatch(self.holder)
+            watch = (self.watch, frozen, hy.sin(2.0 * math.pi * hy.time / num.with_params(system.period)))
+        events = _events(system, num, ind, hy.par[P + M], self.holder, cooldown, watch)
         # pars left out: heyoka sizes them to the highest index the expressions use (see load)
         self.ta = hy.taylor_adaptive(list(zip(num.states, rates, strict=True)), [0.0] * n_all, t_events=events,
                                      tol=tol, compact_mode=False)
@@ -155,8 +251,13 @@ class CompiledSystem:
                 pars[index] = value
 
 
-def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldown: float) -> list:
-    """The heyoka events of every guard and extremum check, shared as the module docstring says."""
+def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldown: float, watch=None) -> list:
+    """The heyoka events of every guard and extremum check, shared as the module docstring says.
+
+    ``watch``: ``(watch, frozen modes, period wave)``: the callbacks of the events armed in a
+    frozen mode call the watch; a frozen mode without an event that depends on the time (its
+    guards' extrema recur every period) gets a tick, the wave rising through zero once a period.
+    """
     import heyoka as hy
 
     # One slot per distinct (expression, direction): the guards that share it in different
@@ -186,7 +287,15 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
     # mode's (a gated sum, like the vector field), so a step isolates the roots of a few
     # polynomials, not one per guard (eq. 3: 20 slots in 4 events).
     bins: list[tuple[int, set, list]] = []  # (direction, modes, slots)
-    for expr, d, modes, cb in slots.values():
+    members = list(slots.values())
+    if watch is not None:
+        # the modes whose events recur with the time: an extremum check with the time in it
+        timed = {m for expr, _, modes, cb in members for m in modes
+                 if cb.extrema.get(m) and "t" in _words(str(expr))}
+        untimed = watch[1] - timed
+        if untimed:
+            members.append((watch[2], 1, untimed, _Callback(holder)))
+    for expr, d, modes, cb in members:
         for b_d, b_modes, b_slots in bins:
             if b_d == d and not (b_modes & modes):
                 b_modes.update(modes)
@@ -196,10 +305,11 @@ def _events(system: HybridSystem, num: Numeric, ind, on, holder: _Holder, cooldo
             bins.append((d, set(modes), [(expr, modes, cb)]))
     direction = {1: hy.event_direction.positive, -1: hy.event_direction.negative, 0: hy.event_direction.any}
     events = []
-    for d, modes, members in bins:
-        merged = _Callback(holder)
+    for d, modes, binned in bins:
+        watched = modes & watch[1] if watch is not None else set()
+        merged = _WatchedCallback(holder, watch[0], watched) if watched else _Callback(holder)  # type: ignore[index]
         terms = []
-        for expr, ms, cb in members:
+        for expr, ms, cb in binned:
             merged.cross.update(cb.cross)  # type: ignore[union-attr]
             merged.extrema.update(cb.extrema)  # type: ignore[union-attr, arg-type]
             terms.append(_indicator(sorted(ms), ind) * expr)
@@ -389,8 +499,24 @@ def check_tol(tol) -> float:
 def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
                max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
                zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
-               until: tuple[str, int] | None = None) -> HybridSolution:
+               until: tuple[str, int] | None = None, max_wall_time: float | None = None) -> HybridSolution:
     """Run ``system`` with heyoka from ``state0`` at ``t0`` to ``t_end`` (see ``simulate_system``)."""
+    return run_counted(system, t_end, state0, mode=mode, t0=t0, max_events=max_events, tol=tol, cooldown=cooldown,
+                       zeno_tol=zeno_tol, graze_tol=graze_tol, touch_tol=touch_tol, until=until,
+                       max_wall_time=max_wall_time)[0]
+
+
+def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: float = 0.0,
+                max_events: int = 1_000_000, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN,
+                zeno_tol: float = 1e-6, graze_tol: float = 1e-10, touch_tol: float = 1e-12,
+                until: tuple[str, int] | None = None,
+                max_wall_time: float | None = None, quiet_at_start: str | None = None) -> tuple[HybridSolution, int]:
+    """:func:`run_system`, and the number of integrator steps the run took (the built-in ``Solution.n_steps``).
+
+    ``quiet_at_start``: a guard that the initial state does not fire even where it lies on it
+    (the built-in engine's slip-end guard after a release at the start: its double or triple
+    root there is where the slip begins, see ``engine.initial_mode``).
+    """
     t0 = _v.real("t0", t0)
     t_end = _v.real("t_end", t_end)
     if not t_end > t0:
@@ -404,25 +530,39 @@ def run_system(system: HybridSystem, t_end: float, state0, *, mode=None, t0: flo
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
     if until is not None:
         switch.stop_after(*until)
+    deadline = None
+    if max_wall_time is not None:
+        deadline = time.monotonic() + _v.positive("max_wall_time", max_wall_time)
     mode0 = switch.initial_mode(mode, t0, y0)
     with comp.lock:
         run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
         comp.holder.run = run
         try:
-            _propagate(run, comp, t0, y0, t_end)
+            quiet = system.guard_names.index(quiet_at_start) if quiet_at_start is not None else -1
+            steps = _propagate(run, comp, t0, y0, t_end, deadline, quiet)
         finally:
             comp.holder.run = None
         ta = comp.ta
         t_final = ta.time if run.status or switch.done else t_end
         state_final = ta.state.copy()
-    return HybridSolution(system, "heyoka", t_end, t_final, run.status, run.message or STATUS_MESSAGES[run.status],
-                          switch.events, switch.pieces, state_final, run.mode, _Dense(system, tol, cooldown),
-                          run.accumulation_time)
+    if run.status == 1 and deadline is not None and not run.message:
+        run.message = (f"The wall-time limit max_wall_time={max_wall_time!r} s was reached at t={t_final!r}; "
+                       "results up to t_final are kept.")
+    solution = HybridSolution(system, "heyoka", t_end, t_final, run.status,
+                              run.message or STATUS_MESSAGES[run.status], switch.events, switch.pieces, state_final,
+                              run.mode, _Dense(system, tol, cooldown), run.accumulation_time)
+    return solution, steps
 
 
-def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float) -> None:
+def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float,
+               deadline: float | None = None, quiet: int = -1) -> int:
     """The run from ``(t0, y0)``: the transitions at the start, then one ``propagate_until`` (more after a
-    lost root); its end is in ``run.status``/``run.message`` and the integrator's time and state."""
+    lost root, a frozen mode's jump, or every :data:`WALL_TIME_STEPS` steps with a ``deadline``); its end
+    is in ``run.status``/``run.message`` and the integrator's time and state. Returns the number of steps.
+
+    ``deadline``: the ``time.monotonic()`` after which the run stops with status 1 (its message is
+    written by the caller); ``quiet``: a guard the initial state does not fire (see :func:`run_counted`).
+    """
     import heyoka as hy
 
     ta, switch = comp.ta, run.switch
@@ -430,13 +570,33 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
     ta.time = t0
     ta.state[:] = y0
     switch.pieces.append((t0, run.mode, tuple(y0)))
+    watch = comp.watch
+    period = math.nan
+    if watch is not None:
+        found = usable_period(switch.system)
+        watch.reset(off=found is None)
+        period = watch.period = found if found is not None else math.inf
+    max_steps = 0 if deadline is None else WALL_TIME_STEPS
+    last_missed: tuple[int, float] | None = None  # the last crossing lost to rounding and applied
+    step_limit = hy.taylor_outcome.step_limit
+    steps = 0
     try:
-        g = switch.pending(run.mode, t0, y0)
+        g = switch.pending(run.mode, t0, y0, quiet)
         ta.state[:] = run.transition(g, t0, y0) if g >= 0 else y0
         if comp.has_events:
             ta.reset_cooldowns()
         while True:
-            outcome = ta.propagate_until(t_end)[0]
+            res = ta.propagate_until(t_end, max_steps=max_steps)
+            outcome = res[0]
+            steps += res[3]
+            if outcome == step_limit and not run.status:
+                if time.monotonic() > deadline:  # type: ignore[operator]
+                    run.status = 1
+                    break
+                continue
+            if watch is not None and watch.jump is not None and not run.status and not switch.done:
+                _jump(comp, run, watch, period, t_end)
+                continue
             if run.resting is not None and not run.status and not switch.done:
                 # a guard's events accumulated: its rest mode from the accumulation time on
                 g, t_rest = run.resting
@@ -454,22 +614,69 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
             g, t_past = run.missed
             run.missed = None
             t_root, y_root = _first_root(comp, run, g, t_past)
+            t_start, _, y_start = switch.pieces[-1]
+            if t_root <= t_start and switch.leaves(g, run.mode, t_start, list(y_start)):
+                # The "root" is the piece start, where the guard moves away from the side it fires
+                # towards (a release with v = v' = 0: rounding took v a hair the wrong way, and back):
+                # not a crossing. Applying it re-entered the same piece at the same instant, for ever.
+                continue
+            if (g, t_root) == last_missed:
+                raise RuntimeError(f"guard {switch.system.guard_names[g]!r}: the crossing lost to rounding at "
+                                   f"t={t_root!r} was found again after its transition")
+            last_missed = (g, t_root)
             ta.time = t_root
             ta.state[:] = run.transition(g, t_root, y_root)
     except InstantAccumulation as exc:
         run.status, run.message, run.accumulation_time = 2, str(exc), ta.time
-        return
+        return steps
     except Exception as exc:  # no admissible mode, a callback's error or heyoka's: keep what was computed
         if run.status == 0:
             run.status = -1
             run.message = str(exc) if type(exc) is RuntimeError else f"{type(exc).__name__}: {exc}"
-        return
+        return steps
     if switch.done and run.status == 0:
         run.message = switch.done_message()
     elif run.status == 0 and outcome != hy.taylor_outcome.time_limit:
         # not a callback's stop: a non-finite state (err_nf_state) or another failure
         run.status = -1
         run.message = f"heyoka stopped with {outcome!r} at t={ta.time!r} in mode {switch.system.mode_names[run.mode]!r}"
+    return steps
+
+
+def _jump(comp: CompiledSystem, run: _Run, watch: _FrozenWatch, period: float, t_end: float) -> None:
+    """A whole period in a frozen mode without an event from ``watch.jump = (t1, y1)`` on: on to the
+    last whole period before ``t_end`` (:func:`~impactosc.engine._hybrid.period_jump`).
+
+    The state a period after ``t1`` is integrated again from ``(t1, y1)``, events off (the
+    integrals' increment over exactly one period); the run goes on from the jump, or from where
+    it stopped when there is nothing to jump (the watch is then off for the rest of the run).
+    """
+    ta, switch = comp.ta, run.switch
+    t1, y1 = watch.jump  # type: ignore[misc]
+    t_now, y_now = ta.time, ta.state.copy()
+    on = comp.P + comp.M
+    events_on = on < len(comp.pars)
+    if events_on:
+        comp.pars[on] = 0.0
+    try:
+        ta.time = t1
+        ta.state[:] = y1
+        ta.propagate_until(t1 + period)
+        y2 = ta.state.tolist()
+    finally:
+        if events_on:
+            comp.pars[on] = 1.0
+    jump = period_jump(switch, run.mode, period, t_end, t1, y1, t1 + period, y2)
+    if jump is not None and jump[0] >= t_now:
+        ta.time = jump[0]
+        ta.state[:] = jump[1]
+        switch.pieces.append((jump[0], run.mode, tuple(jump[1])))
+        ta.reset_cooldowns()
+        watch.reset()
+    else:
+        ta.time = t_now
+        ta.state[:] = y_now
+        watch.reset(off=True)
 
 
 def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list]:
@@ -525,7 +732,21 @@ def dense_states(system: HybridSystem, tol: float, cooldown: float, mode: int, t
 
 def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,
            times) -> np.ndarray:
-    """The states at ``times`` (not before ``t_start``) in ``mode`` from ``state``, events off."""
+    """The states at ``times`` (not before ``t_start``) in ``mode`` from ``state``, events off.
+
+    A frozen mode's whole periods are skipped (:func:`~impactosc.engine._hybrid.frozen_dense`).
+    """
+    period = None
+    if system.period is not None and frozen_modes(system)[mode]:
+        values = dict(zip(system.parameter_names, params, strict=True))
+        period = usable_period(system.with_parameters(**values))
+    return frozen_dense(system, period, mode, t_start, state, times,
+                        lambda grid: _integrated(system, tol, cooldown, params, mode, t_start, state, grid))
+
+
+def _integrated(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,
+                times: np.ndarray) -> np.ndarray:
+    """:func:`_dense` by integration from ``t_start`` to every time."""
     comp = compiled(system, tol, cooldown)
     times = np.asarray(times, dtype=float)
     grid, where = np.unique(times, return_inverse=True)

@@ -32,6 +32,10 @@ from ..engine._hybrid import (
     InstantAccumulation,
     Switch,
     check_state,
+    frozen_dense,
+    frozen_modes,
+    period_jump,
+    usable_period,
 )
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import rules
@@ -70,6 +74,10 @@ class _Loop:
         self.quiet = -1  # a guard whose extremum the current piece starts at (its extremum event is off)
         self.cooldown = cooldown
         self.cool, self.cool_until = -1, -np.inf  # a guard that fired (or rounded) just now: off until then
+        # a frozen mode of a periodic system: (events so far, time, state) where its event-free period began
+        self.period = usable_period(system)
+        self.frozen = frozen_modes(system) if self.period is not None else ()
+        self.window: tuple | None = None
 
     def field(self, mode: int):
         fn, p = self.switch.rules.field[mode], self.p
@@ -117,6 +125,14 @@ class _Loop:
             return False
         cooling = self.cool >= 0 and self.cool_until < t_end
         t_stop = self.cool_until if cooling else t_end
+        window_end = np.inf
+        if self.frozen and self.frozen[self.mode]:
+            # a whole period without an event from window[1] on: none will come (see period_jump)
+            if self.window is None or self.window[0] != len(self.switch.events):
+                self.window = (len(self.switch.events), self.t, list(self.y))
+            window_end = self.window[1] + self.period
+            if window_end < t_stop:
+                t_stop, cooling = window_end, False
         fns, what = self.events(self.mode, self.quiet, self.cool, self.t, self.y)
         sol = solve_ivp(self.field(self.mode), (self.t, t_stop), self.y, events=fns, **self.options)
         self.t, self.y = float(sol.t[-1]), sol.y[:, -1].tolist()
@@ -125,6 +141,20 @@ class _Loop:
             self.message = (f"solve_ivp failed at t={self.t!r} in mode {self.system.mode_names[self.mode]!r}: "
                             f"{sol.message}")
             return False
+        if sol.status == 0 and t_stop == window_end:
+            assert self.window is not None and self.period is not None
+            self.t = t_stop
+            if self.cool_until <= self.t:
+                self.cool = -1
+            jump = period_jump(self.switch, self.mode, self.period, t_end, self.window[1], self.window[2], self.t,
+                               self.y)
+            if jump is not None:
+                self.t, self.y = jump
+            self.switch.pieces.append((self.t, self.mode, tuple(self.y)))
+            self.window = (len(self.switch.events), self.t, list(self.y))
+            if jump is None:
+                self.frozen = ()  # not periodic there (or an event at this instant): no more windows
+            return True
         if sol.status == 0:
             self.t = t_stop
             self.cool = -1
@@ -214,6 +244,11 @@ class _Dense:
         self.system, self.method, self.rtol, self.atol = system, method, rtol, atol
 
     def __call__(self, mode: int, t_start: float, state, times) -> np.ndarray:
+        """The states at ``times`` (a frozen mode's whole periods skipped, see ``frozen_dense``)."""
+        return frozen_dense(self.system, usable_period(self.system), mode, t_start, state, times,
+                            lambda grid: self._integrated(mode, t_start, state, grid))
+
+    def _integrated(self, mode: int, t_start: float, state, times) -> np.ndarray:
         from scipy.integrate import solve_ivp
 
         fn, p = rules(self.system).field[mode], self.system.parameter_values

@@ -16,8 +16,10 @@ import numpy as np
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, plan, rules
 
-__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "CROSSING", "GRAZING", "MARKER", "REST",
-           "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE"]
+__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "frozen_modes", "period_jump",
+           "usable_period",
+           "frozen_dense", "CROSSING",
+           "GRAZING", "MARKER", "REST", "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE"]
 
 #: Event kinds: a guard crossed (its transition applied), a guard's extremum on zero without a
 #: crossing (recorded, no transition), a non-terminal guard crossed (recorded only), the
@@ -322,6 +324,96 @@ class Switch:
 
     def guard_value(self, g: int, t: float, y) -> float:
         return self.rules.guard[g](t, y, self.p)[0]
+
+
+_frozen: dict[tuple, tuple[bool, ...]] = {}
+
+
+def frozen_modes(system: HybridSystem) -> tuple[bool, ...]:
+    """For each mode, whether it is *frozen*: every state's rate is identically zero as an expression.
+
+    In a frozen mode (a mass stuck by friction, a ball resting on the floor) the states stay
+    where they are; only the integrals may have rates. With a forcing period ``T`` its guards
+    are then functions of the time alone, periodic with period ``T``: a whole period without
+    an event means none ever comes, and the loops jump over whole periods
+    (:func:`period_jump`) instead of stepping through them. Found once per system structure.
+    """
+    found = _frozen.get(system.structure)
+    if found is None:
+        import heyoka as hy
+
+        zero = hy.expression(0.0)
+        n = system.dimension
+        found = _frozen[system.structure] = tuple(all(r == zero for r in rates[:n]) for rates in numeric(system).rates)
+    return found
+
+
+def usable_period(system: HybridSystem) -> float | None:
+    """The system's forcing period, or None without one or where it is not a finite number
+    (``2 pi / Omega`` overflows for ``Omega ~ 1e-300``): frozen modes are then stepped through."""
+    if system.period is None:
+        return None
+    try:
+        return system.period_value()
+    except (ValueError, OverflowError, ZeroDivisionError):
+        return None
+
+
+def period_jump(switch: Switch, mode: int, period: float, t_end: float, t1: float, y1, t2: float,
+                y2) -> tuple[float, list] | None:
+    """The jump over whole periods of a frozen mode that had no event from ``t1`` to ``t2 = t1 + period``.
+
+    ``(t, y)``: the last whole period before ``t_end`` (``t = t2 + k period``, ``k >= 1``),
+    each integral moved on by ``k`` times its increment ``y2 - y1`` over the period just
+    integrated, the states as they are. None when there is nothing to jump (less than a
+    period left), when the guards of ``mode`` do not take the same values at ``t1`` and
+    ``t2`` (the system is not periodic with ``period`` there: no jump, the loop steps on),
+    or when a guard lies on zero at ``t2`` (an event at that very instant).
+    """
+    k = math.floor((t_end - t2) / period)
+    if k >= 1 and t2 + k * period > t_end:  # rounded past the end time
+        k -= 1
+    if k < 1:
+        return None
+    if switch.num.armed_in[mode]:
+        p = switch.p
+        values = switch.rules.values[mode]
+        a, b = values(t1, list(y1), p), values(t2, list(y2), p)
+        scale = 1.0 + max(abs(c) for c in y2)
+        # the rounding of the guards' time arguments, ~eps |t| |dh/dt|, with |dh/dt| ~ |h| / period
+        slack = 64.0 * 2.0**-52 * (scale + max(map(abs, b))) * (1.0 + abs(t2) / period)
+        if any(abs(u - w) > slack for u, w in zip(a, b, strict=True)):
+            return None
+        if switch.pending(mode, t2, list(y2)) >= 0:
+            return None
+    n = switch.n
+    y = [float(c) for c in y2]
+    for i in range(n, len(y)):
+        y[i] = y[i] + k * (y[i] - float(y1[i]))
+    return t2 + k * period, y
+
+
+def frozen_dense(system: HybridSystem, period: float | None, mode: int, t_start: float, state, times,
+                 integrate) -> np.ndarray:
+    """Dense output of a piece from ``(t_start, state)`` in ``mode`` at ``times``, whole periods skipped.
+
+    ``integrate(times)`` integrates the piece (one row per time). In a frozen mode of a system
+    with a forcing ``period``, a time ``k`` whole periods and ``r`` past the start is the state
+    at ``t_start + r`` with the integrals moved on by ``k`` periods' increments (the states do
+    not move): a sample deep into a long stuck phase costs at most a period of integration.
+    Elsewhere ``integrate(times)`` itself.
+    """
+    times = np.asarray(times, dtype=float)
+    if period is None or not frozen_modes(system)[mode]:
+        return integrate(times)
+    whole = np.floor(np.maximum(times - t_start, 0.0) / period)
+    if whole.max(initial=0.0) < 1.0:
+        return integrate(times)
+    within = np.where(whole > 0.0, t_start + ((times - t_start) - whole * period), times)
+    out = np.asarray(integrate(np.concatenate((within, [t_start + period]))), dtype=float)
+    step = out[-1] - np.asarray(state, dtype=float)
+    step[:system.dimension] = 0.0  # the states do not move (rounding aside)
+    return out[:-1] + whole[:, None] * step
 
 
 def finite_state(y) -> bool:

@@ -1,5 +1,14 @@
 """heyoka backend: Taylor integration with guards located on each step's Taylor polynomial.
 
+Which loop runs a member
+------------------------
+:func:`run` dispatches in one place (``piece_loop_reason`` in ``backends/heyoka/_replay.py``).
+For now every member runs on the piece loop that the rest of this module describes (a piece
+stepper driven by the engine's ``drive``): the hybrid loop of user systems
+(``backends/_hybrid_heyoka.py``), which runs a spring-flange member as
+:func:`~impactosc.model.hybrid.oscillator_system` and replays its events into the built-in
+:class:`~impactosc.Solution`, still fails degenerate runs that the piece loop gets right.
+
 Integrators
 -----------
 The integrators are compiled per *shape* of family member and tolerance (and per thread),
@@ -502,7 +511,7 @@ def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max
     tol = check_tol(tol)
     if piece_loop_reason(osc, max_wall_time) is None:
         return run_on_hybrid_loop(osc, t_end, x0, v0, record=record, max_events=max_events, sample_at=sample_at,
-                                  tol=tol)
+                                  tol=tol, max_wall_time=max_wall_time)
     deadline = None
     if max_wall_time is not None:
         deadline = time.monotonic() + _v.positive("max_wall_time", max_wall_time)

@@ -311,9 +311,27 @@ _first_build = threading.Lock()
 _logger_routed = False
 
 
+def log_on_stderr(build):
+    """``build()``; the process's first heyoka build is made with C's ``stdout`` on ``stderr``.
+
+    Whichever integrator heyoka builds first creates its logger (:func:`_log_to_stderr`):
+    the piece loop's (:func:`integrator`) or the hybrid loop's that a spring-flange member
+    runs on (``backends/heyoka/_replay.py``). Later calls cost a flag check.
+    """
+    global _logger_routed
+    if _logger_routed:
+        return build()
+    with _first_build:
+        if not _logger_routed:
+            try:
+                return _log_to_stderr(build)
+            finally:
+                _logger_routed = True
+    return build()
+
+
 def integrator(tol: float = DEFAULT_TOL, shape: Shape = EQ3) -> Integrators:
     """The cached :class:`Integrators` for ``tol`` and ``shape`` (compiled on first use in each thread)."""
-    global _logger_routed
     store = getattr(_cache, "integrators", None)
     if store is None:
         store = _cache.integrators = {}
@@ -323,12 +341,6 @@ def integrator(tol: float = DEFAULT_TOL, shape: Shape = EQ3) -> Integrators:
         # A notice if the compile is still running after 2 s (usually 0.1-1 s; tight tolerances take longer).
         with notice_if_slow("heyoka-compile", f"impactosc: heyoka is compiling its integrators (tol={tol:g}); "
                                               "this process compiles them once"):
-            if not _logger_routed:
-                with _first_build:
-                    if not _logger_routed:
-                        found = _log_to_stderr(lambda: _build(tol, shape))
-                        _logger_routed = True
-            if found is None:
-                found = _build(tol, shape)
+            found = log_on_stderr(lambda: _build(tol, shape))
         store[key] = found
     return found

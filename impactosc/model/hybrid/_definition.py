@@ -276,7 +276,10 @@ class HybridSystem:
         its ``integrands`` (:class:`HybridMode`).
     period : float or expression, optional
         The forcing period (for stroboscopic maps), a number or an expression in the
-        parameters such as ``2 * pi / Omega``.
+        parameters such as ``2 * pi / Omega``. The simulation loops also use it to jump over
+        a long stay in a *frozen* mode (every state's rate zero, such as a mass stuck by
+        friction): after a whole period there without an event, whose guards take the same
+        values at its two ends, they go on to the last whole period before the end time.
     section : str, optional
         The name of a guard whose events are the Poincare section of an autonomous system
         (:class:`impactosc.dynamics.hybrid_map.HybridMap` maps the state on it to its next
