@@ -35,6 +35,9 @@ CASES = {
     "damped, static friction": (DAMPED, 150.0, 0.95, 0.0, 10**6),
     "one flange, two harmonics": (ONE_FLANGE, 150.0, 0.95, 0.0, 10**6),
     "stick phases": (STICKY, 150.0, 0.2, 0.0, 10**6),
+    # no event at all, inside a flange from the start to the end (the bulk fill indexed the empty events)
+    "held inside a flange, no event": (impactosc.Oscillator(F=1.5, Omega=0.2, beta=1.2, K=100.0), 1.0, 1.01, 0.0,
+                                       10**6),
 }
 
 

@@ -109,10 +109,12 @@ def _contacts(rec: _Recorder, pieces: np.ndarray, path: np.ndarray, deepest: np.
         initial = _kept(rec._open, "the open contact")
         from_start = start_event < 0
         sums = np.array([np.where(from_start, value, 0.0) for value in (initial[4], initial[3], *rec._open_loss)])
-        safe = np.maximum(start_event, 0)
-        t_start = np.where(from_start, initial[0], ev_t[safe])
-        side = np.where(from_start, initial[1], ev_side[safe]).astype(int)
-        v_in = np.where(from_start, initial[2], ev_v[safe])
+        # the contacts opened by an event read it; the one open at the start reads a padding row
+        # (a run may have no events at all: a mass that stays inside a flange)
+        safe = np.where(from_start, len(ev_t), start_event)
+        t_start = np.where(from_start, initial[0], np.append(ev_t, 0.0)[safe])
+        side = np.where(from_start, initial[1], np.append(ev_side, 0)[safe]).astype(int)
+        v_in = np.where(from_start, initial[2], np.append(ev_v, 0.0)[safe])
         complete = np.where(from_start, bool(initial[5]), True)
     else:
         sums = np.zeros((4, count))
