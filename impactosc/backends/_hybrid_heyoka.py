@@ -62,6 +62,7 @@ import time
 import numpy as np
 
 from .._util import validation as _v
+from .._util.cache import BuiltOnce
 from .._util.notice import notice
 from ..engine._hybrid import (
     GRAZING,
@@ -333,23 +334,20 @@ def _words(text: str) -> set[str]:
     return set(text.replace("(", " ").replace(")", " ").replace(",", " ").split())
 
 
-_cache: dict[tuple[tuple, float, float], CompiledSystem] = {}
-_cache_lock = threading.Lock()
+_cache: BuiltOnce[CompiledSystem] = BuiltOnce()
 
 
 def compiled(system: HybridSystem, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN) -> CompiledSystem:
     """The :class:`CompiledSystem` of ``system`` at ``tol`` (compiled once per structure and tolerance)."""
     key = (system.structure, tol, cooldown)
-    found = _cache.get(key)
-    if found is None:
-        with _cache_lock:
-            found = _cache.get(key)
-            if found is None:
-                notice(f"hybrid-compile:{hash(key)}",
-                       f"impactosc: heyoka is compiling the integrator of the system {system.name!r} "
-                       f"(tol={tol:g}); this process compiles it once and reuses it for every run and parameter value")
-                found = _cache[key] = CompiledSystem(system, tol, cooldown)
-    return found
+
+    def build() -> CompiledSystem:
+        notice(f"hybrid-compile:{hash(key)}",
+               f"impactosc: heyoka is compiling the integrator of the system {system.name!r} "
+               f"(tol={tol:g}); this process compiles it once and reuses it for every run and parameter value")
+        return CompiledSystem(system, tol, cooldown)
+
+    return _cache.get(key, build)
 
 
 class _Run:
