@@ -35,7 +35,9 @@ def test_the_continued_clearance_is_the_measured_one(offset):
     path = _path(offset)
     ds = critical_clearance_boundary(path, 1, ("clearance", "speed"), {"speed": (2.0, 8.0)})
     assert ds.attrs["status"] == 0, ds.attrs["message"]
-    assert ds.attrs["flange"] == "upper"  # offset towards the upper flange: the tape reaches it first
+    # offset towards the upper flange: the tape reaches it first; without an offset the frictionless
+    # linear motion is symmetric, and the two flanges' critical clearances tie to rounding
+    assert ds.attrs["flange"] in (("upper",) if offset > 0 else ("upper", "lower"))
     speeds = ds.speed.values
     assert speeds.min() == pytest.approx(2.0, abs=1e-12) and speeds.max() == pytest.approx(8.0, abs=1e-12)
     assert "speed = " in ds.attrs["message"] and "m/s" in ds.attrs["message"]

@@ -19,10 +19,9 @@ drive in SI units (:class:`~impactosc.TapeDrive`):
 :func:`onset_chart`                that critical value over a 2-D grid: the design chart
 :func:`continuation`               follow a family of periodic orbits in one parameter (a
                                    :class:`Branch`) with its folds, period doublings, grazings
-                                   and stick onsets located; a located point in two parameters
-:func:`critical_clearance_boundary` a tape path's critical clearance at a guide, continued as
-                                   the grazing boundary of its flange against a second SI
-                                   parameter (speed or run-out)
+                                   and stick onsets located; a located point in two parameters;
+                                   a tape path's critical clearance continued against the speed
+                                   or the run-out (:func:`critical_clearance_boundary`)
 :class:`HybridMap`                 the stroboscopic (or section) map of a user system
                                    (:class:`~impactosc.HybridSystem`) and its Jacobians by saltation
 :func:`periodic_orbit_of`          a periodic orbit of a user system by Newton's method on its

@@ -281,7 +281,7 @@ class HybridMap:
         return HybridMapValue(z, params, image, J[:n, :n].copy(), dp, signature, speeds=speeds, extrema_of=extrema_of)
 
     def run(self, z, params=None):
-        """``(system at params, the run of one map from z)``: the :class:`~impactosc.HybridSolution` behind
+        """``(system at params, the run of one map from z)``: the :class:`~impactosc.results.HybridSolution` behind
         :meth:`evaluate`, for what the map value does not carry (the state at an instant inside the period).
 
         Raises
