@@ -29,7 +29,7 @@ from ._grazing import (
 from ._grazing import approaching as flange_approaching
 from ._grazing import cross as flange_cross
 from ._guard_crossing import GuardImpact, GuardlessProblem, replace_info_singular
-from ._newton import newton as _newton
+from ._newton import along, halving
 from ._points import GUARD, point_info
 from ._problem import MapProblem
 
@@ -150,19 +150,8 @@ def _beyond_impact(problem, virtual: GuardlessProblem, u_g, h: float, settings: 
     t_w = np.linalg.svd(out[1])[2][-1]
     why = "no step tried"
     for sign in (1.0, -1.0):
-        step = 2.0 * max(h, FAR_STEP)
-        while step > settings.min_step:
-            step *= 0.5
-            w_pred = w_g + sign * step * t_w
-
-            def fun(w, w_pred=w_pred, sign=sign):
-                res = form.residual(w)
-                if isinstance(res, str):
-                    return res
-                return (np.concatenate([res[0], [float(sign * t_w @ (w - w_pred))]]),
-                        np.vstack([res[1], sign * t_w[None, :]]), None)
-
-            found = _newton(fun, w_pred, settings.tol)
+        for step in halving(max(h, FAR_STEP), settings.min_step):
+            found = along(form.residual, w_g, sign * t_w, step, settings.tol)
             if isinstance(found, str):
                 why = found
                 continue

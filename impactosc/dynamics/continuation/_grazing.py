@@ -40,6 +40,7 @@ from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
 from ._multi_impact import grazing_of_new_impact, grazing_of_one_impact, impacts_on
+from ._newton import along, halving
 from ._newton import newton as _newton
 from ._points import GUARD, PointInfo, point_info
 from ._problem import BOTH, MapEvaluation, MapProblem
@@ -384,19 +385,8 @@ def _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings):
     if abs(t_w[1]) < 1e-12:
         return "the impacting family leaves the grazing with zero impact speed (a degenerate grazing)"
     why = "no step tried"
-    step = 2.0 * max(h, FAR_STEP)
-    while step > settings.min_step:
-        step *= 0.5
-        w_pred = w_g + step * t_w
-
-        def fun(w, w_pred=w_pred):
-            res = form.residual(w)
-            if isinstance(res, str):
-                return res
-            F, Jw, ev = res
-            return (np.concatenate([F, [float(t_w @ (w - w_pred))]]), np.vstack([Jw, t_w[None, :]]), (ev, Jw))
-
-        found = _newton(fun, w_pred, settings.tol)
+    for step in halving(max(h, FAR_STEP), settings.min_step):
+        found = along(form.residual, w_g, t_w, step, settings.tol)
         if isinstance(found, str):
             why = found
             continue

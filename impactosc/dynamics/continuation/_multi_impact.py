@@ -24,7 +24,7 @@ import numpy as np
 from .._common import oscillator_of
 from ..saltation import vector_field
 from ._arclength import Corrected, Settings, correct, tangent, unscaled
-from ._newton import newton
+from ._newton import along, halving, newton
 from ._points import point_info
 from ._problem import MapProblem
 
@@ -166,25 +166,37 @@ def grazing_of_one_impact(problem: MapProblem, node, side: int, h: float, settin
     far = _fewer(problem, u_g, t_fewer, h, settings, side, count - 1)
     if isinstance(far, str):
         return far
-    came, went = np.sign(u_g[2] - node.u[2]), np.sign(t_fewer[2])
-    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
-    z_g, params_g = u_g[:2], tuple(float(s * c) for s, c in zip(u_g[2:], problem.scales, strict=True))
-    ev_g = problem.evaluate(z_g, params_g)
-    if not ev_g.ok:
-        return f"the grazing orbit could not be run on the real map: {ev_g.failure}"
-    info = dataclasses.replace(point_info(problem, ev_g), multipliers=np.full(2, math.nan, dtype=complex),
-                               stability="undefined",
-                               singular="the map is not differentiable where an impact on a rigid flange grazes (a "
-                                        "square-root term, Nordmark 1991)")
+    params_g = tuple(float(s * c) for s, c in zip(u_g[2:], problem.scales, strict=True))
+    crossed = _crossed(problem, u_g, params_g, np.sign(u_g[2] - node.u[2]), np.sign(t_fewer[2]),
+                       "the map is not differentiable where an impact on a rigid flange grazes (a square-root "
+                       "term, Nordmark 1991)")
+    if isinstance(crossed, str):
+        return crossed
+    ev_g, info, case, what = crossed
     flange = "upper" if side > 0 else "lower"
-    what = ("the branch goes on in the same direction of the parameter (a persistent crossing)" if case == "persistent"
-            else "the parameter turns back there: the two families meet at the grazing and end together (a "
-                 "nonsmooth fold)")
     message = (f"one of the {count} impacts a period on the {flange} flange (rigid) grazes: its speed reaches zero. "
                "Located as a regular point of the map with that flange taken away in a window around that impact "
                f"only (gap - max X over the window = 0); the branch crosses onto the orbits with {count - 1} "
                f"impact{'s' if count - 1 != 1 else ''} a period, and {what}")
     return u_g, ev_g, info, abs(float(error[2])) * problem.scales[0], far, case, message
+
+
+def _crossed(problem: MapProblem, u_g, params: tuple, came: float, went: float, singular: str):
+    """``(evaluation, point info, case, what the case means)`` of a grazing orbit crossed, or why not.
+
+    ``came``/``went``: the parameter's direction into and out of the grazing (0: unknown). The
+    point's multipliers are NaN and ``singular`` says why: the map has no Jacobian there.
+    """
+    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
+    ev_g = problem.evaluate(u_g[:2], params)
+    if not ev_g.ok:
+        return f"the grazing orbit could not be run on the real map: {ev_g.failure}"
+    info = dataclasses.replace(point_info(problem, ev_g), multipliers=np.full(2, math.nan, dtype=complex),
+                               stability="undefined", singular=singular)
+    what = ("the branch goes on in the same direction of the parameter (a persistent crossing)" if case == "persistent"
+            else "the parameter turns back there: the two families meet at the grazing and end together (a "
+                 "nonsmooth fold)")
+    return ev_g, info, case, what
 
 
 def _fewer(problem: MapProblem, u_g, direction, h: float, settings: Settings, side: int, count: int):
@@ -312,19 +324,13 @@ def grazing_of_new_impact(problem: MapProblem, node, side: int, h: float, settin
     if isinstance(far, str):
         return far
     far, went = far
-    came = np.sign(u_g[2] - node.u[2])
-    case = "persistent" if came == 0 or went == 0 or came == went else "nonsmooth_fold"
-    ev_g = problem.evaluate(u_g[:2], params)
-    if not ev_g.ok:
-        return f"the grazing orbit could not be run on the real map: {ev_g.failure}"
-    info = dataclasses.replace(point_info(problem, ev_g), multipliers=np.full(2, math.nan, dtype=complex),
-                               stability="undefined",
-                               singular="the map is not differentiable where an orbit grazes a rigid flange (a "
-                                        "square-root term, Nordmark 1991)")
+    crossed = _crossed(problem, u_g, params, np.sign(u_g[2] - node.u[2]), went,
+                       "the map is not differentiable where an orbit grazes a rigid flange (a square-root term, "
+                       "Nordmark 1991)")
+    if isinstance(crossed, str):
+        return crossed
+    ev_g, info, case, what = crossed
     flange = "upper" if side > 0 else "lower"
-    what = ("the branch goes on in the same direction of the parameter (a persistent crossing)" if case == "persistent"
-            else "the parameter turns back there: the two families meet at the grazing and end together (a "
-                 "nonsmooth fold)")
     message = (f"a turning point of the orbit, which hits the {flange} flange (rigid) {count} time"
                f"{'s' if count != 1 else ''} a period, grazes the flange: a new impact is born. Located as a regular "
                "point of the map with that flange taken away in a window around the turning point only (gap - max X "
@@ -343,18 +349,8 @@ def _more(problem: MapProblem, form: _NewImpact, w_g, u_g, h: float, settings: S
     if abs(t_w[1]) < 1e-12:
         return "the family with the new impact leaves the grazing with zero impact speed (a degenerate grazing)"
     why = "no step tried"
-    step = 2.0 * max(h, 0.01)
-    while step > settings.min_step:
-        step *= 0.5
-        w_pred = w_g + step * t_w
-
-        def fun(w, w_pred=w_pred):
-            res = form.residual(w)
-            if isinstance(res, str):
-                return res
-            return np.concatenate([res[0], [float(t_w @ (w - w_pred))]]), np.vstack([res[1], t_w[None, :]]), None
-
-        found = newton(fun, w_pred, settings.tol)
+    for step in halving(max(h, 0.01), settings.min_step):
+        found = along(form.residual, w_g, t_w, step, settings.tol)
         if isinstance(found, str):
             why = found
             continue

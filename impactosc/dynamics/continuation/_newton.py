@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["newton", "NEWTON_STEPS"]
+__all__ = ["newton", "NEWTON_STEPS", "along", "halving"]
 
 #: Newton iterations at most.
 NEWTON_STEPS = 12
@@ -30,3 +30,32 @@ def newton(fun, u0, tol: float):
             break
         u = u + du
     return f"Newton did not converge (residual {np.linalg.norm(F):.3g})"
+
+
+def along(residual, w_g, direction, step: float, tol: float):
+    """The point of the curve ``R(w) = 0`` a pseudo-arclength ``step`` from ``w_g`` along ``direction``.
+
+    ``residual(w) -> (R, dR/dw, payload)`` (one equation fewer than unknowns) or a reason; Newton
+    from ``w_g + step * direction`` with the condition ``direction . (w - w_pred) = 0``. Returns
+    ``(w, (payload, dR/dw), error estimate)`` or a reason: how every change of unknowns at a
+    grazing steps off it onto the family beyond.
+    """
+    w_pred = w_g + step * direction
+
+    def fun(w):
+        res = residual(w)
+        if isinstance(res, str):
+            return res
+        R, J, payload = res
+        return np.concatenate([R, [float(direction @ (w - w_pred))]]), np.vstack([J, direction[None, :]]), (payload, J)
+
+    return newton(fun, w_pred, tol)
+
+
+def halving(first: float, smallest: float):
+    """``first, first / 2, ...`` while the step before is above ``smallest``: the steps tried off a nonsmooth point."""
+    step = 2.0 * first
+    while step > smallest:
+        step *= 0.5
+        yield step
+
