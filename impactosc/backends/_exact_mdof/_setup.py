@@ -17,7 +17,7 @@ import cmath
 import numpy as np
 
 from ..._util.jit import njit
-from ._forms import RESONANCE
+from ._forms import RESONANCE, cmv
 
 __all__ = ["mode_constants", "setup_piece"]
 
@@ -63,12 +63,8 @@ def mode_constants(lam, gin, gv, wk, ga, gu, gc, kmode, const, om, fh):
                 rk[r], rj[r] = k, j
                 r += 1
     Gh = np.empty((m2, nh), dtype=np.complex128)
-    for k in range(m2):
-        for j in range(nh):
-            s = 0j
-            for i in range(n):
-                s += gin[k, i] * fh[j, i]
-            Gh[k, j] = s
+    for j in range(nh):
+        Gh[:, j] = cmv(gin, fh[j])
     Dh = np.empty((ng, nh), dtype=np.complex128)
     for g in range(ng):
         for j in range(nh):
@@ -207,18 +203,8 @@ def _rounding_scales(lam, gin, gv, wk, ga, gc, kmode, const, omt, fh, q0, v0, re
     ng = wk.shape[0]
     jt = omt.shape[0]
     n = q0.shape[0]
-    f0abs = np.empty(n)  # the size of the terms of const - K q0
-    for i in range(n):
-        s = abs(const[i])
-        for m in range(n):
-            s += abs(kmode[i, m] * q0[m])
-        f0abs[i] = s
-    cscale = np.empty(ng)
-    for g in range(ng):
-        s = abs(gc[g])
-        for i in range(n):
-            s += abs(ga[g, i] * q0[i])
-        cscale[g] = s
+    f0abs = _abs_affine(const, kmode, q0)  # the size of the terms of const - K q0
+    cscale = _abs_affine(gc, ga, q0)
     dscale = np.zeros(ng)
     # |re| + |im| for the size of a complex number: within sqrt(2) of it, and no square root
     for k in range(m2):
@@ -279,3 +265,16 @@ def _zero_block(N, gin0, gv0, om, fh, t0, q0, v0, const, kmode):
         np_x = N @ np_x
         np_b = N @ np_b
     return Xi, X
+
+
+@njit
+def _abs_affine(c, A, x):
+    """``|c_i| + sum_m |A_im x_m|`` for each row: the size of the terms of ``c + A x`` before they cancel."""
+    out = np.empty(c.shape[0])
+    for i in range(c.shape[0]):
+        s = abs(c[i])
+        for m in range(x.shape[0]):
+            s += abs(A[i, m] * x[m])
+        out[i] = s
+    return out
+
