@@ -46,7 +46,8 @@ def as_mechanical(system: MechanicalSystem, sol, *, energy: bool = True) -> Mech
     n = system.n
     rows = []
     lost = 0.0
-    e0 = float(system.energy(sol.pieces[0][2][:n], sol.pieces[0][2][n:2 * n]))
+    pieces = sol.pieces  # named on each access: read once
+    e0 = float(system.energy(pieces[0][2][:n], pieces[0][2][n:2 * n]))
     e_max = abs(e0)
     for e in sol.events:
         if e.kind != "crossing":  # a grazing or a marker changes nothing
@@ -64,7 +65,7 @@ def as_mechanical(system: MechanicalSystem, sol, *, energy: bool = True) -> Mech
         e1 = float(system.energy(q1, v1))
         terms = {**{k: float(sol.integrals[k]) for k in ("work", "damping", "friction")}, "impacts": lost,
                  "delta_energy": e1 - e0, "energy_max": max(e_max, abs(e1))}
-    starts = np.array([p[0] for p in sol.pieces], dtype=float)
+    starts = np.array([p[0] for p in pieces], dtype=float)
 
     def evaluate(piece: int, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         states = sol.sample(np.minimum(starts[piece] + offsets, sol.t_final))
