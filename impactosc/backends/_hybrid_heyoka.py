@@ -68,6 +68,7 @@ from ..engine._hybrid import (
     GRAZING,
     MARKER,
     START_NUDGE,
+    TIE,
     Accumulation,
     InstantAccumulation,
     Switch,
@@ -375,6 +376,9 @@ class _Run:
         self.reset_slots = range(self.n)
         self.ta, self.state = comp.ta, comp.ta.state
         self.guard_values = switch.rules.guard
+        # in a frozen mode a guard is a function of the time alone and may touch zero exactly
+        # (a stuck mass with F = beta_s): its crossings are checked for a touch split by rounding
+        self.frozen = frozen_modes(switch.system)
 
     def transition(self, g: int, t: float, y: list) -> list:
         """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
@@ -404,6 +408,8 @@ class _Run:
             return not switch.count(g) and self._go_on(t)
         if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, mode, t, y):
             return True  # a rounding root at the start of the piece (see Switch.leaves)
+        if self.frozen[mode] and switch.shallow(g, mode, t, y):
+            return True  # a touch that rounding split into two roots (Switch.shallow): its extremum check records it
         try:
             target, after = switch.transition(g, mode, t, y)
         except InstantAccumulation as exc:
@@ -467,7 +473,7 @@ class _Run:
         for g in guards:
             h = values[g](t, y, p)[0]
             d = direction[g]
-            if d * h > 0.0 and self._started_before(g):
+            if d * h > TIE * (1.0 + max(map(abs, y[:self.n]))) and self._started_before(g):
                 # Past zero and back within a step, its roots not located (rounding): stop the
                 # propagation; the loop applies the guard at its first root (see _first_root).
                 self.missed = (g, t)

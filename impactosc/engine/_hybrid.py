@@ -19,7 +19,7 @@ from ..model.hybrid._numeric import evaluator, numeric, plan, rules
 __all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "frozen_modes", "period_jump",
            "usable_period",
            "frozen_dense", "CROSSING",
-           "GRAZING", "MARKER", "REST", "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE"]
+           "GRAZING", "MARKER", "REST", "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE", "TIE"]
 
 #: Event kinds: a guard crossed (its transition applied), a guard's extremum on zero without a
 #: crossing (recorded, no transition), a non-terminal guard crossed (recorded only), the
@@ -39,6 +39,15 @@ CROSSING, GRAZING, MARKER, REST = "crossing", "grazing", "marker", "rest"
 #: 0 at the start and still 0 after a first step too short to move it takes both ends of the
 #: step for a root, and fires again at the instant of the transition.
 START_NUDGE = 1e-300
+
+#: The relative spread of times within which a located root may lie (a few rounding units of
+#: ``t``): where a guard on zero has a rate so small that its curvature moves it more than its
+#: rate within that spread, the curvature says which way it goes (:meth:`Switch.pending`).
+TIME_ROUNDING = 64.0 * 2.0**-52
+
+#: How far past zero (relative to ``1 + max |y|``) a guard may go by rounding alone: an excursion
+#: this small that turns back is a touch, not a crossing (:meth:`Switch.shallow`).
+TIE = 16.0 * 2.0**-52
 
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
 MAX_EVENTS_AT_AN_INSTANT = 64
@@ -285,9 +294,25 @@ class Switch:
                 if abs(rate) > scale:
                     if d == 0 or d * rate > 0.0:
                         return g
-                elif d != 0 and d * self.second_derivative(g, mode, t, y) > 0.0:
+                elif d != 0 and d * self._heading(g, mode, t, y, rate) > 0.0:
                     return g  # tangent to the guard, curving across it
         return -1
+
+    def _heading(self, g: int, mode: int, t: float, y, rate: float) -> float:
+        """The sign of guard ``g`` just after ``t``, from its zero at ``(t, y)`` with the Lie derivative ``rate``
+        (at most ``touch_tol`` in size: a tangency, or a system whose forces are all that small).
+
+        Near its zero ``h(t + s) ~ rate s + h'' s^2 / 2``. Over the time a root can be placed in
+        (:data:`TIME_ROUNDING` ``(1 + |t|)``), the rate decides where ``|rate|`` exceeds what the
+        curvature adds there, the curvature otherwise. Scale-free: a mass released with ``v = 0``
+        and a rate that rounding made ``1e-17`` (curvature ~1) goes the curvature's way; one whose
+        every force is ``1e-53`` (a rate of ``-7e-53``, curvature ``5e-53``) goes the rate's way,
+        which a tolerance absolute in the rate took for a tangency.
+        """
+        second = self.second_derivative(g, mode, t, y)
+        if rate != 0.0 and abs(rate) > abs(second) * TIME_ROUNDING * (1.0 + abs(t)):
+            return rate
+        return second
 
     def leaves(self, g: int, mode: int, t: float, y) -> bool:
         """Whether guard ``g``, on zero at ``(t, y)`` in ``mode``, moves away from the side it fires towards.
@@ -309,7 +334,26 @@ class Switch:
         rate = values[k + i]
         if abs(rate) > self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n])):
             return d * rate < 0.0
-        return d * self.second_derivative(g, mode, t, y) < 0.0
+        return d * self._heading(g, mode, t, y, rate) < 0.0
+
+    def shallow(self, g: int, mode: int, t: float, y) -> bool:
+        """Whether guard ``g``, at a root at ``(t, y)`` in ``mode``, goes past zero by rounding only and turns back.
+
+        Near the root ``h(t + s) ~ h' s + h'' s^2 / 2``; where ``h''`` turns it back, the
+        excursion past zero is ``h'^2 / (2 |h''|)``. Within :data:`TIE` ``(1 + max |y|)`` that
+        is a touch that rounding split into two roots (a stuck mass with ``F = beta_s``
+        exactly: ``F cos t + beta_s`` touches zero at ``t = pi`` and its Taylor polynomial
+        dips 1e-19 below), not a crossing: the Filippov rule ``|f| <= beta_s`` holds there.
+        """
+        armed = self.num.armed_in[mode]
+        if g not in armed:
+            return False
+        d = self.direction[g]
+        second = self.second_derivative(g, mode, t, y)
+        if d == 0 or d * second >= 0.0:
+            return False
+        rate = self.rules.probe[mode](t, y, self.p)[len(armed) + armed.index(g)]
+        return rate * rate <= 2.0 * abs(second) * TIE * (1.0 + max(abs(c) for c in y[:self.n]))
 
     def second_derivative(self, g: int, mode: int, t: float, y) -> float:
         """``h''`` of guard ``g`` along the flow of ``mode`` at ``(t, y)`` (built on first use)."""
