@@ -55,27 +55,14 @@ _REGIONS = {"free": 0, "upper": 1, "lower": -1}
 _MOTIONS = {"0": 0, "+": 1, "-": -1}
 
 
-#: Not yet the default: on degenerate members the property tests (300 examples, several seeds)
-#: found runs that the piece loop and exact get right and the hybrid loop does not: a release guard
-#: that touches zero (F = beta_s, stuck at rest: |F cos t| reaches beta at t = 2 pi k) is taken for a
-#: crossing lost to rounding whose root search then fails (status -1); with beta = 0 and a net force
-#: of ~1e-53 a stop has no admissible mode (status -1). See tests/test_one_loop_route_default.py.
-_DEGENERATE_CASES_FAIL = True
-
-
 def piece_loop_reason(osc: Oscillator, max_wall_time=None) -> str | None:
     """Why ``osc`` runs on the piece loop rather than the one hybrid loop, or None when it does not.
 
-    The one place that decides the dispatch of the heyoka backend. For now every member: the
-    hybrid loop still fails degenerate runs that the piece loop gets right (a release guard that
-    touches zero, friction-free stops at a net force of rounding size). Once those are fixed,
-    spring flanges (``exponent == 1``) with a forcing periodic in ``2 pi / Omega`` run on the
-    hybrid loop; rigid and power-law flanges stay on the piece loop. ``max_wall_time`` is
-    accepted by both loops.
+    The one place that decides the dispatch of the heyoka backend: spring flanges
+    (``exponent == 1``) with a forcing periodic in ``2 pi / Omega`` run on the hybrid loop;
+    rigid and power-law flanges and harmonics that are not whole multiples of ``Omega`` stay
+    on the piece loop (the reasons below). ``max_wall_time`` is accepted by both loops.
     """
-    if _DEGENERATE_CASES_FAIL:
-        return ("degenerate runs: a release guard that touches zero (F = beta_s at rest) or a friction-free stop at "
-                "a net force of rounding size fail on the hybrid loop (status -1) where the piece loop is right")
     return _hybrid_loop_reason(osc)
 
 
