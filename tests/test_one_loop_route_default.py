@@ -163,3 +163,16 @@ def test_heyoka_warnings_of_the_hybrid_loop_do_not_reach_stdout():
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines() == ["table start", "table end"]
     assert "[warning]" in out.stderr
+
+
+def test_a_release_on_a_slow_forcing_is_not_undone_by_its_rate_rounding():
+    """A tape drive's creep (forcing period 3.2e4): after the release the slip's rate is the rounding of
+    F cos - x + beta (~1e-16) against a curvature of 9e-6; taking that rate's sign stuck and released the
+    mass at one instant 64 times (status -1)."""
+    osc = impactosc.TapeDrive(clearance=200e-6).oscillator()
+    ref = impactosc.simulate(osc, 400.0, backend="exact", record="events")
+    sol = impactosc.simulate(osc, 400.0, record="events")
+    assert sol.status == 0, sol.message
+    assert sol.counts == ref.counts and ref.counts["release"] == 1
+    np.testing.assert_allclose(sol.events.t[:-1], ref.events.t[:-1], rtol=0, atol=1e-8)
+    assert sol.events.t[-1] == pytest.approx(ref.events.t[-1], abs=1e-5)  # the slow release, as in the creep test

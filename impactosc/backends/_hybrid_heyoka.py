@@ -470,10 +470,12 @@ class _Run:
         y = (self.state if ta is self.ta else ta.state).tolist()
         values, direction = self.guard_values, switch.direction
         p = switch.p
+        tie = TIE * (1.0 + max(map(abs, y[:self.n])))
         for g in guards:
             h = values[g](t, y, p)[0]
             d = direction[g]
-            if d * h > TIE * (1.0 + max(map(abs, y[:self.n]))) and self._started_before(g):
+            # in a frozen mode an excursion within rounding is a touch (Switch.shallow), not a lost crossing
+            if d * h > (tie if self.frozen[self.mode] else 0.0) and self._started_before(g):
                 # Past zero and back within a step, its roots not located (rounding): stop the
                 # propagation; the loop applies the guard at its first root (see _first_root).
                 self.missed = (g, t)

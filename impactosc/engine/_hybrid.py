@@ -40,9 +40,8 @@ CROSSING, GRAZING, MARKER, REST = "crossing", "grazing", "marker", "rest"
 #: step for a root, and fires again at the instant of the transition.
 START_NUDGE = 1e-300
 
-#: The relative spread of times within which a located root may lie (a few rounding units of
-#: ``t``): where a guard on zero has a rate so small that its curvature moves it more than its
-#: rate within that spread, the curvature says which way it goes (:meth:`Switch.pending`).
+#: A few rounding units: the rounding of a guard's rate on its zero is estimated as this times its
+#: curvature and the system's time scale (:meth:`Switch._heading`).
 TIME_ROUNDING = 64.0 * 2.0**-52
 
 #: How far past zero (relative to ``1 + max |y|``) a guard may go by rounding alone: an excursion
@@ -120,6 +119,8 @@ class Switch:
         self.terminal = self.num.terminal
         self.to = self.num.to
         self.touch_tol = touch_tol
+        period = usable_period(system)
+        self.time_scale = 1.0 + (period if period is not None and math.isfinite(period) else 0.0)
         # read at every event: bound once (the loops' Python per event is what they cost)
         self._reset = self.rules.reset
         self._entry = self.rules.entry
@@ -302,15 +303,17 @@ class Switch:
         """The sign of guard ``g`` just after ``t``, from its zero at ``(t, y)`` with the Lie derivative ``rate``
         (at most ``touch_tol`` in size: a tangency, or a system whose forces are all that small).
 
-        Near its zero ``h(t + s) ~ rate s + h'' s^2 / 2``. Over the time a root can be placed in
-        (:data:`TIME_ROUNDING` ``(1 + |t|)``), the rate decides where ``|rate|`` exceeds what the
-        curvature adds there, the curvature otherwise. Scale-free: a mass released with ``v = 0``
-        and a rate that rounding made ``1e-17`` (curvature ~1) goes the curvature's way; one whose
-        every force is ``1e-53`` (a rate of ``-7e-53``, curvature ``5e-53``) goes the rate's way,
-        which a tolerance absolute in the rate took for a tangency.
+        Near its zero ``h(t + s) ~ rate s + h'' s^2 / 2``. The rate decides where it exceeds its
+        own rounding, estimated as :data:`TIME_ROUNDING` ``(|t| + tau) |h''|`` (the rate's terms
+        change by about ``|h''|`` per unit time over the system's time scale ``tau``, its forcing
+        period or 1, and ``|t|`` for the rounding of the time); the curvature decides otherwise.
+        Free of the forces' scale: a mass released with ``v = 0`` and a rate that rounding made
+        ``1e-16`` (a tape drive's forcing of period 3e4: curvature 9e-6) goes the curvature's way;
+        one whose every force is ``1e-53`` (a rate of ``-7e-53``, curvature ``5e-53``) goes the
+        rate's way, which a tolerance absolute in the rate took for a tangency.
         """
         second = self.second_derivative(g, mode, t, y)
-        if rate != 0.0 and abs(rate) > abs(second) * TIME_ROUNDING * (1.0 + abs(t)):
+        if rate != 0.0 and abs(rate) > abs(second) * TIME_ROUNDING * (abs(t) + self.time_scale):
             return rate
         return second
 
