@@ -12,10 +12,7 @@ modes map onto the engine's ``Mode(region, motion)`` and its guards onto the bui
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
 What the hybrid loop does not express stays on the piece loop of this package
-(:func:`piece_loop_reason` says which and why, in one place). For now that is every member:
-the property tests found degenerate runs that the hybrid loop fails (status -1) and the piece
-loop gets right (a release guard that touches zero, a friction-free stop at a net force of
-rounding size); :func:`run_on_hybrid_loop` runs the replay path on request. Beyond those, rigid
+(:func:`piece_loop_reason` says which and why, in one place): rigid
 flanges (chatter and rest on the wall are the engine's local model,
 :mod:`impactosc.engine._chatter`), power-law flanges (``d^p`` has no Taylor series at the
 contact's start: the piece stepper's boundary layer) and harmonics that are not whole multiples
