@@ -65,6 +65,7 @@ from .._util import validation as _v
 from .._util.cache import BuiltOnce
 from .._util.notice import notice
 from ..engine._hybrid import (
+    CROSSING,
     GRAZING,
     MARKER,
     START_NUDGE,
@@ -379,6 +380,12 @@ class _Run:
         # in a frozen mode a guard is a function of the time alone and may touch zero exactly
         # (a stuck mass with F = beta_s): its crossings are checked for a touch split by rounding
         self.frozen = frozen_modes(switch.system)
+        # the guards each mode arms that another guard's event may have to check (see lost)
+        num = switch.num
+        self.others = [tuple(i for i, g in enumerate(num.armed_in[m]) if num.terminal[g] and num.direction[g])
+                       for m in range(len(switch.system.modes))]
+        self.armed = num.armed_in
+        self.mode_values = switch.rules.values
 
     def transition(self, g: int, t: float, y: list) -> list:
         """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
@@ -410,6 +417,8 @@ class _Run:
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         if self.frozen[mode] and switch.shallow(g, mode, t, y):
             return True  # a touch that rounding split into two roots (Switch.shallow): its extremum check records it
+        if len(self.others[mode]) > 1 and self.lost(g, t, y):
+            return False  # an earlier crossing of another guard was not located: the loop applies it first
         try:
             target, after = switch.transition(g, mode, t, y)
         except InstantAccumulation as exc:
@@ -450,6 +459,41 @@ class _Run:
         if len(switch.events) >= self.max_events:
             return self._go_on(t)
         return True
+
+    def lost(self, g: int, t: float, y: list) -> bool:
+        """Whether another guard of the mode is past zero on the side it fires towards at ``g``'s event.
+
+        It was not there at the piece start (:meth:`_started_before`) and fires when it gets
+        there, so it crossed zero inside the piece without an event: heyoka's polynomial root
+        finder can fail on a step ("too many iterations", then it ignores that event in that
+        step), and an event that another guard shares (merged events) is in its cooldown right
+        after that guard fired (a mass released on a flange's surface whose exit root lies
+        1e-75 later). Sets ``missed`` for the loop, which applies that guard at its first root
+        (:func:`_first_root`); the event of ``g``, later, is found again.
+        """
+        mode = self.mode
+        switch = self.switch
+        values = self.mode_values[mode](t, y, switch.p)
+        scale = switch.touch_tol * (1.0 + max(map(abs, y[:self.n])))
+        armed, direction = self.armed[mode], switch.direction
+        for i in self.others[mode]:
+            other = armed[i]
+            if (other != g and direction[other] * values[i] > scale and self._started_before(other)
+                    and not self._crossed_at_start(other)):
+                self.missed = (other, t)
+                return True
+        return False
+
+    def _crossed_at_start(self, g: int) -> bool:
+        """Whether the current piece starts with a crossing of ``g`` (still armed: its reset kept it on zero)."""
+        switch = self.switch
+        t0 = switch.pieces[-1][0]
+        for event in reversed(switch.events):
+            if event[0] != t0:
+                return False
+            if event[1] == g and event[2] == CROSSING:
+                return True
+        return False
 
     def _go_on(self, t: float) -> bool:
         if len(self.switch.events) >= self.max_events:
@@ -584,7 +628,7 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
         period = watch.period = found if found is not None else math.inf
     max_steps = 0 if deadline is None else WALL_TIME_STEPS
     last_missed: tuple[int, float] | None = None  # the last crossing lost to rounding and applied
-    step_limit = hy.taylor_outcome.step_limit
+    step_limit, time_limit = hy.taylor_outcome.step_limit, hy.taylor_outcome.time_limit
     steps = 0
     try:
         g = switch.pending(run.mode, t0, y0, quiet)
@@ -615,16 +659,22 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
                 ta.reset_cooldowns()
                 run.accumulation = Accumulation(run.zeno_tol)
                 continue
+            at_end = run.missed is None and not run.status and not switch.done and outcome == time_limit
+            if at_end and run.others[run.mode]:
+                # the last piece has no event after it to notice a crossing lost inside it (Run.lost)
+                run.lost(-1, ta.time, ta.state.tolist())
             if run.missed is None or run.status or switch.done:
                 break
             g, t_past = run.missed
             run.missed = None
-            t_root, y_root = _first_root(comp, run, g, t_past)
+            t_root, y_root, at_once = _first_root(comp, run, g, t_past)
             t_start, _, y_start = switch.pieces[-1]
-            if t_root <= t_start and switch.leaves(g, run.mode, t_start, list(y_start)):
+            if t_root <= t_start and not at_once and switch.leaves(g, run.mode, t_start, list(y_start)):
                 # The "root" is the piece start, where the guard moves away from the side it fires
                 # towards (a release with v = v' = 0: rounding took v a hair the wrong way, and back):
                 # not a crossing. Applying it re-entered the same piece at the same instant, for ever.
+                if at_end:
+                    break
                 continue
             if (g, t_root) == last_missed:
                 raise RuntimeError(f"guard {switch.system.guard_names[g]!r}: the crossing lost to rounding at "
@@ -685,8 +735,12 @@ def _jump(comp: CompiledSystem, run: _Run, watch: _FrozenWatch, period: float, t
         watch.reset(off=True)
 
 
-def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list]:
+def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[float, list, bool]:
     """The first root of guard ``g`` between the current piece's start and ``t1`` (Brent's method).
+
+    ``(t, state, at_once)``: ``at_once`` when the guard lies on zero at the piece start and is
+    past it a thousandth of the piece later (its root is the start, whatever rounding says of
+    its derivatives there).
 
     The guard's value at ``t`` comes from a copy of the integrator, events off, propagated
     from the piece start: a rare path (a double root that the Taylor polynomial's root
@@ -710,9 +764,16 @@ def _first_root(comp: CompiledSystem, run: _Run, g: int, t1: float) -> tuple[flo
     def h(s: float) -> float:
         return run.switch.guard_value(g, s, state(s))
 
-    start = t0 if h(t0) != 0.0 else t0 + 1e-3 * (t1 - t0)
+    start = t0
+    if h(t0) == 0.0:
+        start = t0 + 1e-3 * (t1 - t0)
+        if run.switch.direction[g] * h(start) > 0.0:
+            # on zero at the piece start and already past it: the guard left zero its way at once
+            # (a mass at rest on a flange's surface whose every derivative up to the fourth is
+            # zero: no tolerance on the derivatives told which way it goes); the crossing is there
+            return t0, list(y0), True
     root = float(brentq(h, start, t1, xtol=4.0 * 2.0**-52 * (1.0 + abs(t1)), rtol=4.0 * 2.0**-52))
-    return root, state(root)
+    return root, state(root), False
 
 
 class _Dense:

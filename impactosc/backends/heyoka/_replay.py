@@ -60,7 +60,16 @@ def piece_loop_reason(osc: Oscillator, max_wall_time=None) -> str | None:
     rigid and power-law flanges and harmonics that are not whole multiples of ``Omega`` stay
     on the piece loop (the reasons below). ``max_wall_time`` is accepted by both loops.
     """
+    levels = [F for F, _, _ in osc.terms] + [osc.beta, osc.beta_s]
+    if 0.0 < max(levels) < TINY_FORCES:
+        return (f"forcing and friction levels of at most {TINY_FORCES:g}: the hybrid loop decides a state on a "
+                "guard with a tolerance absolute at 1e-12 (1 + |y|), which forces this small fall under (a stuck "
+                "mass with F = beta = 1e-45 was released and stuck at one instant for ever)")
     return _hybrid_loop_reason(osc)
+
+
+#: Forcing and friction levels below which a member stays on the piece loop (see piece_loop_reason).
+TINY_FORCES = 1e-9
 
 
 def _hybrid_loop_reason(osc: Oscillator) -> str | None:
@@ -152,9 +161,9 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
         _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
         return
     y0 = hybrid._pieces[0][2]
+    events, start = _settled(_crossings_without_touches(hybrid._raw_events, guards), start, modes)
     rec.begin(osc, 0.0, y0[0], y0[1], start)
-    t, guard, target, states_before, states_after = _crossings(_crossings_without_touches(hybrid._raw_events, guards),
-                                                               len(y0))
+    t, guard, target, states_before, states_after = _crossings(events, len(y0))
     n = len(t)
     table = _kinds(modes, guards)
     region = np.concatenate(([start.region], table.region[target]))  # the mode of piece k, after event k - 1
@@ -262,7 +271,7 @@ def _kinds(modes: tuple, guards: tuple) -> _KindTable:
 def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int,
                  t_end: float) -> None:
     """Feed ``rec`` with the pieces and events of ``hybrid`` one call at a time, as the engine's ``drive`` does."""
-    events = _crossings_without_touches(hybrid._raw_events, guards)
+    events, start = _settled(_crossings_without_touches(hybrid._raw_events, guards), start, modes)
     n = len(events)
     y0 = hybrid._pieces[0][2]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
@@ -308,6 +317,22 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     if t_final > t_prev or n == 0:
         rec.piece(mode, t_prev, x_prev, t_final, float(y1[0]), dq, dq2, dw, dvv, 0)
     _finish(hybrid, rec, mode, max_events)
+
+
+def _settled(events: list, start: Mode, modes) -> tuple[list, Mode]:
+    """The crossings after the start instant and the mode the run settled in at it.
+
+    The engine records no event at ``t = 0``: its initial mode (``engine.initial_mode``) is
+    the state's mode. Transitions of the hybrid run at that instant (a mass on a flange's
+    surface at rest to rounding, ``v0 = 1e-300``: stopped, released and out at once) resolve
+    the initial state the same way: the piece after them is the first recorded one, in its mode.
+    """
+    k = 0
+    while k < len(events) and events[k][0] == 0.0:
+        k += 1
+    if not k:
+        return events, start
+    return events[k:], modes[events[k - 1][4]]
 
 
 def _crossings_without_touches(raw_events, guards) -> list:
