@@ -176,8 +176,11 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     t_stop = np.concatenate((t, [t_final]))
     x_stop = np.concatenate((states_before[:, 0], [float(y1[0])]))
     # the integrals' increments over each piece: at its end (before the event) less at its start
-    increments = np.vstack((states_before, np.asarray(y1, dtype=float)[None, :len(y0)]))
-    increments -= np.vstack((np.asarray(y0, dtype=float)[None, :], states_after))
+    increments = np.empty((n + 1, len(y0)))
+    increments[:n] = states_before
+    increments[n] = y1[:len(y0)]
+    increments[0] -= y0
+    increments[1:] -= states_after
     increments[:, 2:] /= INTEGRAL_SCALE  # the integrals (after x, v), integrated scaled
     if "Q" in slots:  # a flange's impulse int K d is >= 0: a touch (d ~ 0 throughout) may integrate d's rounding
         np.maximum(increments[:, slots["Q"]], 0.0, out=increments[:, slots["Q"]])
