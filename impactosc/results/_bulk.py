@@ -204,13 +204,20 @@ def _close(rec: _Recorder, rows: tuple, sums: np.ndarray) -> None:
         impact = np.array([elastic_impact_force(osc.K, osc.exponent, v) for v in v_in.tolist()])
     loss = osc.beta * loss_path + 2.0 * osc.zeta * loss_vv
     speed = np.abs(v_in)
-    # the columns of CONTACT_SUMS, contact by contact (one cumulative sum per flange)
-    columns = np.column_stack((np.ones(len(pen)), speed, speed * speed, force, impulse, impact, loss))
+    # the columns of CONTACT_SUMS, contact by contact (one cumulative sum per flange, from its sums so far)
+    columns = np.empty((len(pen), 7))
+    columns[:, 0] = 1.0
+    columns[:, 1], columns[:, 2], columns[:, 3], columns[:, 4] = speed, speed * speed, force, impulse
+    columns[:, 5], columns[:, 6] = impact, loss
     for s in (1, -1):
         on = side == s
-        if on.any():
-            running = np.vstack((rec.contact_sums[s], columns[on]))
-            rec.contact_sums[s] = np.cumsum(running, axis=0)[-1].tolist()
+        count = int(np.count_nonzero(on))
+        if count:
+            running = np.empty((count + 1, 7))
+            running[0] = rec.contact_sums[s]
+            running[1:] = columns[on]
+            np.cumsum(running, axis=0, out=running)
+            rec.contact_sums[s] = running[-1].tolist()
     if rec.keep_events:
         rec.impacts.extend(zip(t_start.tolist(), t_end.tolist(), side.tolist(), v_in.tolist(), v_out.tolist(),
                                pen.tolist(), force.tolist(), impulse.tolist(), complete.tolist(), strict=True))
