@@ -2,8 +2,9 @@
 
 ``model.hybrid._numeric._shared`` hoists every parenthesised group of ``+ - *`` arithmetic that a
 transition evaluates more than once (eq. 3's net force ``((F cos - x) - K (x - gap))`` appears
-eight times in the transition of a stop in a flange). The hoisted code must give the same floats
-as the code written out, bit for bit, and leave alone what may raise or is assigned in the body.
+eight times in the transition of a stop in a flange), and ``_conditional`` writes each
+``select(c, a, b)`` as ``(a if c else b)``. The code must give the same floats as the code
+written out, bit for bit, and leave alone what may raise or is assigned in the body.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ def test_each_transition_gives_the_floats_of_the_code_written_out(member, monkey
     pairs = [(g, m) for g, modes in enumerate(num.armed) for m in modes]
     hoisted = {pair: plan(num, rules, *pair) for pair in pairs}
     monkeypatch.setattr(_numeric, "_shared", lambda body: body)
+    monkeypatch.setattr(_numeric, "_conditional", lambda line: line)  # the calls of select, as generated
     written = {pair: plan(num, rules, *pair) for pair in pairs}
     rng = np.random.default_rng(3)
     compared = 0
@@ -117,3 +119,23 @@ def _run_both(body, out, space, x, y) -> bool:
         except ZeroDivisionError:
             results.append("raised")
     return results[0] == results[1]
+
+
+@pytest.mark.parametrize("text", [
+    "    return select((x > 0.0), (x * 2.0), select((x < 0.0), -1.0, (x + 3.0))) + select(y, 1.0, 2.0)",
+    "    return (0.3 - select((y > x), (x - y), sin((y - x)))) * 2.0",
+])
+def test_select_written_as_a_conditional_gives_the_same_floats(text):
+    out = _numeric._conditional(text)
+    assert "select(" not in out
+    for x, y in ((0.5, -0.25), (-0.5, 0.0), (0.0, 1.0), (-2.0, -3.0)):
+        results = []
+        for body in (text, out):
+            scope = {"sin": math.sin, "select": lambda c, a, b: a if c else b}
+            exec("\n".join(["def f(x, y):", body]), scope)  # noqa: S102 - test text
+            results.append(float(scope["f"](x, y)).hex())
+        assert results[0] == results[1]
+
+
+def test_a_longer_name_that_ends_in_select_is_left_alone():
+    assert _numeric._conditional("    return xselect(x, y)") == "    return xselect(x, y)"

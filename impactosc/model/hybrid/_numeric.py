@@ -261,11 +261,40 @@ def plan(num: Numeric, rules: Rules, g: int, mode: int):
             body.append(f"                return {m}, {after}, {guard}")
         body.append(f"        return {m}, {after}, -1")
     body.append(f"    return -1, {after}, -1")
-    lines += _hoisted(body)
+    lines += _hoisted([_conditional(line) for line in body])
     space = {**_NAMESPACE, "_abs": abs, "_max": max}
     exec(compile("\n".join(lines), f"<transition of guard {system.guards[g].name!r}>", "exec"), space)  # noqa: S102
     return space["_plan"]
 
+
+def _conditional(text: str) -> str:
+    """``text`` with each ``select(c, a, b)`` written as ``(a if c else b)``: the same value, without the call,
+    and only the branch taken is evaluated (a Python call costs more than the arithmetic of eq. 3's stick test)."""
+    start = _SELECT.search(text)
+    if start is None:
+        return text
+    i = start.end()  # just after "select("
+    args, depth, first = [], 0, i
+    for k in range(i, len(text)):
+        c = text[k]
+        if c == "(":
+            depth += 1
+        elif c == ")" and depth:
+            depth -= 1
+        elif c in ",)" and not depth:
+            args.append(text[first:k].strip())
+            first = k + 1
+            if c == ")":
+                break
+    else:  # pragma: no cover - our own balanced text
+        return text
+    if len(args) != 3:  # pragma: no cover - heyoka's select takes three arguments
+        return text
+    cond, a, b = (_conditional(arg) for arg in args)
+    return text[:start.start()] + f"({a} if {cond} else {b})" + _conditional(text[k + 1:])
+
+
+_SELECT = re.compile(r"(?<![\w])select\(")
 
 _HOISTED = ("sin", "cos")  # total on finite numbers: evaluating one early never raises where the branch would not
 
