@@ -201,7 +201,9 @@ def plan(num: Numeric, rules: Rules, g: int, mode: int):
     a guard's index when it lies on that guard and crosses it now (its Lie derivative beyond
     the tolerance, its way), ``-2`` when only the full check can tell (a tangency). The same
     arithmetic as the separate evaluators, whose checked texts it is built from, in one call
-    instead of a dozen (it runs at every event). None when one of them is not generated code.
+    instead of a dozen (it runs at every event): each ``select`` as a conditional expression
+    (:func:`_conditional`), each repeated ``sin``/``cos`` and arithmetic group computed once
+    (:func:`_hoisted`). None when one of them is not generated code.
     """
     system = num.system
     n, n_all = system.dimension, len(num.states)
