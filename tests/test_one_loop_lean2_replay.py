@@ -78,3 +78,49 @@ def test_a_touch_is_one_reversal_from_the_mode_before_the_entry_to_the_mode_afte
     assert target.tolist() == [raw[2][4]]
     np.testing.assert_array_equal(before[0], raw[0][5])
     np.testing.assert_array_equal(after[0], raw[2][6])
+
+
+# -- the compiled stream of a whole run and its plain-Python twin (the path without numba) --------------------------
+
+STICKY = impactosc.Oscillator(F=0.3, Omega=0.5, beta=0.25, K=50.0)
+RUNS = {
+    "contact": (CONTACT, 120.0, 0.95, 0.0, 10**6),
+    "starts inside the upper flange": (CONTACT, 60.0, 1.003, 0.5, 10**6),
+    "starts inside the lower flange, stuck": (STICKY, 60.0, -1.02, 0.0, 10**6),
+    "ends inside a contact": (CONTACT, 5.28, 0.95, 0.0, 10**6),
+    "damped, static friction": (impactosc.Oscillator(F=0.3, Omega=0.7, beta=0.1, beta_static=0.2, K=1e3, zeta=0.05),
+                                150.0, 0.95, 0.0, 10**6),
+}
+
+
+def _replayed(osc, t_end, x0, v0, max_events):
+    from impactosc.backends._hybrid_heyoka import run_system
+    from impactosc.engine._driver import initial_mode
+    from impactosc.results._solution import Solution, _Recorder
+
+    system, modes, index, guards, slots = replay._system(osc)
+    start = initial_mode(osc, 0.0, x0, v0)
+    hybrid = run_system(system, t_end, [x0, v0], mode=system.mode_names[index[(start.region, start.motion)]],
+                        max_events=max_events)
+    rec = _Recorder("full", "heyoka", None)
+    replay._replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
+    return Solution(rec, t_end)
+
+
+@pytest.mark.parametrize("case", list(RUNS))
+def test_the_plain_python_stream_is_the_compiled_one(case, monkeypatch):
+    from impactosc.results import _bulk
+
+    compiled = _replayed(*RUNS[case])
+    monkeypatch.setattr(_bulk, "HAVE_NUMBA", False)
+    monkeypatch.setattr(_bulk, "_stream", getattr(_bulk._stream, "py_func", _bulk._stream))
+    plain = _replayed(*RUNS[case])
+    for name in ("counts", "forcing_work", "friction_work", "damping_work", "_entries", "_impulse", "_impulse_sq",
+                 "_contact_time", "_max_pen", "_contact_sums"):
+        assert getattr(plain, name) == getattr(compiled, name), name
+    for table in ("events", "impacts", "_segments"):
+        a, b = getattr(plain, table), getattr(compiled, table)
+        assert a.dtype == b.dtype and len(a) == len(b), table
+        for field in a.dtype.names:
+            np.testing.assert_array_equal(a[field], b[field], err_msg=f"{table}.{field}")
+    np.testing.assert_array_equal(plain._dissipated, compiled._dissipated)
