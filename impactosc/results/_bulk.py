@@ -18,7 +18,7 @@ import numpy as np
 from .._util.jit import HAVE_NUMBA, njit
 from ..engine._driver import CONTACT_END, CONTACT_START
 from ._observables import impact_force_law
-from ._solution import EVENT_DTYPE, SEGMENT_DTYPE, _Recorder
+from ._solution import EVENT_DTYPE, IMPACT_DTYPE, SEGMENT_DTYPE, _Recorder
 
 __all__ = ["PIECE_DTYPE", "bulk"]
 
@@ -103,11 +103,16 @@ def bulk(rec: _Recorder, pieces: np.ndarray, events: np.ndarray, event_pieces: n
     if rec.keep_events:
         rec.event_array = np.concatenate([np.array(rec.events, dtype=EVENT_DTYPE), events]) if rec.events \
             else events
-        start, end, side, v_in, v_out, pen, force, impulse, complete, loss = rows[:count].T
-        rec.impacts.extend(zip(start.tolist(), end.tolist(), side.astype(int).tolist(), v_in.tolist(), v_out.tolist(),
-                               pen.tolist(), force.tolist(), impulse.tolist(), complete.astype(bool).tolist(),
-                               strict=True))
-        rec.dissipated.extend(loss.tolist())
+        # the closed contacts as a table; one that finish closes later goes to the lists (the Solution joins them)
+        closed = rows[:count]
+        table = np.empty(count, dtype=IMPACT_DTYPE)
+        for k, name in enumerate(IMPACT_DTYPE.names):  # type: ignore[arg-type]
+            table[name] = closed[:, k]  # side and complete cast from the exact floats -1.0/1.0 and 0.0/1.0
+        rec.impact_array = np.concatenate([np.array(rec.impacts, dtype=IMPACT_DTYPE), table]) if rec.impacts \
+            else table
+        rec.dissipated_array = np.concatenate([rec.dissipated, closed[:, -1]]) if rec.dissipated else closed[:, -1]
+        rec.impacts.clear()
+        rec.dissipated.clear()
     if rec.keep_segments:
         # those recorded before (the start's), then these: filled in place (np.concatenate of structured
         # arrays promotes their fields first, ~15 us)
