@@ -52,26 +52,9 @@ def bulk(rec: _Recorder, pieces: np.ndarray, events: np.ndarray, event_pieces: n
     """
     if rec.rigid:
         raise ValueError("bulk: a rigid flange's wall force is integrated piece by piece; use piece()")
+    code = _counted(rec, events)
+    totals, max_pen, contact_sums, state = _taken(rec)
     osc = rec.osc
-    kinds = events["kind"]
-    code = np.full(len(events), _OTHER, dtype=np.int8)
-    for kind in rec.counts:  # a comparison per kind: cheaper than sorting the names
-        matches = kinds == kind
-        rec.counts[kind] += int(np.count_nonzero(matches))
-        if kind == CONTACT_START or kind == CONTACT_END:
-            code[matches] = _OPENS if kind == CONTACT_START else _CLOSES
-    rec.n_events += len(events)
-    starts = events["side"][code == _OPENS]
-    rec.entries[1] += int(np.count_nonzero(starts == 1))
-    rec.entries[-1] += int(np.count_nonzero(starts == -1))
-    totals = np.array([rec.impulse[1], rec.impulse[-1], rec.impulse_sq[1], rec.impulse_sq[-1], rec.contact_time[1],
-                       rec.contact_time[-1], rec.slip_path, rec.forcing_work, rec.v_squared])
-    max_pen = np.array([rec.max_pen[1], rec.max_pen[-1]])
-    contact_sums = np.array([rec.contact_sums[1], rec.contact_sums[-1]])
-    state = np.zeros(_OPEN_SIZE)
-    if rec._open is not None:
-        state[:7] = (1.0, *rec._open)
-        state[7:] = rec._open_loss
     c, power = impact_force_law(osc.K, osc.exponent)
     law = np.array([osc.gap_upper, osc.gap_lower, osc.K, osc.exponent, c, power, osc.beta, osc.zeta])
     n = len(pieces)
@@ -87,6 +70,57 @@ def bulk(rec: _Recorder, pieces: np.ndarray, events: np.ndarray, event_pieces: n
         count = _stream(*(a.tolist() for a in inputs), *lists)
         totals, max_pen, contact_sums, state, prefix, rows = (np.asarray(a, dtype=float).reshape(b.shape)
                                                               for a, b in zip(lists, outputs, strict=True))
+    _given(rec, totals, max_pen, contact_sums, state)
+    rec.pieces += n
+    rec.streamed_pieces = rec.streamed_pieces or n > 0
+    if rec.keep_events:
+        rec.event_array = np.concatenate([np.array(rec.events, dtype=EVENT_DTYPE), events]) if rec.events \
+            else events
+        _impact_table(rec, rows[:count])
+    if rec.keep_segments:
+        # those recorded before (the start's), then these: filled in place (np.concatenate of structured
+        # arrays promotes their fields first, ~15 us)
+        before = len(rec.segments)
+        table = np.empty(before + len(segments), dtype=SEGMENT_DTYPE)
+        table[:before] = rec.segments
+        table[before:] = segments
+        table["impulse_upper"][before:] = prefix[segment_pieces, 0]
+        table["impulse_lower"][before:] = prefix[segment_pieces, 1]
+        rec.segment_array = table
+
+
+def _counted(rec: _Recorder, events: np.ndarray) -> np.ndarray:
+    """Count ``events`` by kind and the flange entries into ``rec``; each event's code for :func:`_stream`."""
+    kinds = events["kind"]
+    code = np.full(len(events), _OTHER, dtype=np.int8)
+    for kind in rec.counts:  # a comparison per kind: cheaper than sorting the names
+        matches = kinds == kind
+        rec.counts[kind] += int(np.count_nonzero(matches))
+        if kind == CONTACT_START or kind == CONTACT_END:
+            code[matches] = _OPENS if kind == CONTACT_START else _CLOSES
+    rec.n_events += len(events)
+    starts = events["side"][code == _OPENS]
+    rec.entries[1] += int(np.count_nonzero(starts == 1))
+    rec.entries[-1] += int(np.count_nonzero(starts == -1))
+    return code
+
+
+def _taken(rec: _Recorder) -> tuple:
+    """The running sums of ``rec`` as :func:`_stream` updates them: totals, peak penetrations, contact sums, the
+    open contact."""
+    totals = np.array([rec.impulse[1], rec.impulse[-1], rec.impulse_sq[1], rec.impulse_sq[-1], rec.contact_time[1],
+                       rec.contact_time[-1], rec.slip_path, rec.forcing_work, rec.v_squared])
+    state = np.zeros(_OPEN_SIZE)
+    if rec._open is not None:
+        state[:7] = (1.0, *rec._open)
+        state[7:] = rec._open_loss
+    return totals, np.array([rec.max_pen[1], rec.max_pen[-1]]), np.array([rec.contact_sums[1], rec.contact_sums[-1]]), \
+        state
+
+
+def _given(rec: _Recorder, totals: np.ndarray, max_pen: np.ndarray, contact_sums: np.ndarray,
+           state: np.ndarray) -> None:
+    """The running sums :func:`_stream` updated, back into ``rec`` (:func:`_taken`'s inverse)."""
     total = totals.tolist()
     rec.impulse[1], rec.impulse[-1], rec.impulse_sq[1], rec.impulse_sq[-1] = total[:4]
     rec.contact_time[1], rec.contact_time[-1], rec.slip_path, rec.forcing_work, rec.v_squared = total[4:]
@@ -98,31 +132,20 @@ def bulk(rec: _Recorder, pieces: np.ndarray, events: np.ndarray, event_pieces: n
         rec._open_loss = [loss_path, loss_vv]
     else:
         rec._open = None
-    rec.pieces += n
-    rec.streamed_pieces = rec.streamed_pieces or n > 0
-    if rec.keep_events:
-        rec.event_array = np.concatenate([np.array(rec.events, dtype=EVENT_DTYPE), events]) if rec.events \
-            else events
-        # the closed contacts as a table; one that finish closes later goes to the lists (the Solution joins them)
-        closed = rows[:count]
-        table = np.empty(count, dtype=IMPACT_DTYPE)
-        for k, name in enumerate(IMPACT_DTYPE.names):  # type: ignore[arg-type]
-            table[name] = closed[:, k]  # side and complete cast from the exact floats -1.0/1.0 and 0.0/1.0
-        rec.impact_array = np.concatenate([np.array(rec.impacts, dtype=IMPACT_DTYPE), table]) if rec.impacts \
-            else table
-        rec.dissipated_array = np.concatenate([rec.dissipated, closed[:, -1]]) if rec.dissipated else closed[:, -1]
-        rec.impacts.clear()
-        rec.dissipated.clear()
-    if rec.keep_segments:
-        # those recorded before (the start's), then these: filled in place (np.concatenate of structured
-        # arrays promotes their fields first, ~15 us)
-        before = len(rec.segments)
-        table = np.empty(before + len(segments), dtype=SEGMENT_DTYPE)
-        table[:before] = rec.segments
-        table[before:] = segments
-        table["impulse_upper"][before:] = prefix[segment_pieces, 0]
-        table["impulse_lower"][before:] = prefix[segment_pieces, 1]
-        rec.segment_array = table
+
+
+def _impact_table(rec: _Recorder, closed: np.ndarray) -> None:
+    """The contacts :func:`_stream` closed (rows of ``_ROW``) as ``rec``'s impact table and dissipated energies.
+
+    A contact that ``finish`` closes later goes to the lists ``impacts``/``dissipated`` (the Solution joins them).
+    """
+    table = np.empty(len(closed), dtype=IMPACT_DTYPE)
+    for k, name in enumerate(IMPACT_DTYPE.names):  # type: ignore[arg-type]
+        table[name] = closed[:, k]  # side and complete cast from the exact floats -1.0/1.0 and 0.0/1.0
+    rec.impact_array = np.concatenate([np.array(rec.impacts, dtype=IMPACT_DTYPE), table]) if rec.impacts else table
+    rec.dissipated_array = np.concatenate([rec.dissipated, closed[:, -1]]) if rec.dissipated else closed[:, -1]
+    rec.impacts.clear()
+    rec.dissipated.clear()
 
 
 #: The event codes :func:`_stream` reads: a contact opened, closed, anything else.
