@@ -170,8 +170,7 @@ def _stream(t0, x0, t1, x1, region, motion, q, q2, w, vv, ev_t, ev_code, ev_v, e
     ``law``: gaps (upper, lower), ``K``, the exponent, the impact force law ``c |v|^power``,
     ``beta``, ``zeta``.
     """
-    gap_upper, gap_lower, K, exponent, c, power, beta, zeta = law[0], law[1], law[2], law[3], law[4], law[5], \
-        law[6], law[7]
+    gap_upper, gap_lower = law[0], law[1]
     n, m = len(t0), len(ev_t)
     k, count = 0, 0
     prefix[0][0], prefix[0][1] = totals[0], totals[1]
@@ -208,23 +207,29 @@ def _stream(t0, x0, t1, x1, region, motion, q, q2, w, vv, ev_t, ev_code, ev_v, e
             state[0], state[1], state[2], state[3] = 1.0, ev_t[i], ev_side[i], ev_v[i]
             state[4], state[5], state[6], state[7], state[8] = 0.0, 0.0, 1.0, 0.0, 0.0
         elif ev_code[i] == 1 and state[0] != 0.0:
-            v_in, peak = state[3], state[4]
-            pen = 0.0 if 0.0 > peak else peak  # Python's max(peak, 0.0)
-            force = K * pen**exponent
-            impact = c * abs(v_in) ** power
-            loss = beta * state[7] + 2.0 * zeta * state[8]
-            j = 0 if state[2] == 1.0 else 1
-            speed = abs(v_in)
-            contact_sums[j][0] += 1.0
-            contact_sums[j][1] += speed
-            contact_sums[j][2] += speed * speed
-            contact_sums[j][3] += force
-            contact_sums[j][4] += state[5]
-            contact_sums[j][5] += impact
-            contact_sums[j][6] += loss
-            row = rows[count]
-            row[0], row[1], row[2], row[3], row[4] = state[1], ev_t[i], state[2], v_in, ev_v[i]
-            row[5], row[6], row[7], row[8], row[9] = pen, force, state[5], state[6], loss
+            _close_contact(ev_t[i], ev_v[i], law, state, contact_sums, rows[count])
             count += 1
-            state[0] = 0.0
     return count
+
+
+@njit
+def _close_contact(t, v, law, state, contact_sums, row):  # pragma: no cover - compiled (its Python twin is tested)
+    """``_Recorder._close`` of the open contact ``state`` at ``(t, v)``: its flange's contact sums, its ``row``."""
+    K, exponent, c, power, beta, zeta = law[2], law[3], law[4], law[5], law[6], law[7]
+    v_in, peak = state[3], state[4]
+    pen = 0.0 if 0.0 > peak else peak  # Python's max(peak, 0.0)
+    force = K * pen**exponent
+    impact = c * abs(v_in) ** power
+    loss = beta * state[7] + 2.0 * zeta * state[8]
+    sums = contact_sums[0 if state[2] == 1.0 else 1]
+    speed = abs(v_in)
+    sums[0] += 1.0
+    sums[1] += speed
+    sums[2] += speed * speed
+    sums[3] += force
+    sums[4] += state[5]
+    sums[5] += impact
+    sums[6] += loss
+    row[0], row[1], row[2], row[3], row[4] = state[1], t, state[2], v_in, v
+    row[5], row[6], row[7], row[8], row[9] = pen, force, state[5], state[6], loss
+    state[0] = 0.0
