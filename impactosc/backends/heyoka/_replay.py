@@ -155,9 +155,10 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
         _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
         return
     y0 = hybrid._pieces[0][2]
+    events = [e for e in hybrid._raw_events if e[2] == CROSSING]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
     table = _kinds(modes, guards)
-    t, guard, target, states_before, states_after = _crossings(hybrid._raw_events, guards, table.kind, len(y0))
+    t, guard, target, states_before, states_after = _crossings(events, guards, table.kind, len(y0))
     n = len(t)
     region = np.concatenate(([start.region], table.region[target]))  # the mode of piece k, after event k - 1
     motion = np.concatenate(([start.motion], table.motion[target]))
@@ -214,15 +215,14 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     _finish(hybrid, rec, mode, max_events)
 
 
-def _crossings(raw_events, guards, kinds: np.ndarray, width: int) -> tuple:
-    """The crossings of a hybrid run as arrays (times, guards, modes after, states before and after), each
-    touch of a flange as the reversal it is (:func:`_crossings_without_touches`).
+def _crossings(events: list, guards, kinds: np.ndarray, width: int) -> tuple:
+    """The crossing records of a hybrid run as arrays (times, guards, modes after, states before and after),
+    each touch of a flange as the reversal it is (:func:`_crossings_without_touches`).
 
     ``kinds``: each guard's code in ``_KIND_NAMES`` (``_KindTable.kind``). The touches are looked for
     on the arrays (a flange entered, stopped in and left at one instant); a run that has one (rare)
     is merged by :func:`_crossings_without_touches` and read again.
     """
-    events = [e for e in raw_events if e[2] == CROSSING]
     n = len(events)
     if not n:
         return np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros((0, width)), np.zeros((0, width))
@@ -232,7 +232,7 @@ def _crossings(raw_events, guards, kinds: np.ndarray, width: int) -> tuple:
         code, at = kinds[which], times[1:-1]
         touch = (code[:-2] == _START) & (code[1:-1] < 0) & (code[2:] == _END) & (times[:-2] == at) & (at == times[2:])
         if touch.any():
-            merged = _crossings_without_touches(raw_events, guards)
+            merged = _crossings_without_touches(events, guards)
             n = len(merged)
             t, guard, _, _, target, before, after = zip(*merged, strict=True)
             times, which = np.fromiter(t, float, n), np.fromiter(guard, int, n)
