@@ -204,12 +204,21 @@ class _WatchedCallback(_Callback):
         return super().freeze(modes)
 
     def __call__(self, ta, d_sgn) -> bool:
+        # _Callback.__call__ written out (one Python frame less at every event of a system with frozen modes)
         run = self.holder.run
         mode = run.mode
-        go = _Callback.__call__(self, ta, d_sgn)  # named, not super(): this runs at every event
-        if go and run.mode == mode and self.watched[mode]:  # not a transition: an extremum check, a marker
+        checks = self.extrema[mode]
+        if checks is not None:
+            if not run.extremum(ta, checks):
+                return False
+            if run.mode != mode:
+                return True
+        g = self.cross[mode]
+        if g >= 0 and not run.crossing(ta, g):
+            return False
+        if run.mode == mode and self.watched[mode]:  # not a transition: an extremum check, a marker
             return self.watch(ta)
-        return go
+        return True
 
 
 class CompiledSystem:
@@ -386,6 +395,8 @@ class _Run:
                        for m in range(len(switch.system.modes))]
         self.armed = num.armed_in
         self.mode_values = switch.rules.values
+        # read at every event: bound once (the same lists as the switch's, which only appends to them)
+        self.terminal, self.pieces, self.events = switch.terminal, switch.pieces, switch.events
 
     def transition(self, g: int, t: float, y: list) -> list:
         """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
@@ -410,10 +421,10 @@ class _Run:
         y = state.tolist()
         switch = self.switch
         mode = self.mode
-        if not switch.terminal[g]:
-            switch.events.append((t, g, MARKER, mode, mode, tuple(y), tuple(y)))
+        if not self.terminal[g]:
+            self.events.append((t, g, MARKER, mode, mode, tuple(y), tuple(y)))
             return not switch.count(g) and self._go_on(t)
-        if t - switch.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, mode, t, y):
+        if t - self.pieces[-1][0] <= self.at_start * (1.0 + abs(t)) and switch.leaves(g, mode, t, y):
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         if self.frozen[mode] and switch.shallow(g, mode, t, y):
             return True  # a touch that rounding split into two roots (Switch.shallow): its extremum check records it
@@ -431,9 +442,9 @@ class _Run:
             self.status, self.message = -1, str(exc)
             return False
         if target != mode:
-            pars = self.pars
-            pars[self.P + mode] = 0.0
-            pars[self.P + target] = 1.0
+            pars, P = self.pars, self.P
+            pars[P + mode] = 0.0
+            pars[P + target] = 1.0
             self.mode = target
         if after is not y:
             for i in self.reset_slots:  # element by element: a slice assignment from a list costs more
@@ -456,7 +467,7 @@ class _Run:
                 self.message = (f"Events accumulate (Zeno): intervals shrink geometrically; the run stops at "
                                 f"t={t!r}, the accumulation time is estimated at {estimate!r}.")
                 return False
-        if len(switch.events) >= self.max_events:
+        if len(self.events) >= self.max_events:
             return self._go_on(t)
         return True
 

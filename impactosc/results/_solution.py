@@ -106,6 +106,10 @@ class _Recorder:
         # _bulk.bulk keeps the events and piece starts as structured arrays (with those of the lists before)
         self.event_array: np.ndarray | None = None
         self.segment_array: np.ndarray | None = None
+        # and the contacts it closed with their dissipated energies (those closed after it, by finish, follow in
+        # impacts and dissipated)
+        self.impact_array: np.ndarray | None = None
+        self.dissipated_array: np.ndarray | None = None
         self.counts = dict.fromkeys(EVENT_KINDS, 0)
         self.entries = {1: 0, -1: 0}
         self.n_events = 0
@@ -339,12 +343,19 @@ class Solution(SolutionFramesMixin):
         contacts = sum(rec.contact_sums[s][S_CONTACTS] for s in (1, -1)) + sum(rec.entries.values())
         streamed = rec.streamed_pieces or contacts == 0
         self._contact_sums = {s: tuple(rec.contact_sums[s]) for s in (1, -1)} if streamed else None
-        self._dissipated = (np.array(rec.dissipated, dtype=float)
-                            if streamed and rec.keep_events and len(rec.dissipated) == len(rec.impacts) else None)
+        impacts: list | np.ndarray = rec.impacts
+        dissipated: list | np.ndarray = rec.dissipated
+        if rec.impact_array is not None and rec.dissipated_array is not None:  # _bulk.bulk's, then finish's
+            impacts = np.concatenate([rec.impact_array, np.array(rec.impacts, dtype=IMPACT_DTYPE)]) if rec.impacts \
+                else rec.impact_array
+            dissipated = np.concatenate([rec.dissipated_array, rec.dissipated]) if rec.dissipated \
+                else rec.dissipated_array
+        self._dissipated = (np.array(dissipated, dtype=float)
+                            if streamed and rec.keep_events and len(dissipated) == len(impacts) else None)
         self._evaluator = rec.evaluator
         events = rec.events if rec.event_array is None else rec.event_array
         self._events = _records(events, EVENT_DTYPE) if rec.keep_events else None
-        self._impacts = _records(rec.impacts, IMPACT_DTYPE) if rec.keep_events else None
+        self._impacts = _records(impacts, IMPACT_DTYPE) if rec.keep_events else None
         segments = rec.segments if rec.segment_array is None else rec.segment_array
         self._segments = np.asarray(segments, dtype=SEGMENT_DTYPE) if rec.keep_segments else None
         self._tails = tuple(rec.tails)

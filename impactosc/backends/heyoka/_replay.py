@@ -161,11 +161,11 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
         _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
         return
     y0 = hybrid._pieces[0][2]
-    events, start = _settled(_crossings_without_touches(hybrid._raw_events, guards), start, modes)
+    events = [e for e in hybrid._raw_events if e[2] == CROSSING]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
-    t, guard, target, states_before, states_after = _crossings(events, len(y0))
-    n = len(t)
     table = _kinds(modes, guards)
+    t, guard, target, states_before, states_after = _crossings(events, guards, table.kind, len(y0))
+    n = len(t)
     region = np.concatenate(([start.region], table.region[target]))  # the mode of piece k, after event k - 1
     motion = np.concatenate(([start.motion], table.motion[target]))
     side = table.side[guard]
@@ -183,8 +183,11 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     t_stop = np.concatenate((t, [t_final]))
     x_stop = np.concatenate((states_before[:, 0], [float(y1[0])]))
     # the integrals' increments over each piece: at its end (before the event) less at its start
-    increments = np.vstack((states_before, np.asarray(y1, dtype=float)[None, :len(y0)]))
-    increments -= np.vstack((np.asarray(y0, dtype=float)[None, :], states_after))
+    increments = np.empty((n + 1, len(y0)))
+    increments[:n] = states_before
+    increments[n] = y1[:len(y0)]
+    increments[0] -= y0
+    increments[1:] -= states_after
     increments[:, 2:] /= INTEGRAL_SCALE  # the integrals (after x, v), integrated scaled
     if "Q" in slots:  # a flange's impulse int K d is >= 0: a touch (d ~ 0 throughout) may integrate d's rounding
         np.maximum(increments[:, slots["Q"]], 0.0, out=increments[:, slots["Q"]])
@@ -218,15 +221,29 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     _finish(hybrid, rec, mode, max_events)
 
 
-def _crossings(raw_events, width: int) -> tuple:
-    """The crossings of a hybrid run as arrays: times, guards, modes after, states before and after."""
-    events = [e for e in raw_events if e[2] == CROSSING]
+def _crossings(events: list, guards, kinds: np.ndarray, width: int) -> tuple:
+    """The crossing records of a hybrid run as arrays (times, guards, modes after, states before and after),
+    each touch of a flange as the reversal it is (:func:`_crossings_without_touches`).
+
+    ``kinds``: each guard's code in ``_KIND_NAMES`` (``_KindTable.kind``). The touches are looked for
+    on the arrays (a flange entered, stopped in and left at one instant); a run that has one (rare)
+    is merged by :func:`_crossings_without_touches` and read again.
+    """
     n = len(events)
     if not n:
         return np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros((0, width)), np.zeros((0, width))
     t, guard, _, _, target, before, after = zip(*events, strict=True)
+    times, which = np.fromiter(t, float, n), np.fromiter(guard, int, n)
+    if n >= 3:
+        code, at = kinds[which], times[1:-1]
+        touch = (code[:-2] == _START) & (code[1:-1] < 0) & (code[2:] == _END) & (times[:-2] == at) & (at == times[2:])
+        if touch.any():
+            merged = _crossings_without_touches(events, guards)
+            n = len(merged)
+            t, guard, _, _, target, before, after = zip(*merged, strict=True)
+            times, which = np.fromiter(t, float, n), np.fromiter(guard, int, n)
     # flat first: numpy parses a sequence of tuples into a matrix several times slower
-    return (np.fromiter(t, float, n), np.fromiter(guard, int, n), np.fromiter(target, int, n),
+    return (times, which, np.fromiter(target, int, n),
             np.fromiter(chain.from_iterable(before), float, n * width).reshape(n, width),
             np.fromiter(chain.from_iterable(after), float, n * width).reshape(n, width))
 
@@ -271,7 +288,7 @@ def _kinds(modes: tuple, guards: tuple) -> _KindTable:
 def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int,
                  t_end: float) -> None:
     """Feed ``rec`` with the pieces and events of ``hybrid`` one call at a time, as the engine's ``drive`` does."""
-    events, start = _settled(_crossings_without_touches(hybrid._raw_events, guards), start, modes)
+    events = _crossings_without_touches(hybrid._raw_events, guards)
     n = len(events)
     y0 = hybrid._pieces[0][2]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
@@ -317,22 +334,6 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     if t_final > t_prev or n == 0:
         rec.piece(mode, t_prev, x_prev, t_final, float(y1[0]), dq, dq2, dw, dvv, 0)
     _finish(hybrid, rec, mode, max_events)
-
-
-def _settled(events: list, start: Mode, modes) -> tuple[list, Mode]:
-    """The crossings after the start instant and the mode the run settled in at it.
-
-    The engine records no event at ``t = 0``: its initial mode (``engine.initial_mode``) is
-    the state's mode. Transitions of the hybrid run at that instant (a mass on a flange's
-    surface at rest to rounding, ``v0 = 1e-300``: stopped, released and out at once) resolve
-    the initial state the same way: the piece after them is the first recorded one, in its mode.
-    """
-    k = 0
-    while k < len(events) and events[k][0] == 0.0:
-        k += 1
-    if not k:
-        return events, start
-    return events[k:], modes[events[k - 1][4]]
 
 
 def _crossings_without_touches(raw_events, guards) -> list:

@@ -201,7 +201,9 @@ def plan(num: Numeric, rules: Rules, g: int, mode: int):
     a guard's index when it lies on that guard and crosses it now (its Lie derivative beyond
     the tolerance, its way), ``-2`` when only the full check can tell (a tangency). The same
     arithmetic as the separate evaluators, whose checked texts it is built from, in one call
-    instead of a dozen (it runs at every event). None when one of them is not generated code.
+    instead of a dozen (it runs at every event): each ``select`` as a conditional expression
+    (:func:`_conditional`), each repeated ``sin``/``cos`` and arithmetic group computed once
+    (:func:`_hoisted`). None when one of them is not generated code.
     """
     system = num.system
     n, n_all = system.dimension, len(num.states)
@@ -261,20 +263,51 @@ def plan(num: Numeric, rules: Rules, g: int, mode: int):
             body.append(f"                return {m}, {after}, {guard}")
         body.append(f"        return {m}, {after}, -1")
     body.append(f"    return -1, {after}, -1")
-    lines += _hoisted(body)
+    lines += _hoisted([_conditional(line) for line in body])
     space = {**_NAMESPACE, "_abs": abs, "_max": max}
     exec(compile("\n".join(lines), f"<transition of guard {system.guards[g].name!r}>", "exec"), space)  # noqa: S102
     return space["_plan"]
 
 
+def _conditional(text: str) -> str:
+    """``text`` with each ``select(c, a, b)`` written as ``(a if c else b)``: the same value, without the call,
+    and only the branch taken is evaluated (a Python call costs more than the arithmetic of eq. 3's stick test)."""
+    start = _SELECT.search(text)
+    if start is None:
+        return text
+    i = start.end()  # just after "select("
+    args, depth, first = [], 0, i
+    for k in range(i, len(text)):
+        c = text[k]
+        if c == "(":
+            depth += 1
+        elif c == ")" and depth:
+            depth -= 1
+        elif c in ",)" and not depth:
+            args.append(text[first:k].strip())
+            first = k + 1
+            if c == ")":
+                break
+    else:  # pragma: no cover - our own balanced text
+        return text
+    if len(args) != 3:  # pragma: no cover - heyoka's select takes three arguments
+        return text
+    cond, a, b = (_conditional(arg) for arg in args)
+    return text[:start.start()] + f"({a} if {cond} else {b})" + _conditional(text[k + 1:])
+
+
+_SELECT = re.compile(r"(?<![\w])select\(")
+
 _HOISTED = ("sin", "cos")  # total on finite numbers: evaluating one early never raises where the branch would not
 
 
 def _hoisted(body: list[str]) -> list[str]:
-    """``body`` with each ``sin(...)``/``cos(...)`` it evaluates more than once computed once, first.
+    """``body`` with each ``sin(...)``/``cos(...)`` and each arithmetic group it evaluates more than once
+    computed once, first.
 
-    The same arithmetic (the same call on the same operands gives the same float); a
-    transition's entry conditions and guard checks repeat the forcing's ``cos`` a few times.
+    The same arithmetic (the same call or operation on the same operands gives the same float);
+    a transition's entry conditions and guard checks repeat the forcing's ``cos`` a few times
+    and eq. 3's net force ``((F cos - x) - K (x - gap))`` eight times (:func:`_shared`).
     """
     text = "\n".join(body)
     calls: dict[str, int] = {}
@@ -298,7 +331,58 @@ def _hoisted(body: list[str]) -> list[str]:
         pattern = re.compile(r"(?<![A-Za-z0-9_])" + re.escape(call))
         text = pattern.sub(f"_h{i}", text)
         repeated[i + 1:] = [pattern.sub(f"_h{i}", c) for c in repeated[i + 1:]]
-    return defs + text.split("\n")
+    return defs + _shared(text.split("\n"))
+
+
+#: A group that may be computed before the branch that uses it: names, numbers, ``+ - *`` and
+#: parentheses only (on floats these never raise; a call, a division, a power or a comparison may).
+_ARITHMETIC = re.compile(r"\((?:[\w.]+|\s[-+*]\s|[-(]|\))+\)")
+_OPERATOR = re.compile(r"\s[-+*]\s")
+_ASSIGNED = re.compile(r"^\s*(\w+)\s*=[^=]", re.MULTILINE)
+_WORD = re.compile(r"[A-Za-z_]\w*")
+
+
+def _shared(body: list[str]) -> list[str]:
+    """``body`` with each parenthesised arithmetic group that it evaluates more than once computed once, first.
+
+    Longest first (a group inside a hoisted one is counted in its definition); a group that
+    uses a name ``body`` assigns, or a call (a call's argument list is not a group), stays.
+    The definitions go before ``body``, each after those it uses.
+    """
+    text = "\n".join(body)
+    local = set(_ASSIGNED.findall(text))
+    defs: list[tuple[str, str]] = []
+    while True:
+        counts: dict[str, int] = {}
+        for source in [e for _, e in defs] + [text]:
+            for group in _groups(source):
+                counts[group] = counts.get(group, 0) + 1
+        repeated = [g for g, k in counts.items()
+                    if k > 1 and _ARITHMETIC.fullmatch(g) and _OPERATOR.search(g) and "**" not in g
+                    and not local.intersection(_WORD.findall(g))]
+        if not repeated:
+            break
+        group = max(repeated, key=len)
+        name = f"_c{len(defs)}"
+        # the group itself, not the argument list of a call that reads the same
+        pattern = re.compile(r"(?<![\w])" + re.escape(group))
+        text = pattern.sub(name, text)
+        defs = [(n, pattern.sub(name, e)) for n, e in defs] + [(name, group)]
+    # a later (shorter) group never holds an earlier one: in reverse order each comes after those it uses
+    return [f"    {n} = {e}" for n, e in reversed(defs)] + text.split("\n")
+
+
+def _groups(text: str) -> list[str]:
+    """The parenthesised groups of ``text`` that are not a call's argument list, one per occurrence."""
+    out, opened = [], []
+    for i, c in enumerate(text):
+        if c == "(":
+            opened.append(i)
+        elif c == ")" and opened:
+            start = opened.pop()
+            if start == 0 or not (text[start - 1].isalnum() or text[start - 1] == "_"):
+                out.append(text[start:i + 1])
+    return out
 
 
 class Rules:
