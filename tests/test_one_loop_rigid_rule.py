@@ -51,7 +51,8 @@ class Zeno:
 def ball(rule, rest_reset=()):
     x, v, g, e = symbols("x v g e")
     return HybridSystem("x v", {"g": G, "e": E},
-                        [HybridMode("flight", {x: v, v: -g}, integrands={"T": 1.0}), HybridMode("floor", {x: 0.0, v: 0.0})],
+                        [HybridMode("flight", {x: v, v: -g}, integrands={"T": 1.0}),
+                         HybridMode("floor", {x: 0.0, v: 0.0})],
                         [Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v}, rest="floor",
                                rest_reset=rest_reset, accumulation=rule)],
                         integrals="T")
