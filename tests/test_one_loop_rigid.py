@@ -213,3 +213,18 @@ speeds = st.one_of(st.just(0.0), st.floats(1e-6, 1.0), st.floats(-1.0, -1e-6))
 def test_rigid_members_agree_with_exact_property(F, Omega, phase, beta, e, x0, v0, t_end):
     osc = impactosc.Oscillator(F=F, Omega=Omega, beta=beta, phase=phase, flange="rigid", restitution=e)
     assert_agrees_with_exact(osc, t_end, x0, v0, atol=1e-8, record="events")
+
+
+def test_the_scipy_loop_takes_the_same_chatter_jumps():
+    """Both hybrid loops ask the impact guards' rule through the one Switch: the rigid system on scipy jumps at the
+    same impacts as on heyoka, to the same accumulation times (scipy's DOP853 at rtol = 1e-12)."""
+    from impactosc.model.hybrid import oscillator_system
+
+    osc, t_end, x0, v0 = CASES["e=0.5, friction, chatter, rest, release, stick"]
+    system = oscillator_system(osc)
+    runs = [impactosc.simulate(system, t_end, [x0, v0], backend=backend) for backend in ("heyoka", "scipy")]
+    for sol in runs:
+        assert sol.status == 0, sol.message
+    (h, s) = ([(e.guard, e.kind) for e in sol.events] for sol in runs)
+    assert h == s and h.count(("impact upper", "rest")) + h.count(("impact lower", "rest")) == 9
+    np.testing.assert_allclose([e.t for e in runs[1].events], [e.t for e in runs[0].events], rtol=0, atol=1e-8)

@@ -259,6 +259,14 @@ class Guard:
     ...     return (t + 2.0 * e * u / (g * (1.0 - e)), (0.0, 0.0)) if u < 1e-3 else None
     >>> landing = Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v},
     ...                 rest="floor", accumulation=zeno)
+    >>> import impactosc
+    >>> from impactosc import HybridMode, HybridSystem
+    >>> g = symbols("g")
+    >>> ball = HybridSystem("x v", {"g": 9.81, "e": 0.8},
+    ...                     [HybridMode("flight", {x: v, v: -g}), HybridMode("floor", {x: 0.0, v: 0.0})], [landing])
+    >>> rest = impactosc.simulate(ball, 10.0, [1.0, 0.0]).events[-1]   # sqrt(2 / g) (1 + 2 e / (1 - e))
+    >>> rest.kind, round(rest.t, 9), rest.state_after
+    ('rest', 4.063712769, (0.0, 0.0))
     """
 
     name: str

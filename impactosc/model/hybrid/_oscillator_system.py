@@ -17,6 +17,11 @@ __all__ = ["oscillator_system", "WallChatter"]
 #: no candidate mode of the stop would otherwise be admissible (the run failed). The guard that
 #: leaves the flange then fires at once from there (the state lies on it, moving out).
 _SURFACE_ROUNDING = 4.0 * 2.0**-52
+#: How far beyond a rigid flange an impact may be located (scipy's event location put one 16 eps beyond
+#: it): the rebound into the free modes is admissible there, and so is the rest on the wall.
+_IMPACT_ROUNDING = 64.0 * 2.0**-52
+#: A speed away from a rigid wall below this is none (the engine's kinematic guard offset).
+_NO_SPEED = 1e-300
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,6 +109,14 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     >>> sol = impactosc.simulate(scaled, 50.0, [0.95, 0.0])
     >>> round(sol.integrals["Q"] / 2.0**-40, 6)
     18.349652
+
+    A rigid flange under a constant push: its impacts accumulate (at ``pi / 3 + sum_k 2 atan(sqrt(3) / 2^k)``),
+    where the engine's chatter rule jumps to rest on the wall:
+
+    >>> rigid = oscillator_system(impactosc.Oscillator(F=2.0, Omega=0.0, beta=0.0, flange="rigid", restitution=0.5))
+    >>> rest = impactosc.simulate(rigid, 10.0, [0.0, 0.0]).events[-1]
+    >>> rest.kind, rest.mode_after, round(rest.t, 9)
+    ('rest', 'upper0', 4.150405283)
     """
     import heyoka as hy
 
@@ -137,7 +150,7 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     modes, guards = [], []
     # the region of each mode's entry: between the flanges, or into one (an initial state decides); an
     # impact on a rigid flange is located a rounding error either side of it, where the rebound is free
-    slack = {side: (_SURFACE_ROUNDING * (1.0 + gaps[side]) if osc.rigid else 0.0) for side, _ in flanges}
+    slack = {side: (_IMPACT_ROUNDING * (1.0 + gaps[side]) if osc.rigid else 0.0) for side, _ in flanges}
     inside = [gaps[side] - side * x + slack[side] for side, _ in flanges]
     regions = [("free", base, None, inside)]
     if not osc.rigid:
@@ -187,14 +200,18 @@ def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, slack: dict, 
     speed is left and the force does not pull the mass off the wall beyond ``beta_s``, into the rest
     on it; a slip that ends on the wall (a touch) rests there on the same condition. Resting, the
     mass has ``X' = V' = 0`` and the wall takes any push into it; it is released when the force
-    pulls it away beyond ``beta_s``.
+    pulls it away beyond ``beta_s``. The rest is entered with no speed away from the wall only
+    (``side V >= -1e-300``, the engine's rule), wherever the impact was located.
     """
+    import heyoka as hy
+
     for side, _ in flanges:
         up = side > 0
         name, rest = ("upper", "upper0") if up else ("lower", "lower0")
         toward, away = ("free+", "free-") if up else ("free-", "free+")
         on_wall = side * x - gaps[side] + slack[side]
-        modes.append(HybridMode(rest, {x: 0.0, v: 0.0}, entry=(on_wall, side * force + beta_s)))
+        still = hy.select(hy.lt(side * v, -_NO_SPEED), -1.0, 1.0)
+        modes.append(HybridMode(rest, {x: 0.0, v: 0.0}, entry=(on_wall, side * force + beta_s, still)))
         guards.append(Guard(f"impact {name}", x - side * gaps[side], side, armed=toward, to=(away, rest),
                             reset={v: -e * v}, rest=rest, accumulation=WallChatter(side, names)))
         release = "release-" if up else "release+"
