@@ -44,6 +44,7 @@ from ...engine._driver import (
     STICK,
     Mode,
     initial_mode,
+    motion_at_rest,
 )
 from ...engine._hybrid import CROSSING, REST
 from ...model._oscillator import Oscillator
@@ -415,7 +416,13 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
                 rec.event(t, CONTACT_START, x, v, side, 1, 0)
                 tracker.interrupt()
         elif what is None and new.region:  # a slip that ends on the wall (a touch): at rest against it
-            side, x, v = new.region, walls[new.region], 0.0
+            side, v = new.region, 0.0
+            # the engine's slip end there first (its stick test: a stick, a reversal, or a pause without an
+            # event), then the wall it lies on takes the mass
+            motion, _ = motion_at_rest(osc, t, state[0])
+            if motion != mode.motion:
+                rec.event(t, STICK if motion == 0 else REVERSAL, state[0], v, 0, 1, motion)
+            x = walls[side]
             rec.event(t, CONTACT_START, x, v, side, 1, 0)
             tracker.interrupt()
         else:

@@ -68,7 +68,7 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     integral ``Q`` is the flange impulse ``int K d dt``. A rigid flange is a guard with the
     reset ``V -> -e V`` in the free modes (``"impact upper"``, ``"impact lower"``) and a mode of
     rest on it (``"upper0"``, ``"lower0"``: ``X' = V' = 0``), entered where an impact keeps no
-    speed (``e = 0``), where a slip ends on the wall and, at the accumulation time, where the
+    speed (``e = 0``), where a slip ends on the wall (moving to it or off it) and, at the accumulation time, where the
     engine's chatter model resolves a sequence of impacts (:class:`WallChatter`, the guard's
     ``accumulation``; the run goes on with the engine's jump, from the same impact), and left by
     the release away from the wall (``"upper release-"``: ``f + beta_s`` falls through 0;
@@ -176,7 +176,7 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
         modes += m
         guards += g
     if osc.rigid:
-        modes, guards = _rigid_flanges(modes, guards, flanges, gaps, slack, x, v, base, beta_s,
+        modes, guards = _rigid_flanges(modes, guards, flanges, gaps, x, v, base, beta_s,
                                        par("e", osc.restitution), tuple(params))
     else:
         for side, _ in flanges:
@@ -192,13 +192,15 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
                         name="eq3" if not osc.rigid else "eq3 rigid")
 
 
-def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, slack: dict, x, v, force, beta_s, e,
+def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, x, v, force, beta_s, e,
                    names: tuple[str, ...]) -> tuple[list, list]:
     """The free modes and guards with each rigid flange's impact, rest mode and release (the engine's rule).
 
-    At an impact the reset ``V -> -e V`` leads into the free slip away from the wall, or, where no
-    speed is left and the force does not pull the mass off the wall beyond ``beta_s``, into the rest
-    on it; a slip that ends on the wall (a touch) rests there on the same condition. Resting, the
+    At an impact the reset ``X -> wall, V -> -e V`` (the state snapped onto the wall, as the engine
+    snaps it; the saltation matrix is that of ``V -> -e V`` alone, the guard's normal being ``X``)
+    leads into the free slip away from the wall, or, where no speed is left and the force does not
+    pull the mass off the wall beyond ``beta_s``, into the rest on it; a slip that ends exactly on
+    the wall (a touch) rests there on the same condition. Resting, the
     mass has ``X' = V' = 0`` and the wall takes any push into it; it is released when the force
     pulls it away beyond ``beta_s``. The rest is entered with no speed away from the wall only
     (``side V >= -1e-300``, the engine's rule), wherever the impact was located.
@@ -209,14 +211,18 @@ def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, slack: dict, 
         up = side > 0
         name, rest = ("upper", "upper0") if up else ("lower", "lower0")
         toward, away = ("free+", "free-") if up else ("free-", "free+")
-        on_wall = side * x - gaps[side] + slack[side]
+        # on the wall exactly, as the engine has it (a slip that ends a hair short of it falls back and
+        # hits it: a chatter's flights end 1e-14 short of it before its jump); an impact puts it there
+        on_wall = side * x - gaps[side]
         still = hy.select(hy.lt(side * v, -_NO_SPEED), -1.0, 1.0)
         modes.append(HybridMode(rest, {x: 0.0, v: 0.0}, entry=(on_wall, side * force + beta_s, still)))
         guards.append(Guard(f"impact {name}", x - side * gaps[side], side, armed=toward, to=(away, rest),
-                            reset={v: -e * v}, rest=rest, accumulation=WallChatter(side, names)))
+                            reset={x: side * gaps[side], v: -e * v}, rest=rest,
+                            accumulation=WallChatter(side, names)))
         release = "release-" if up else "release+"
         guards.append(Guard(f"{name} {release}", force + side * beta_s, -side, armed=rest, to=away))
-        # a slip that ends on the wall: the rest on it comes first among the stop's candidates
-        stop = f"{toward} stop"
-        guards = [dataclasses.replace(g, to=(rest, *g.to)) if g.name == stop else g for g in guards]
+        # a slip that ends on the wall (either way: a flight off it can turn back on it): the rest on it
+        # comes first among the stops' candidates (its entry holds on its own wall only)
+        guards = [dataclasses.replace(g, to=(rest, *g.to)) if g.name in ("free+ stop", "free- stop") else g
+                  for g in guards]
     return modes, guards
