@@ -266,3 +266,15 @@ def test_a_slip_off_a_wall_that_ends_on_it_rests_there_as_in_the_engine(osc, t_e
     wall; the hybrid run had no rest among the candidates of that stop and recorded an impact at speed 0
     (found by benchmarks/fuzz_family.py's draws)."""
     assert_agrees_with_exact(osc, t_end, 1.0, v0)
+
+
+def test_a_touch_of_a_wall_moving_off_it_is_no_impact():
+    """F = 0, e = 0.0022, beta_s = 9.4e-10: the mass leaves the upper wall at t = 13.13 at a speed of rounding size
+    and the impact guard fires with V pointing away. The engine's rule: a touch (its stick test gives a reversal
+    away); the reset V -> -e V turned it into a speed of 1e-18 into the wall, where no mode was admissible
+    (status -1; found by benchmarks/fuzz_family.py's draws). exact has an impact at 3e-17 there: a touch either
+    way, and the next impact's speed (1e-15 against 2e-8) is the square root of rounding."""
+    osc = impactosc.Oscillator(F=0.0, Omega=2.618623712273628, beta=0.0, phase=3.261389719867664,
+                               beta_static=9.398521961403563e-10, flange="rigid", restitution=0.0021960267522439605)
+    sol, _ = assert_agrees_with_exact(osc, 16.69254525661261, -0.4312338350182914, 2.497465666197818, grazings=True)
+    assert list(sol.events.kind).count("reversal") == 1

@@ -407,7 +407,14 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
         what, side = guards[g]
         x, v = (walls[side] if side else state[0]), state[1]
         jump = None  # the engine takes a jump right after the impact it comes from, or never
-        if what == IMPACT:
+        if what == IMPACT and side * before[1] <= 0.0:  # a touch at a turning point: no impact (the engine's rule)
+            v = 0.0
+            if new.region:
+                rec.event(t, CONTACT_START, x, v, side, 1, 0)
+                tracker.interrupt()
+            else:
+                rec.event(t, REVERSAL, x, v, 0, 1, new.motion)
+        elif what == IMPACT:
             away = side * v < -KINEMATIC_GUARD_OFFSET
             rec.event(t, IMPACT, x, before[1], side, 1, -side if away else 0)
             jump = tracker.impact(t, side, abs(before[1]))

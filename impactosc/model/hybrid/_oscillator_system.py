@@ -197,7 +197,8 @@ def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, x, v, force, 
     """The free modes and guards with each rigid flange's impact, rest mode and release (the engine's rule).
 
     At an impact the reset ``X -> wall, V -> -e V`` (the state snapped onto the wall, as the engine
-    snaps it; the saltation matrix is that of ``V -> -e V`` alone, the guard's normal being ``X``)
+    snaps it; the saltation matrix is that of ``V -> -e V`` alone, the guard's normal being ``X``;
+    ``V -> 0`` at a touch, where ``V`` is not towards the wall: the engine's stick test decides)
     leads into the free slip away from the wall, or, where no speed is left and the force does not
     pull the mass off the wall beyond ``beta_s``, into the rest on it; a slip that ends exactly on
     the wall (a touch) rests there on the same condition. Resting, the
@@ -217,7 +218,7 @@ def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, x, v, force, 
         still = hy.select(hy.lt(side * v, -_NO_SPEED), -1.0, 1.0)
         modes.append(HybridMode(rest, {x: 0.0, v: 0.0}, entry=(on_wall, side * force + beta_s, still)))
         guards.append(Guard(f"impact {name}", x - side * gaps[side], side, armed=toward, to=(away, rest),
-                            reset={x: side * gaps[side], v: -e * v}, rest=rest,
+                            reset={x: side * gaps[side], v: hy.select(hy.gt(side * v, 0.0), -e * v, 0.0)}, rest=rest,
                             accumulation=WallChatter(side, names)))
         release = "release-" if up else "release+"
         guards.append(Guard(f"{name} {release}", force + side * beta_s, -side, armed=rest, to=away))
