@@ -449,15 +449,15 @@ class _Run:
         if after is not y:
             for i in self.reset_slots:  # element by element: a slice assignment from a list costs more
                 state[i] = after[i]
-        if switch.done:
-            return False  # the event the run was to end after (until=...)
+        if switch.done or switch.jump is not None:
+            return False  # the event the run was to end after (until=...), or an accumulation rule's jump
         accumulation = self.accumulation
         if t - accumulation.last > accumulation.quick * (1.0 + abs(t)):
             accumulation.last = t  # add()'s common case: an interval too long to end an accumulation
             accumulation.times.clear()
             accumulation.times.append(t)
         else:
-            estimate = accumulation.add(t)
+            estimate = accumulation.add(t, switch.zeno_scale[g])
             if estimate is not None and switch.rests(g):
                 self.resting = (g, estimate)  # the loop enters the rest mode (see _propagate)
                 return False
@@ -620,6 +620,8 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
     """The run from ``(t0, y0)``: the transitions at the start, then one ``propagate_until`` (more after a
     lost root, a frozen mode's jump, or every :data:`WALL_TIME_STEPS` steps with a ``deadline``); its end
     is in ``run.status``/``run.message`` and the integrator's time and state. Returns the number of steps.
+    A guard's accumulation (its rule's jump, :attr:`~impactosc.engine._hybrid.Switch.jump`, or the Zeno
+    watch's estimate) goes on in its rest mode at the accumulation time (at ``t_end`` if that comes first).
 
     ``deadline``: the ``time.monotonic()`` after which the run stops with status 1 (its message is
     written by the caller); ``quiet``: a guard the initial state does not fire (see :func:`run_counted`).
@@ -641,12 +643,28 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
     last_missed: tuple[int, float] | None = None  # the last crossing lost to rounding and applied
     step_limit, time_limit = hy.taylor_outcome.step_limit, hy.taylor_outcome.time_limit
     steps = 0
+
+    def rest(g: int, t_rest: float, jump=None) -> None:
+        """Guard ``g``'s events accumulate at ``t_rest``: on from there in its rest mode (``Switch.rest``, with
+        the ``jump`` of its accumulation rule where it answered)."""
+        mode, y = switch.rest(g, run.mode, t_rest, ta.state.tolist(), jump)
+        run.switch_to(mode)
+        ta.time = t_rest
+        ta.state[:] = y
+        ta.reset_cooldowns()
+        run.accumulation = Accumulation(run.zeno_tol)
+
     try:
         g = switch.pending(run.mode, t0, y0, quiet)
         ta.state[:] = run.transition(g, t0, y0) if g >= 0 else y0
         if comp.has_events:
             ta.reset_cooldowns()
         while True:
+            if switch.jump is not None and not run.status and not switch.done:
+                g, jump = switch.jump  # a guard's accumulation rule answered at its last crossing
+                switch.jump = None
+                rest(g, min(jump.time, t_end), jump)
+                continue
             res = ta.propagate_until(t_end, max_steps=max_steps)
             outcome = res[0]
             steps += res[3]
@@ -662,14 +680,10 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
                 # a guard's events accumulated: its rest mode from the accumulation time on
                 g, t_rest = run.resting
                 run.resting = None
-                t_rest = min(t_rest, t_end)
-                mode, y = switch.rest(g, run.mode, t_rest, ta.state.tolist())
-                run.switch_to(mode)
-                ta.time = t_rest
-                ta.state[:] = y
-                ta.reset_cooldowns()
-                run.accumulation = Accumulation(run.zeno_tol)
+                rest(g, min(t_rest, t_end))
                 continue
+            if switch.jump is not None and not run.status and not switch.done:
+                continue  # an accumulation rule's jump, taken at the top
             at_end = run.missed is None and not run.status and not switch.done and outcome == time_limit
             if at_end and run.others[run.mode]:
                 # the last piece has no event after it to notice a crossing lost inside it (Run.lost)

@@ -120,6 +120,10 @@ class _Loop:
         """Integrate one piece and handle its event; False when the run has reached ``t_end`` or failed."""
         from scipy.integrate import solve_ivp
 
+        ruled = self.switch.jump
+        if ruled is not None:  # a guard's accumulation rule answered at its last crossing: on in its rest mode
+            self.switch.jump = None
+            self.rest(ruled[0], ruled[1].time, t_end, ruled[1])
         if self.t >= t_end:  # a rest mode entered at the end
             self.t = t_end
             return False
@@ -184,7 +188,9 @@ class _Loop:
                 self.rest(g, self.t, t_end)
                 return True
             self.cool, self.cool_until = g, self.t + self.cooldown
-            self.estimate = self.accumulation.add(self.t)
+            if self.switch.jump is not None:
+                return True  # taken at the next piece's start
+            self.estimate = self.accumulation.add(self.t, self.switch.zeno_scale[g])
             if self.estimate is not None and self.switch.rests(g):
                 self.rest(g, self.estimate, t_end)
             elif self.estimate is not None:
@@ -193,10 +199,11 @@ class _Loop:
                                 f"t={self.t!r}, the accumulation time is estimated at {self.estimate!r}.")
         return True
 
-    def rest(self, g: int, t_rest: float, t_end: float) -> None:
-        """Guard ``g``'s events accumulate at ``t_rest``: its rest mode from there (``Guard.rest``)."""
+    def rest(self, g: int, t_rest: float, t_end: float, jump=None) -> None:
+        """Guard ``g``'s events accumulate at ``t_rest``: its rest mode from there (``Guard.rest``; with the
+        ``jump`` of its accumulation rule where it answered, ``Switch.rest``)."""
         self.t = min(t_rest, t_end)
-        self.mode, self.y = self.switch.rest(g, self.mode, self.t, self.y)
+        self.mode, self.y = self.switch.rest(g, self.mode, self.t, self.y, jump)
         self.estimate = None
         self.cool = -1
         self.accumulation = Accumulation(self.zeno_tol)

@@ -4,20 +4,27 @@ A backend integrates in a fixed mode until an armed guard fires; :class:`Switch`
 applies the guard's transition (the reset, then the first candidate mode whose entry
 conditions hold), checks whether the new state already lies on a guard of the new mode
 that it crosses (two guards at one instant, a reset that lands on a guard), and keeps the
-event records. :class:`Accumulation` watches the event times for a Zeno accumulation.
+event records. :class:`Accumulation` watches the event times for a Zeno accumulation; a guard
+with an accumulation rule (``Guard.accumulation``) is asked instead, at each of its crossings,
+whether its events accumulate from there (:meth:`Switch.transition`), and the loops then jump
+to the accumulation time and enter the guard's rest mode (:meth:`Switch.rest`). The rigid
+flanges of the oscillator family carry the engine's chatter model (:func:`wall_chatter`).
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, plan, rules
+from ..model.hybrid._oscillator_system import WallChatter
+from ._chatter import J_SIZE, J_T_INF, J_WALL, predict_jump
 
-__all__ = ["Switch", "Accumulation", "InstantAccumulation", "check_state", "frozen_modes", "period_jump",
-           "usable_period",
+__all__ = ["Switch", "Accumulation", "AccumulationJump", "InstantAccumulation", "wall_chatter", "RULED_ZENO_SCALE",
+           "check_state", "frozen_modes", "period_jump", "usable_period",
            "frozen_dense", "CROSSING",
            "GRAZING", "MARKER", "REST", "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE", "TIE"]
 
@@ -51,6 +58,21 @@ TIE = 16.0 * 2.0**-52
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
 MAX_EVENTS_AT_AN_INSTANT = 64
 
+#: The factor of the Zeno watch's tolerance for the events of a guard with an accumulation rule: the
+#: rule decides (the engine's chatter jumps once its time is known to 1e-12, typically with ~1e-5
+#: left, where a watch at ``zeno_tol = 1e-6`` could have declared the accumulation first); the watch,
+#: this much finer, only keeps a rule that never answers from running into flights below the
+#: rounding of the states, which no event finder resolves (a ball's bounces at 1e-9 apart).
+RULED_ZENO_SCALE = 1e-2
+
+
+class AccumulationJump(NamedTuple):
+    """What a guard's accumulation rule answered (``Guard.accumulation``), checked: the run goes on from here."""
+
+    time: float  #: the accumulation time
+    state: tuple  #: the states there
+    increments: tuple  #: each integral's increment over the flights left out
+
 
 class InstantAccumulation(Exception):
     """More than :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at one instant (the message says where)."""
@@ -73,7 +95,9 @@ class Accumulation:
         self.times: list[float] = []
         self.last = -math.inf
 
-    def add(self, t: float) -> float | None:
+    def add(self, t: float, fine: float = 1.0) -> float | None:
+        """Note an event at ``t``; the accumulation time, or None. ``fine`` scales the tolerance (see
+        :data:`RULED_ZENO_SCALE`)."""
         dt = t - self.last
         self.last = t
         scale = 1.0 + abs(t)
@@ -94,7 +118,7 @@ class Accumulation:
             return None
         r = ratios[-1]
         left = dts[-1] * r / (1.0 - r)
-        return t + left if left <= self.tol * scale else None
+        return t + left if left <= self.tol * fine * scale else None
 
 
 class Switch:
@@ -107,6 +131,13 @@ class Switch:
         guard and modes as indices and the states as tuples (states then integrals).
     pieces : list of tuple
         ``(t, mode, state)`` at the start of every smooth piece (for dense output).
+    jump : tuple or None
+        ``(guard, AccumulationJump)`` when a guard's accumulation rule has answered at the last
+        transition: the loop goes on at the jump's time in that guard's rest mode (:meth:`rest`)
+        and sets it back to None.
+    zeno_scale : list of float
+        The factor of the Zeno watch's tolerance for each guard's events (:data:`RULED_ZENO_SCALE`
+        for a guard with an accumulation rule, else 1).
     """
 
     def __init__(self, system: HybridSystem, touch_tol: float = 1e-12):
@@ -132,6 +163,9 @@ class Switch:
         self.pieces: list[tuple] = []
         self.until_guard, self.until_count, self.seen, self.done = -1, 0, 0, False
         self._second: dict = self.num.second
+        self._accumulate = [_accumulation_rule(guard.accumulation) for guard in system.guards]
+        self.zeno_scale = [1.0 if rule is None else RULED_ZENO_SCALE for rule in self._accumulate]
+        self.jump: tuple[int, AccumulationJump] | None = None
 
     def initial_mode(self, mode, t: float, y) -> int:
         """The index of ``mode`` (a name), or of the first mode whose entry conditions hold at ``(t, y)``."""
@@ -195,7 +229,9 @@ class Switch:
     def transition(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
         """Apply guard ``g`` in ``mode`` at ``(t, y)``, then every guard the new state lies on and crosses.
 
-        Records each event and the new piece; returns ``(mode, state)`` after the last.
+        Records each event and the new piece; returns ``(mode, state)`` after the last. A guard
+        with an accumulation rule (``Guard.accumulation``) asks it after its transition; when it
+        answers, the transition ends there and :attr:`jump` holds the answer for the loop.
 
         Raises
         ------
@@ -230,6 +266,12 @@ class Switch:
                                           f"by guard {last!r}): events accumulate at one instant.")
             if g == self.until_guard and self.count(g):
                 break  # the run ends right after this event
+            rule = self._accumulate[g]
+            if rule is not None:
+                found = rule(t, before, state, p)
+                if found is not None:
+                    self.jump = (g, self._checked_jump(g, t, found))
+                    break  # the run goes on at the accumulation time (the loop calls rest)
             # A guard whose reset is the identity has been crossed, not left on its surface: the
             # state after it lies on it moving its way, and firing it again would count the one
             # crossing twice (up to the instant-accumulation limit).
@@ -240,15 +282,37 @@ class Switch:
         self.pieces.append((t, mode, state))
         return mode, y
 
+    def _checked_jump(self, g: int, t: float, found) -> AccumulationJump:
+        """The answer ``found`` of guard ``g``'s accumulation rule at ``t``, checked, or a RuntimeError naming it."""
+        name = self.system.guard_names[g]
+        try:
+            time, state, *rest = found
+            time = float(time)
+            state = tuple(float(c) for c in state)
+            increments = tuple(float(c) for c in rest[0]) if rest else (0.0,) * len(self.system.integrals)
+        except (TypeError, ValueError):
+            raise RuntimeError(f"guard {name!r}: its accumulation rule must return None or "
+                               f"(time, state[, increments]), got {found!r}") from None
+        if len(rest) > 1 or len(state) != self.n or len(increments) != len(self.system.integrals):
+            raise RuntimeError(f"guard {name!r}: its accumulation rule returned {found!r}; it must be (time, state) "
+                               f"with {self.n} states or (time, state, increments) with {len(self.system.integrals)} "
+                               "increments")
+        if not (math.isfinite(time) and time >= t and all(map(math.isfinite, state + increments))):
+            raise RuntimeError(f"guard {name!r}: its accumulation rule returned the time {time!r} and the state "
+                               f"{list(state)} at t={t!r}; the time must be finite and >= t, the state finite")
+        return AccumulationJump(time, state, increments)
+
     def rests(self, g: int) -> bool:
         """Whether an accumulation of guard ``g``'s events leads into a rest mode (``Guard.rest``)."""
         return self.num.rest[g] >= 0
 
-    def rest(self, g: int, mode: int, t: float, y: list) -> tuple[int, list]:
+    def rest(self, g: int, mode: int, t: float, y: list, jump: AccumulationJump | None = None) -> tuple[int, list]:
         """Enter guard ``g``'s rest mode at the accumulation time ``t`` from the state ``y`` of its last event.
 
         Records the ``"rest"`` event and the new piece (and a guard the state then lies on and
-        crosses, as :meth:`transition` does); returns ``(mode, state)``.
+        crosses, as :meth:`transition` does); returns ``(mode, state)``. With the ``jump`` of
+        the guard's accumulation rule, the state there is the jump's, the integrals moved on
+        by its increments (``rest_reset`` is not applied).
 
         Raises
         ------
@@ -258,7 +322,11 @@ class Switch:
         target = self.num.rest[g]
         reset = self.rules.rest_reset[g]
         after = list(y)
-        if reset is not None:
+        if jump is not None:
+            after[:self.n] = jump.state
+            for i, step in enumerate(jump.increments):
+                after[self.n + i] += step
+        elif reset is not None:
             after[:self.n] = reset(t, y, self.p)
         conditions = self._entry[target]
         if conditions is not None and not all(c >= 0.0 for c in conditions(t, after, self.p)):
@@ -278,7 +346,11 @@ class Switch:
         On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way,
         or, where it is zero within the same tolerance (a tangency, such as the slip-end guard
         of a mass just released), the second Lie derivative does. ``crossed`` is a guard
-        crossed at this instant without a reset: not fired again.
+        crossed at this instant without a reset: not fired again. A tangency that still lies
+        on the side the guard fires from, farther from zero than the guard moves within a
+        rounding of the time (:data:`TIME_ROUNDING`), is ahead, not now: the integrator locates it
+        (a mass that turns 1e-12 above a rigid wall falls for ~1e-5 time units before it
+        hits it, and its chatter goes on there).
         """
         armed = self._armed_in[mode]
         if not armed:
@@ -295,9 +367,20 @@ class Switch:
                 if abs(rate) > scale:
                     if d == 0 or d * rate > 0.0:
                         return g
-                elif d != 0 and d * self._heading(g, mode, t, y, rate) > 0.0:
+                elif d != 0 and d * self._heading(g, mode, t, y, rate) > 0.0 and not self._ahead(g, mode, t, y,
+                                                                                               values[i], rate):
                     return g  # tangent to the guard, curving across it
         return -1
+
+    def _ahead(self, g: int, mode: int, t: float, y, h: float, rate: float) -> bool:
+        """Whether guard ``g`` (value ``h``, Lie derivative ``rate``) lies on the side it fires from, beyond what it
+        moves within a rounding of the time: its crossing is ahead (see :meth:`pending`)."""
+        d = self.direction[g]
+        if not d * h < 0.0:
+            return False
+        tau = TIME_ROUNDING * (1.0 + abs(t))
+        reach = abs(rate) * tau + 0.5 * abs(self.second_derivative(g, mode, t, y)) * tau * tau
+        return -d * h > reach
 
     def _heading(self, g: int, mode: int, t: float, y, rate: float) -> float:
         """The sign of guard ``g`` just after ``t``, from its zero at ``(t, y)`` with the Lie derivative ``rate``
@@ -371,6 +454,36 @@ class Switch:
 
     def guard_value(self, g: int, t: float, y) -> float:
         return self.rules.guard[g](t, y, self.p)[0]
+
+
+def _accumulation_rule(rule):
+    """The callable of a guard's accumulation rule: the engine's chatter for a rigid flange of the family."""
+    if isinstance(rule, WallChatter):
+        return wall_chatter(rule)
+    return rule
+
+
+def wall_chatter(spec: WallChatter):
+    """The engine's chatter rule (:mod:`impactosc.engine._chatter`) for the rigid flange ``spec`` describes.
+
+    ``rule(t, before, after, p)`` at an impact of speed ``|v|`` (before the reset) on the flange of
+    ``spec.side``: the accumulation time ``t_inf`` and the state at rest on the wall, when the
+    engine's local model (:func:`~impactosc.engine._chatter.predict_jump`, the one copy) predicts the
+    rest of the sequence to its time tolerance, else None. ``p`` are the system's parameter values,
+    read as the member they describe (:meth:`WallChatter.member`). The engine's loop decides with the
+    same call at the same impact, so the two loops jump at the same impact.
+    """
+    side, x, v = spec.side, spec.position, spec.velocity
+    row = np.empty(J_SIZE)
+
+    def rule(t, before, after, p):
+        if not predict_jump(spec.member(tuple(p))._p, float(t), side, abs(float(before[v])), 1, row):
+            return None
+        state = [0.0, 0.0]
+        state[x] = float(row[J_WALL])
+        return float(row[J_T_INF]), state
+
+    return rule
 
 
 _frozen: dict[tuple, tuple[bool, ...]] = {}

@@ -11,12 +11,14 @@ and piece starts, as arrays in one ``bulk`` call, then ``finish``. The hybrid
 modes map onto the engine's ``Mode(region, motion)`` and its guards onto the built-in
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
-What the hybrid loop does not express stays on the piece loop of this package
-(:func:`piece_loop_reason` says which and why, in one place): rigid
-flanges (chatter and rest on the wall are the engine's local model,
-:mod:`impactosc.engine._chatter`), power-law flanges (``d^p`` has no Taylor series at the
-contact's start: the piece stepper's boundary layer) and harmonics that are not whole multiples
-of ``Omega`` (the stuck phase below needs a forcing periodic with ``2 pi / Omega``) stay there.
+Rigid flanges run there too: their impact guards carry the engine's chatter rule (the
+guard's ``accumulation``, :mod:`impactosc.engine._chatter`), so the run jumps at the impact
+where the engine's does, and :func:`_replay_rigid` records impacts, chatter, rest on the wall
+and release as the engine does. What the hybrid loop does not express stays on the piece loop
+of this package (:func:`piece_loop_reason` says which and why, in one place): power-law
+flanges (``d^p`` has no Taylor series at the contact's start: the piece stepper's boundary
+layer) and harmonics that are not whole multiples of ``Omega`` (the stuck phase below needs a
+forcing periodic with ``2 pi / Omega``) stay there.
 A stuck phase costs the hybrid loop at most about three forcing periods of steps whatever its
 length: the stick modes are *frozen* (every state's rate zero) and the loop jumps over whole
 periods (:func:`~impactosc.engine._hybrid.period_jump`); the piece loop solves each release in
@@ -31,8 +33,20 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...engine._driver import CONTACT_END, CONTACT_START, RELEASE, REVERSAL, STICK, Mode, initial_mode
-from ...engine._hybrid import CROSSING
+from ...engine._chatter import ChatterTracker
+from ...engine._driver import (
+    CONTACT_END,
+    CONTACT_START,
+    IMPACT,
+    KINEMATIC_GUARD_OFFSET,
+    RELEASE,
+    REVERSAL,
+    STICK,
+    Mode,
+    initial_mode,
+    motion_at_rest,
+)
+from ...engine._hybrid import CROSSING, REST
 from ...model._oscillator import Oscillator
 from ...model.hybrid import oscillator_system
 from ...results._bulk import PIECE_DTYPE, bulk
@@ -56,8 +70,8 @@ def piece_loop_reason(osc: Oscillator, max_wall_time=None) -> str | None:
     """Why ``osc`` runs on the piece loop rather than the one hybrid loop, or None when it does not.
 
     The one place that decides the dispatch of the heyoka backend: spring flanges
-    (``exponent == 1``) with a forcing periodic in ``2 pi / Omega`` run on the hybrid loop;
-    rigid and power-law flanges and harmonics that are not whole multiples of ``Omega`` stay
+    (``exponent == 1``) and rigid flanges with a forcing periodic in ``2 pi / Omega`` run on the
+    hybrid loop; power-law flanges and harmonics that are not whole multiples of ``Omega`` stay
     on the piece loop (the reasons below). ``max_wall_time`` is accepted by both loops.
     """
     levels = [F for F, _, _ in osc.terms] + [osc.beta, osc.beta_s]
@@ -73,9 +87,12 @@ TINY_FORCES = 1e-9
 
 
 def _hybrid_loop_reason(osc: Oscillator) -> str | None:
-    """What keeps ``osc`` off the hybrid loop once it is the default (rigid, power-law flanges, harmonics)."""
-    if osc.rigid:
-        return "a rigid flange: its chatter and rest on the wall are the engine's local model"
+    """What keeps ``osc`` off the hybrid loop (power-law flanges, harmonics that are not whole multiples of Omega).
+
+    Rigid flanges run on it: their impact guards carry the engine's chatter rule
+    (:class:`~impactosc.model.hybrid._oscillator_system.WallChatter`) and the replay records the
+    engine's events and sums (:func:`_replay_rigid`).
+    """
     if osc.exponent != 1.0:
         return "a power-law flange: d^p needs the boundary layer of the piece stepper"
     if not _periodic_forcing(osc):
@@ -104,10 +121,14 @@ def _system(osc: Oscillator):
     for name in system.mode_names:
         modes.append(Mode(_REGIONS[name[:-1]], _MOTIONS[name[-1]], True))
     index = {(m.region, m.motion): i for i, m in enumerate(modes)}
-    # guard -> (kind, side) by name: "enter upper", "leave lower", "free+ stop", "upper release-"
+    # guard -> (kind, side) by name: "enter upper", "leave lower", "free+ stop", "upper release-", "impact upper"
     guards: list[tuple[str | None, int]] = []
     for name in system.guard_names:
-        if name.startswith("enter "):
+        if name.startswith("impact "):
+            guards.append((IMPACT, _REGIONS[name[7:]]))
+        elif osc.rigid and name.split()[0] in ("upper", "lower"):
+            guards.append((CONTACT_END, _REGIONS[name.split()[0]]))  # the release off a rigid wall
+        elif name.startswith("enter "):
             guards.append((CONTACT_START, _REGIONS[name[6:]]))
         elif name.startswith("leave "):
             guards.append((CONTACT_END, _REGIONS[name[6:]]))
@@ -128,7 +149,7 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     """
     system, modes, index, guards, slots = _system(osc)
     log_on_stderr(lambda: compiled(system, tol))  # heyoka's warnings on stderr, not in piped output
-    v0 = 0.0 if abs(v0) <= 5e-324 else v0
+    v0 = 0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0  # rest, as the engine's drive takes it
     start = initial_mode(osc, 0.0, x0, v0)
     name = system.mode_names[index[(start.region, start.motion)]]
     # The initial state is not an event (engine.initial_mode): a slip's stop guard does not fire at
@@ -263,6 +284,7 @@ def _finish(hybrid, rec: _Recorder, mode: Mode, max_events: int) -> None:
     rec.finish(t_final, float(y1[0]), float(y1[1]), mode, status, message)
 
 
+_SIDES = {1: "upper", -1: "lower"}
 _KIND_NAMES = np.array([CONTACT_START, CONTACT_END, RELEASE, STICK, REVERSAL])
 _START, _END, _RELEASE, _STICK, _REVERSAL = range(len(_KIND_NAMES))
 
@@ -288,6 +310,9 @@ def _kinds(modes: tuple, guards: tuple) -> _KindTable:
 def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int,
                  t_end: float) -> None:
     """Feed ``rec`` with the pieces and events of ``hybrid`` one call at a time, as the engine's ``drive`` does."""
+    if osc.rigid:
+        _replay_rigid(osc, hybrid, rec, modes, guards, slots, start, max_events)
+        return
     events = _crossings_without_touches(hybrid._raw_events, guards)
     n = len(events)
     y0 = hybrid._pieces[0][2]
@@ -336,6 +361,144 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     _finish(hybrid, rec, mode, max_events)
 
 
+def _piece_increments(hybrid, events, slots) -> list:
+    """The increments of ``Q, Q2, W, VV`` (0 where the run has no such integral) over each piece of ``hybrid``:
+    from the start or an event of ``events`` (the state after it) to the next event or the end (before it)."""
+    y0 = hybrid._pieces[0][2]
+    n = len(events)
+    ends = np.empty((n + 1, len(y0)))
+    after = np.empty((n + 1, len(y0)))
+    if n:
+        ends[:n] = [e[5] for e in events]
+        after[1:] = [e[6] for e in events]
+    ends[n] = hybrid.state_final
+    after[0] = y0
+    incr = np.zeros((n + 1, 4))
+    for k, q in enumerate(("Q", "Q2", "W", "VV")):
+        c = slots.get(q, -1)
+        if c >= 0:
+            incr[:, k] = ends[:, c] - after[:, c]
+    return (incr / INTEGRAL_SCALE).tolist()
+
+
+def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int) -> None:
+    """:func:`_replay_each` of a member with rigid flanges: impacts, chatter, rest on the wall and release from it.
+
+    The records of the engine's ``drive``: an ``impact`` at each crossing of a flange's impact guard
+    (its incoming velocity; ``contact_start`` after it where no speed is left and the mass rests on
+    the wall), a ``contact_start`` where a slip ends on the wall, a ``contact_end`` at the release
+    from it, and, where the impact guard's accumulation rule jumped (a ``rest`` event of the run),
+    the engine's chatter: its jump from the same impact (the engine's :class:`ChatterTracker`, which
+    also counts the impacts followed one by one), its tail's impulse, slip path and impact losses
+    (``rec.chatter``), then the rest on the wall. A run that ends inside a tail ends with the local
+    model's state there, as the engine's does. The wall's push on a resting mass is the recorder's
+    (``wall_force_integrals``), the impacts' impulses and losses come from their velocities.
+    """
+    events = [e for e in hybrid._raw_events if e[2] == CROSSING or e[2] == REST]
+    y0 = hybrid._pieces[0][2]
+    rec.begin(osc, 0.0, y0[0], y0[1], start)
+    increments = _piece_increments(hybrid, events, slots)
+    walls = {1: osc.gap_upper, -1: -osc.gap_lower}
+    tracker = ChatterTracker(osc)
+    jump = None  # the engine's jump after the last impact, where it takes one
+    t_prev, x_prev, mode = 0.0, float(y0[0]), start
+    for k, (t, g, kind, _, b, before, state) in enumerate(events):
+        new = modes[b]
+        if kind == REST:
+            if jump is None:
+                # the loop's own watch (events at one instant, a tie the engine's stick test resolves by the
+                # forcing's trend): not the engine's answer, so not a result; what came before is kept
+                rec.finish(t, before[0], before[1], mode, -1,
+                           f"the heyoka backend failed after t={t!r}: events accumulated at one instant there, where "
+                           "the engine takes no chatter jump (a degenerate tie of the net force with static "
+                           "friction); backend='exact' resolves it")
+                return
+            if t < jump.t_inf:  # the run ends inside the tail: the local model's state at its end
+                x1, v1, motion = rec.chatter(jump, t)
+                rec.finish(t, x1, v1, Mode(0, motion, True), 0,
+                           f"The end time was reached inside a chatter on the {_SIDES[jump.side]} flange (its "
+                           f"impacts accumulate at t={jump.t_inf!r}, after the end).")
+                return
+            rec.chatter(jump, jump.t_inf)
+            x = jump.wall
+            rec.event(t, CONTACT_START, x, 0.0, jump.side, 1, 0)
+            tracker.interrupt()
+            jump = None
+            rec.segment(t, x, 0.0, new)
+            t_prev, x_prev, mode = t, x, new
+            continue
+        if t > t_prev:  # not a second event at one instant (the engine records no piece between them)
+            dq, dq2, dw, dvv = increments[k]
+            rec.piece(mode, t_prev, x_prev, t, before[0], dq, dq2, dw, dvv, 0)
+        what, side = guards[g]
+        x, v = (walls[side] if side else state[0]), state[1]
+        jump = None  # the engine takes a jump right after the impact it comes from, or never
+        if what == IMPACT and side * before[1] <= 0.0:  # a touch at a turning point: no impact (the engine's rule)
+            v = 0.0
+            if new.region:
+                rec.event(t, CONTACT_START, x, v, side, 1, 0)
+                tracker.interrupt()
+            else:
+                rec.event(t, REVERSAL, x, v, 0, 1, new.motion)
+        elif what == IMPACT:
+            away = side * v < -KINEMATIC_GUARD_OFFSET
+            rec.event(t, IMPACT, x, before[1], side, 1, -side if away else 0)
+            jump = tracker.impact(t, side, abs(before[1]))
+            if new.region:  # no speed left: at rest against the wall
+                v, jump = 0.0, None
+                rec.event(t, CONTACT_START, x, v, side, 1, 0)
+                tracker.interrupt()
+        elif what is None and new.region:  # a slip that ends on the wall (a touch): at rest against it
+            side, v = new.region, 0.0
+            # the engine's slip end there first (its stick test: a stick, a reversal, or a pause without an
+            # event), then the wall it lies on takes the mass
+            motion, _ = motion_at_rest(osc, t, state[0])
+            if motion != mode.motion:
+                rec.event(t, STICK if motion == 0 else REVERSAL, state[0], v, 0, 1, motion)
+            x = walls[side]
+            rec.event(t, CONTACT_START, x, v, side, 1, 0)
+            tracker.interrupt()
+        else:
+            if what is None:
+                what = STICK if new.motion == 0 else REVERSAL
+            rec.event(t, what, x, v, side, 1, new.motion)
+            if what != REVERSAL:
+                tracker.interrupt()
+        mode = new
+        if k + 1 == len(events) or events[k + 1][0] != t or events[k + 1][2] == REST:
+            rec.segment(t, x, v, mode)
+        t_prev, x_prev = t, x
+    t_final = hybrid.t_final
+    y1 = hybrid.state_final
+    dq, dq2, dw, dvv = increments[len(events)]
+    if t_final > t_prev or not events:
+        rec.piece(mode, t_prev, x_prev, t_final, float(y1[0]), dq, dq2, dw, dvv, 0)
+    _finish(hybrid, rec, mode, max_events)
+
+
+def _tail_states(osc, hybrid, times):
+    """The engine's local-model states ``(x, v, motion)`` at those of ``times`` inside a chatter's tail, by index.
+
+    The tail runs from the impact where the engine's chatter model jumps to the accumulation
+    time (a ``rest`` event of the hybrid run): the run's dense output there is the last flight,
+    which would go through the wall.
+    """
+    found: dict[int, tuple] = {}
+    raw = [e for e in hybrid._raw_events if e[2] == CROSSING or e[2] == REST]
+    for i, (t_rest, g, kind, *_) in enumerate(raw):
+        if kind != REST or i == 0:
+            continue
+        t_imp, _, _, _, _, before, _ = raw[i - 1]
+        side = 1 if "upper" in hybrid.system.guard_names[g] else -1
+        jump = ChatterTracker(osc).impact(t_imp, side, abs(before[1]))
+        if jump is None:
+            continue
+        for j, t in enumerate(times):
+            if t_imp < t < min(jump.t_inf, t_rest) or (t_imp < t == t_rest < jump.t_inf):
+                found[j] = jump.state_at(t)[:3]
+    return found
+
+
 def _crossings_without_touches(raw_events, guards) -> list:
     """The crossings of a hybrid run, each touch of a flange as the reversal it is.
 
@@ -367,7 +530,12 @@ def _samples(hybrid, rec: _Recorder, modes, sample_at) -> None:
     states = hybrid.sample(times)
     starts = np.array([p[0] for p in hybrid._pieces])
     which = np.searchsorted(starts, times, side="right") - 1
-    for t, y, k in zip(times.tolist(), states[:, :2].tolist(), which.tolist(), strict=True):
+    tails = _tail_states(rec.osc, hybrid, times.tolist()) if rec.osc.rigid else {}  # inside a chatter's tail
+    for j, (t, y, k) in enumerate(zip(times.tolist(), states[:, :2].tolist(), which.tolist(), strict=True)):
+        if j in tails:
+            x, v, motion = tails[j]
+            rec.sample(t, x, v, Mode(0, motion, True))
+            continue
         rec.sample(t, y[0], y[1], modes[hybrid._pieces[k][1]])
 
 

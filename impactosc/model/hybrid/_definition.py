@@ -174,6 +174,18 @@ class HybridMode:
         object.__setattr__(self, "integrands", _by_name(f"{where}: integrands", dict(self.integrands)))
 
 
+class EngineRule:
+    """An accumulation rule that the engine implements (``Guard.accumulation``): a declaration, not a callable.
+
+    The model says *which* physics a guard's accumulations follow, the engine (a layer above)
+    holds that physics once; a subclass carries only what names it, such as the flange of a
+    member of the oscillator family whose chatter the engine resolves
+    (:class:`~impactosc.model.hybrid._oscillator_system.WallChatter`).
+    """
+
+    __slots__ = ()
+
+
 @dataclass(frozen=True, eq=False)
 class Guard:
     """A switching surface ``h(y, t; p) = 0``: where it is armed, which way it fires, what follows.
@@ -208,6 +220,22 @@ class Guard:
         guards (a release when the force that holds the state there changes sign).
     rest_reset : mapping, optional
         The reset into ``rest`` (e.g. ``{v: 0}``), written like ``reset``.
+    accumulation : callable, optional
+        A rule that recognises an accumulation of this guard's events from the state at one
+        of them, instead of from the event times: ``rule(t, before, after, parameters)`` is
+        called at every crossing of the guard, with its time, the state (states, then
+        integrals) before and after the reset and the parameter values (in the system's
+        order), and returns ``None`` (the run goes on) or ``(time, state)`` or ``(time, state,
+        increments)``: the events accumulate at ``time`` (``>= t``), where the run goes on in
+        ``rest`` (an event of kind ``"rest"``) with ``state`` (the states only) and each
+        integral moved on by its increment over the flights left out (default 0). A rule
+        needs ``rest``; it is part of the system's structure, so it must be hashable (and
+        picklable, for a system sent to other processes), and must read the parameters from
+        its arguments, not hold their values. It replaces the watch of event times for this
+        guard: that watch then acts only where the time left is a hundred times below
+        ``zeno_tol (1 + |t|)`` (a rule that never answers cannot run into flights below rounding).
+        The oscillator family's rigid flanges (:func:`~impactosc.model.hybrid.oscillator_system`)
+        carry the engine's chatter rule.
 
     Examples
     --------
@@ -221,6 +249,24 @@ class Guard:
 
     >>> landing = Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v},
     ...                 rest="floor", rest_reset={x: 0.0, v: 0.0})
+
+    The same ball with its accumulation time in closed form (gravity ``g``, restitution
+    ``e``: after an impact at speed ``u`` the flights add up to ``2 e u / (g (1 - e))``):
+
+    >>> def zeno(t, before, after, p):
+    ...     g, e = p
+    ...     u = abs(before[1])
+    ...     return (t + 2.0 * e * u / (g * (1.0 - e)), (0.0, 0.0)) if u < 1e-3 else None
+    >>> landing = Guard("impact", x, -1, armed="flight", to="flight", reset={v: -e * v},
+    ...                 rest="floor", accumulation=zeno)
+    >>> import impactosc
+    >>> from impactosc import HybridMode, HybridSystem
+    >>> g = symbols("g")
+    >>> ball = HybridSystem("x v", {"g": 9.81, "e": 0.8},
+    ...                     [HybridMode("flight", {x: v, v: -g}), HybridMode("floor", {x: 0.0, v: 0.0})], [landing])
+    >>> rest = impactosc.simulate(ball, 10.0, [1.0, 0.0]).events[-1]   # sqrt(2 / g) (1 + 2 e / (1 - e))
+    >>> rest.kind, round(rest.t, 9), rest.state_after
+    ('rest', 4.063712769, (0.0, 0.0))
     """
 
     name: str
@@ -232,6 +278,7 @@ class Guard:
     terminal: bool = True
     rest: Any = None
     rest_reset: Any = ()
+    accumulation: Any = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -254,6 +301,18 @@ class Guard:
             raise ValueError(f"{where}: rest_reset={dict(self.rest_reset)!r} is given without a rest mode (rest=...)")
         if self.rest is not None and not self.terminal:
             raise ValueError(f"{where}: a non-terminal guard (terminal=False) has no rest mode, got rest={self.rest!r}")
+        if self.accumulation is not None:
+            if not (callable(self.accumulation) or isinstance(self.accumulation, EngineRule)):
+                raise TypeError(f"{where}: accumulation must be a callable rule(t, before, after, parameters), "
+                                f"got {self.accumulation!r}")
+            if self.rest is None:
+                raise ValueError(f"{where}: accumulation={self.accumulation!r} is given without a rest mode "
+                                 "(rest=...), where the run goes on after the accumulation")
+            try:
+                hash(self.accumulation)
+            except TypeError:
+                raise TypeError(f"{where}: accumulation must be hashable (it is part of the system's structure), "
+                                f"got {self.accumulation!r}") from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -448,6 +507,6 @@ def _structure(system: HybridSystem) -> tuple:
     """
     modes = tuple((m.name, tuple(m.field), tuple(m.entry), tuple(m.integrands)) for m in system.modes)
     guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal,
-                    g.rest, tuple(g.rest_reset)) for g in system.guards)
+                    g.rest, tuple(g.rest_reset), g.accumulation) for g in system.guards)
     return _Structure((tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
                        system.section, modes, guards))

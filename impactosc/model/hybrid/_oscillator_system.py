@@ -2,19 +2,60 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from functools import lru_cache
 
 from .._oscillator import Oscillator
-from ._definition import Guard, HybridSystem
+from ._definition import EngineRule, Guard, HybridMode, HybridSystem
 from ._friction import stick_slip
 
-__all__ = ["oscillator_system"]
+__all__ = ["oscillator_system", "WallChatter"]
 
 #: A flange mode may be entered a few rounding errors outside its surface: a stop located inside a
 #: spring flange at the turning point of a grazing contact can round to ``X = gap (1 - eps)``, where
 #: no candidate mode of the stop would otherwise be admissible (the run failed). The guard that
 #: leaves the flange then fires at once from there (the state lies on it, moving out).
 _SURFACE_ROUNDING = 4.0 * 2.0**-52
+#: How far beyond a rigid flange an impact may be located (scipy's event location put one 16 eps beyond
+#: it): the rebound into the free modes is admissible there, and so is the rest on the wall.
+_IMPACT_ROUNDING = 64.0 * 2.0**-52
+#: A speed away from a rigid wall below this is none (the engine's kinematic guard offset).
+_NO_SPEED = 1e-300
+
+
+@dataclasses.dataclass(frozen=True)
+class WallChatter(EngineRule):
+    """The accumulation rule of a rigid flange of the family: the engine's chatter (``Guard.accumulation``).
+
+    A declaration: the engine resolves it to its chatter model (``impactosc.engine._chatter``,
+    the one copy, through ``impactosc.engine._hybrid.wall_chatter``), which decides from the
+    state at each impact whether the rest of the sequence is known to its time tolerance.
+    It holds no parameter value (it is part of the system's structure): :meth:`member` reads
+    the member from the system's parameter values at the impact.
+    """
+
+    side: int  #: the flange, +1 (upper) or -1 (lower)
+    names: tuple[str, ...]  #: the system's parameter names, in order
+    position: int = 0  #: the index of ``x`` among the states
+    velocity: int = 1  #: the index of ``v``
+
+    def member(self, values) -> Oscillator:
+        """The member of the family whose parameters (in the order of :attr:`names`) are ``values``."""
+        return _member(self.names, tuple(float(c) for c in values))
+
+
+@lru_cache(maxsize=256)
+def _member(names: tuple[str, ...], values: tuple[float, ...]) -> Oscillator:
+    named = dict(zip(names, values, strict=True))
+    terms: list[tuple[float, float, float]] = []
+    while f"F{len(terms) + 1 if terms else ''}" in named:
+        tag = str(len(terms) + 1) if terms else ""
+        terms.append((named[f"F{tag}"], named[f"Omega{tag}"], named[f"phase{tag}"]))
+    (F, Omega, phase), harmonics = terms[0], terms[1:]
+    return Oscillator(F, Omega, named["beta"], 0.0, phase, zeta=named.get("zeta", 0.0), beta_static=named["beta_s"],
+                      flange="rigid", restitution=named["e"], harmonics=harmonics,
+                      gap_lower=named.get("gap_lower", math.inf), gap_upper=named.get("gap_upper", math.inf))
 
 
 def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: float = 1.0) -> HybridSystem:
@@ -24,9 +65,14 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     with Coulomb friction as :func:`stick_slip` modes in each region (``free``, ``upper``,
     ``lower``: ``"free+"``, ``"free0"``, ``"free-"``, ...). A spring flange compresses
     with the force ``K (X - gap_upper)`` (upper) or ``K (X + gap_lower)`` (lower), and the
-    integral ``Q`` is the flange impulse ``int K d dt``; a rigid flange is a guard with the
-    reset ``V -> -e V`` in the free modes (a mass coming to rest against it is an
-    accumulation of impacts: the run ends with status 2). The parameters keep the
+    integral ``Q`` is the flange impulse ``int K d dt``. A rigid flange is a guard with the
+    reset ``V -> -e V`` in the free modes (``"impact upper"``, ``"impact lower"``) and a mode of
+    rest on it (``"upper0"``, ``"lower0"``: ``X' = V' = 0``), entered where an impact keeps no
+    speed (``e = 0``), where a slip ends on the wall (moving to it or off it) and, at the accumulation time, where the
+    engine's chatter model resolves a sequence of impacts (:class:`WallChatter`, the guard's
+    ``accumulation``; the run goes on with the engine's jump, from the same impact), and left by
+    the release away from the wall (``"upper release-"``: ``f + beta_s`` falls through 0;
+    ``"lower release+"``), the built-in engine's rule. The parameters keep the
     oscillator's names (``F, Omega, phase, beta, beta_s, K, zeta, e, gap_upper,
     gap_lower``, and ``F2, Omega2, phase2, ...`` for the harmonics); the forcing period
     is ``2 pi / Omega``.
@@ -63,6 +109,14 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     >>> sol = impactosc.simulate(scaled, 50.0, [0.95, 0.0])
     >>> round(sol.integrals["Q"] / 2.0**-40, 6)
     18.349652
+
+    A rigid flange under a constant push: its impacts accumulate (at ``pi / 3 + sum_k 2 atan(sqrt(3) / 2^k)``),
+    where the engine's chatter rule jumps to rest on the wall:
+
+    >>> rigid = oscillator_system(impactosc.Oscillator(F=2.0, Omega=0.0, beta=0.0, flange="rigid", restitution=0.5))
+    >>> rest = impactosc.simulate(rigid, 10.0, [0.0, 0.0]).events[-1]
+    >>> rest.kind, rest.mode_after, round(rest.t, 9)
+    ('rest', 'upper0', 4.150405283)
     """
     import heyoka as hy
 
@@ -94,8 +148,10 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     flanges = [(side, gap) for side, gap in ((1, osc.gap_upper), (-1, osc.gap_lower)) if gap != math.inf]
     gaps = {side: par("gap_upper" if side > 0 else "gap_lower", gap) for side, gap in flanges}
     modes, guards = [], []
-    # the region of each mode's entry: between the flanges, or into one (an initial state decides)
-    inside = [gaps[side] - side * x for side, _ in flanges]
+    # the region of each mode's entry: between the flanges, or into one (an initial state decides); an
+    # impact on a rigid flange is located a rounding error either side of it, where the rebound is free
+    slack = {side: (_IMPACT_ROUNDING * (1.0 + gaps[side]) if osc.rigid else 0.0) for side, _ in flanges}
+    inside = [gaps[side] - side * x + slack[side] for side, _ in flanges]
     regions = [("free", base, None, inside)]
     if not osc.rigid:
         K = par("K", osc.K)
@@ -120,12 +176,8 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
         modes += m
         guards += g
     if osc.rigid:
-        e = par("e", osc.restitution)
-        for side, _ in flanges:
-            up = side > 0
-            name = "upper" if up else "lower"
-            guards.append(Guard(f"impact {name}", x - side * gaps[side], side, armed="free+" if up else "free-",
-                                to="free-" if up else "free+", reset={v: -e * v}))
+        modes, guards = _rigid_flanges(modes, guards, flanges, gaps, x, v, base, beta_s,
+                                       par("e", osc.restitution), tuple(params))
     else:
         for side, _ in flanges:
             name, into, out = ("upper", "+", "-") if side > 0 else ("lower", "-", "+")
@@ -138,3 +190,40 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
         integrals += ([] if osc.rigid else ["Q2"]) + ["W"] + (["VV"] if osc.zeta != 0.0 else [])
     return HybridSystem("x v", params, modes, guards, integrals=integrals, period=period,
                         name="eq3" if not osc.rigid else "eq3 rigid")
+
+
+def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, x, v, force, beta_s, e,
+                   names: tuple[str, ...]) -> tuple[list, list]:
+    """The free modes and guards with each rigid flange's impact, rest mode and release (the engine's rule).
+
+    At an impact the reset ``X -> wall, V -> -e V`` (the state snapped onto the wall, as the engine
+    snaps it; the saltation matrix is that of ``V -> -e V`` alone, the guard's normal being ``X``;
+    ``V -> 0`` at a touch, where ``V`` is not towards the wall: the engine's stick test decides)
+    leads into the free slip away from the wall, or, where no speed is left and the force does not
+    pull the mass off the wall beyond ``beta_s``, into the rest on it; a slip that ends exactly on
+    the wall (a touch) rests there on the same condition. Resting, the
+    mass has ``X' = V' = 0`` and the wall takes any push into it; it is released when the force
+    pulls it away beyond ``beta_s``. The rest is entered with no speed away from the wall only
+    (``side V >= -1e-300``, the engine's rule), wherever the impact was located.
+    """
+    import heyoka as hy
+
+    for side, _ in flanges:
+        up = side > 0
+        name, rest = ("upper", "upper0") if up else ("lower", "lower0")
+        toward, away = ("free+", "free-") if up else ("free-", "free+")
+        # on the wall exactly, as the engine has it (a slip that ends a hair short of it falls back and
+        # hits it: a chatter's flights end 1e-14 short of it before its jump); an impact puts it there
+        on_wall = side * x - gaps[side]
+        still = hy.select(hy.lt(side * v, -_NO_SPEED), -1.0, 1.0)
+        modes.append(HybridMode(rest, {x: 0.0, v: 0.0}, entry=(on_wall, side * force + beta_s, still)))
+        guards.append(Guard(f"impact {name}", x - side * gaps[side], side, armed=toward, to=(away, rest),
+                            reset={x: side * gaps[side], v: hy.select(hy.gt(side * v, 0.0), -e * v, 0.0)}, rest=rest,
+                            accumulation=WallChatter(side, names)))
+        release = "release-" if up else "release+"
+        guards.append(Guard(f"{name} {release}", force + side * beta_s, -side, armed=rest, to=away))
+        # a slip that ends on the wall (either way: a flight off it can turn back on it): the rest on it
+        # comes first among the stops' candidates (its entry holds on its own wall only)
+        guards = [dataclasses.replace(g, to=(rest, *g.to)) if g.name in ("free+ stop", "free- stop") else g
+                  for g in guards]
+    return modes, guards
