@@ -3,11 +3,11 @@
 Which loop runs a member
 ------------------------
 :func:`run` dispatches in one place (``piece_loop_reason`` in ``backends/heyoka/_replay.py``).
-A member with spring flanges and a forcing periodic in ``2 pi / Omega`` (the paper's eq. 3 and
-most of the family) runs on the hybrid loop of user systems (``backends/_hybrid_heyoka.py``) as
-:func:`~impactosc.model.hybrid.oscillator_system`, its events replayed into the built-in
-:class:`~impactosc.Solution`. Rigid and power-law flanges and harmonics that are not whole
-multiples of ``Omega`` still run on the piece loop that the rest of this module describes (a
+A member with spring or rigid flanges and a forcing periodic in ``2 pi / Omega`` (the paper's
+eq. 3 and most of the family) runs on the hybrid loop of user systems
+(``backends/_hybrid_heyoka.py``) as :func:`~impactosc.model.hybrid.oscillator_system`, its events
+replayed into the built-in :class:`~impactosc.Solution`. Power-law flanges and harmonics that are
+not whole multiples of ``Omega`` still run on the piece loop that the rest of this module describes (a
 piece stepper driven by the engine's ``drive``); ``piece_loop_reason`` says why for each.
 
 Integrators
