@@ -95,6 +95,9 @@ class _Stepper:
     for damping and harmonic sums), the one the compiled event loop runs too.
     """
 
+    #: The backend the driver's messages name (the module's name, ``_stepper``, before).
+    name = "exact"
+
     def __init__(self, osc: Oscillator):
         self.osc = osc
         # Damping or a harmonic sum: the family piece (``_exact_family``); eq. 3 keeps its own.
