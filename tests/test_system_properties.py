@@ -67,13 +67,19 @@ def test_heyoka_and_scipy_agree_on_random_systems(case):
     assume(np.all(np.diff(times) > 1e-3) if times.size > 1 else True)
     event(f"{system.dimension} states, {'no' if times.size == 0 else '1-9' if times.size < 10 else '10+'} events")
     field = rules(system).field
+    speeds = []
     for ev in a.events:  # the guard y0 -+ d moves at the speed y0' = field_0 when it fires
         speed = field[system.mode_index(ev.mode_before)](ev.t, list(ev.state_before), system.parameter_values)[0]
         assume(abs(speed) > 1e-3)
+        speeds.append(abs(speed))
     b = impactosc.simulate(system, 10.0, y0, mode="a", max_events=200, backend="scipy", rtol=1e-13, atol=1e-13)
     assert b.status == 0
     assert [e.guard for e in b.events] == [e.guard for e in a.events]
-    np.testing.assert_allclose(b.event_times(), times, rtol=0, atol=1e-9)
+    # an event time is off by the state's error over the guard's speed: scipy's state at rtol = 1e-13
+    # after up to 10 time units is good to a few 1e-12 (a speed of 1.3e-3 moved one time by 1.5e-9)
+    gaps = np.abs(b.event_times() - times)
+    allowed = np.maximum(1e-9, 4e-12 / np.asarray(speeds)) if speeds else np.zeros(0)
+    assert np.all(gaps <= allowed), (gaps, allowed)
     np.testing.assert_allclose(b.state_final[:system.dimension], a.state_final[:system.dimension], rtol=1e-7,
                                atol=1e-8)
 
