@@ -12,7 +12,8 @@ On ``[a, b]`` a function with ``|h''| <= M2`` stays within ``M2 (b - a)^2 / 8`` 
 chord, which excludes intervals of one sign, and ``|h'''| <= M3`` applied to ``h'`` proves
 monotonicity, so a bracket holds a single crossing. Near a double root (a tangency) the
 bisection goes on until the extremum separates the two crossings; only below ``hmin`` (a
-few ulps of ``t``) do the end values decide.
+few ulps of ``t``), or where ``h`` cannot leave its rounding level (:func:`decide`), do the
+end values decide.
 """
 
 from __future__ import annotations
@@ -37,16 +38,23 @@ SEARCH_FAILED = 1
 BISECT, NO_CROSSING, CROSSING = 0, 1, 2
 
 
-def decide(ha, hb, da, db, slack2, slack3, width, hmin):
+def decide(ha, hb, da, db, slack2, slack3, width, hmin, noise=0.0):
     """What an interval ``[a, b]`` of the bracketing holds: :data:`BISECT`, :data:`NO_CROSSING` or :data:`CROSSING`.
 
     ``ha, hb`` and ``da, db``: ``h`` and ``h'`` at its ends; ``slack2`` and ``slack3``: how far
     ``h`` and ``h'`` can stray from their chords on it (``M2 w^2 / 8`` and ``M3 w^2 / 8`` with
-    bounds ``M2``, ``M3`` of the second and third derivative, or any tighter bound); ``width = b - a``.
+    bounds ``M2``, ``M3`` of the second and third derivative, or any tighter bound); ``width = b - a``;
+    ``noise``: a bound of the rounding of the computed ``h`` on it (0 when not known).
     ``h`` of one sign beyond the slack holds no crossing; ``h'`` of one sign beyond its slack
     makes ``h`` monotonic, with a crossing from negative to non-negative exactly when
-    ``ha < 0 <= hb``; an interval at most ``hmin`` wide is decided by its end values. The one
-    decision of every bracketing (the 1-DOF pieces, the stuck releases, the n-DOF guards).
+    ``ha < 0 <= hb``. Below the resolution of the computed ``h`` its end values decide, by
+    that same rule: on an interval at most ``hmin`` wide (the resolution in ``t``), and on one
+    where ``|h| <= max(|ha|, |hb|) + slack2 <= noise`` (the resolution in ``h``: the guard
+    stays within its rounding of zero all over it, so no sign the computed values could show
+    there means anything; e.g. a start at rest where the force turns at second order with a
+    curvature far below rounding, whose bisection down to ``hmin`` would take some ``2^50``
+    steps). The one decision of every bracketing (the 1-DOF pieces, the stuck releases, the
+    n-DOF guards).
     """
     if ha >= 0.0 and hb >= 0.0 and min(ha, hb) > slack2:
         return NO_CROSSING  # h > 0 on [a, b]
@@ -56,7 +64,7 @@ def decide(ha, hb, da, db, slack2, slack3, width, hmin):
         return CROSSING if ha < 0.0 <= hb else NO_CROSSING
     if max(da, db) < -slack3:  # h decreasing: it cannot rise through 0
         return NO_CROSSING
-    if width <= hmin:
+    if width <= hmin or max(abs(ha), abs(hb)) + slack2 <= noise:
         return CROSSING if ha < 0.0 <= hb else NO_CROSSING
     return BISECT
 
@@ -65,11 +73,14 @@ def decide(ha, hb, da, db, slack2, slack3, width, hmin):
 decide_jit = njit_inline(decide)
 
 
-def first_rising(fun, state, a, ha, da, b, M2, M3, hmin):
+def first_rising(fun, state, a, ha, da, b, M2, M3, hmin, noise_at0=0.0, noise_rate=0.0, noise_cap=0.0):
     """First crossing of ``h`` from negative to non-negative in ``(a, b]``.
 
     ``fun(state, tau) -> (h, h')``; ``ha, da`` are its values at ``a``; ``M2 >= |h''|`` and
-    ``M3 >= |h'''|`` on ``[a, b]``. Returns ``(found, lo, hi, h(lo), h(hi), h(b), h'(b), status)``:
+    ``M3 >= |h'''|`` on ``[a, b]``. The rounding of the computed ``h`` at offsets up to ``tau``
+    is at most ``min(noise_cap, noise_at0 + noise_rate tau)`` (the ``noise`` of :func:`decide`;
+    all 0 when not known): a local bound, so that a guard that starts on zero is resolved as
+    finely near its start as its values allow there. Returns ``(found, lo, hi, h(lo), h(hi), h(b), h'(b), status)``:
     when ``found``, ``[lo, hi]`` brackets the crossing with ``h`` monotonic on it; the values
     at ``b`` start the next window. The right ends of the still unexplored intervals sit on
     a stack, so intervals are examined strictly left to right and the first crossing is the
@@ -88,7 +99,9 @@ def first_rising(fun, state, a, ha, da, b, M2, M3, hmin):
             # ulp-wide intervals over the whole window.
             return False, a, b, ha, hb, end_h, end_d, SEARCH_FAILED
         # max distances of h and h' from their chords
-        outcome = decide_jit(ha, hb, da, db, 0.125 * M2 * width * width, 0.125 * M3 * width * width, width, hmin)
+        noise = min(noise_cap, noise_at0 + noise_rate * b)
+        outcome = decide_jit(ha, hb, da, db, 0.125 * M2 * width * width, 0.125 * M3 * width * width, width, hmin,
+                             noise)
         if outcome == CROSSING:
             return True, a, b, ha, hb, end_h, end_d, 0
         if outcome == NO_CROSSING:

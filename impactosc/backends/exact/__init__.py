@@ -52,7 +52,11 @@ recursive bisection with rigorous derivative bounds: on ``[a, b]`` a function wi
 ``|h''| <= M2`` stays within ``M2 (b - a)^2 / 8`` of its chord, which excludes intervals of
 one sign, and ``|h'''| <= M3`` applied to ``h'`` proves monotonicity, so a bracket holds a
 single crossing. Near a double root (a tangency) the bisection goes on until the extremum
-separates the two crossings; only below a few ulps of ``t`` do the end values decide.
+separates the two crossings; only below a few ulps of ``t``, or where the guard provably
+stays within the rounding of its own evaluation (a bound of it, local to the piece start:
+``_piece.rounding``), do the end values decide. The latter is a start at rest on
+``f_net = 0`` with a forcing so slow that the motion stays below rounding: its guard
+computes as rounding only, and bisecting it down to ulps would never end.
 Up to that end guard ``X`` is monotonic (``s V >= 0``), so the flange guards are simple
 sign tests at the two ends and one bracketed root, and a grazing contact (a flange
 crossing just before a turning point) is found whenever the turning point lies beyond the

@@ -547,10 +547,18 @@ def _h_position(ps, tau):
 
 
 @njit
+def _rounding(ps, start, tmax, k):
+    """No rounding bound for the guard search: each derivative is evaluated about its start
+    value (no O(1) terms cancel into it), and its search bisects down to ulps of ``t``."""
+    return 0.0, 0.0, 0.0
+
+
+@njit
 def advance_family(p, fm, r, s, armed, t0, x0, v0, t_end):
     """One damped / harmonic-sum slipping piece: :func:`._exact_piece.advance_piece` on these closed forms."""
     ps = piece_state(fm, t0, x0, v0)
-    return advance_piece(p, ps, r, s, armed, t_end, _h_end, _h_position, state_at, int_y, squares, bounds)
+    return advance_piece(p, ps, r, s, armed, t_end, _h_end, _h_position, state_at, int_y, squares, bounds,
+                         _rounding)
 
 
 @njit

@@ -318,6 +318,50 @@ def int_y_squared(mc, ps, tau):
 
 
 @njit
+def _response_bounds(mc, tmax):
+    """Upper bounds of ``|Cc|``, ``|Cc'|`` and ``|Ss|`` over ``[0, tmax]`` (the response from rest)."""
+    w, Om, sig, dlt = mc[M_W], mc[M_OM], mc[M_SIG], mc[M_DLT]
+    m = min(1.0 / abs(dlt), 0.5 * tmax) if dlt != 0.0 else 0.5 * tmax
+    bC = 2.0 * m / sig  # |Cc|
+    bD = (2.0 * w * m + 1.0) / sig  # |Cc'|
+    bS = min(Om * tmax * bC, (2.0 * w * m + 1.0) / (w * sig))  # |Ss|
+    return bC, bD, bS
+
+
+#: Rounding of a guard as :func:`va` and :func:`aj` compute it, in units of the magnitudes of
+#: its terms: a few ulps for the sines of the addition theorems, the products and the sums.
+_ROUNDING_ULPS = 8.0
+
+
+@njit
+def rounding(mc, ps, tmax, k):
+    """Bounds of the rounding of ``Y^(k)`` (``k`` = 1, 2) as :func:`va` and :func:`aj` compute it.
+
+    Returns ``(at0, rate, cap)``: at offsets up to ``tau <= tmax`` the rounding is at most
+    ``min(cap, at0 + rate tau)`` (the local bound of :func:`impactosc._util.roots.first_rising`):
+    a few ulps of the magnitudes of the terms that form it, the homogeneous part and the
+    response from rest, with ``|sin x| <= |x|``, ``|Cc| <= tau^2 / 2`` and ``|Cc'| <= tau`` near
+    the start (``V`` starts at ``v0`` exactly, its terms grow from zero). Where the free
+    oscillation is below rounding (a start at rest on ``f_net = 0``) these terms cancel and the
+    computed guard is rounding only, however tight :func:`bounds` is.
+    """
+    w, Om, F = mc[M_W], mc[M_OM], mc[M_F]
+    bC, bD, _ = _response_bounds(mc, tmax)
+    ac, as_ = F * abs(ps[S_C0]), F * abs(ps[S_S0])
+    ah, bh = abs(ps[S_AH]), abs(ps[S_BH])
+    if k == 1:  # v0 cw - w Ah sw + F c0 Cc' - F s0 Omega Cc
+        at0 = w * bh
+        rate = w * ah * (w + Om) + ac + as_ * Om * 0.5 * tmax
+        cap = w * (ah + bh) + ac * bD + as_ * Om * bC
+    else:  # -w^2 (Ah cw + Bh sw) + F c0 (cw - Omega^2 Cc) - F s0 Omega Cc'
+        at0 = w * w * ah + ac
+        rate = w * w * bh * (w + Om) + ac * Om * Om * 0.5 * tmax + as_ * Om
+        cap = w * w * (ah + bh) + ac * (1.0 + Om * Om * bC) + as_ * Om * bD
+    u = _ROUNDING_ULPS * _EPS
+    return u * at0, u * rate, u * cap
+
+
+@njit
 def bounds(mc, ps, tmax, k):
     """Upper bounds of ``|Y^(k+2)|`` and ``|Y^(k+3)|`` over ``[0, tmax]``.
 
@@ -327,11 +371,8 @@ def bounds(mc, ps, tmax, k):
     ``a cos + b sin + G cos(Omega tau + theta0)`` (tight when the free oscillation has
     died out, e.g. quasi-static creep), with a margin for the rounding of ``a, b``.
     """
-    w, w2, Om, F, sig, dlt = mc[M_W], mc[M_W2], mc[M_OM], mc[M_F], mc[M_SIG], mc[M_DLT]
-    m = min(1.0 / abs(dlt), 0.5 * tmax) if dlt != 0.0 else 0.5 * tmax
-    bC = 2.0 * m / sig  # |Cc|
-    bD = (2.0 * w * m + 1.0) / sig  # |Cc'|
-    bS = min(Om * tmax * bC, (2.0 * w * m + 1.0) / (w * sig))  # |Ss|
+    w, w2, Om, F = mc[M_W], mc[M_W2], mc[M_OM], mc[M_F]
+    bC, bD, bS = _response_bounds(mc, tmax)
     ac, as_ = abs(ps[S_C0]), abs(ps[S_S0])
     bP = np.empty(k + 4)
     bP[0] = F * (ac * bC + as_ * bS)
@@ -391,12 +432,19 @@ def _bounds(ps, start, tmax, k):
     return bounds(ps[S_MC:], ps, tmax, k)  # valid on [0, tmax], so on [start, tmax]
 
 
-def _advance_piece(p, ps, r, s, armed, t_end, h_end, h_position, state_at, int_y_of, squares_of, bounds_of):
+@njit
+def _rounding(ps, start, tmax, k):
+    return rounding(ps[S_MC:], ps, tmax, k)  # valid on [0, tmax], so on [start, tmax]
+
+
+def _advance_piece(p, ps, r, s, armed, t_end, h_end, h_position, state_at, int_y_of, squares_of, bounds_of,
+                   rounding_of):
     """One slipping piece from the start in ``ps`` to its first armed guard or ``t_end``.
 
     The one piece algorithm of the exact backend, for every closed form: the functions
     (``h_end``, ``h_position``: the guards; ``state_at``: ``(Y, V, P', Y - y0)``; ``int_y_of``,
-    ``squares_of``: the integrals; ``bounds_of``: the derivative bounds) are those of the
+    ``squares_of``: the integrals; ``bounds_of``: the derivative bounds; ``rounding_of``: bounds of
+    the rounding of the computed end guard) are those of the
     piece's family, and ``ps`` starts with the common header (``H_*``). Compiled inlined
     into :func:`advance_slip` and ``_exact_family.advance_family`` (see
     :func:`impactosc._jit.njit_inline`).
@@ -427,7 +475,9 @@ def _advance_piece(p, ps, r, s, armed, t_end, h_end, h_position, state_at, int_y
         b = min(T, a + ps[H_WINDOW])
         M2, M3 = bounds_of(ps, a, b, k)
         hmin = _MIN_WIDTH_ULPS * _EPS * (abs(t0) + b)
-        hit, lo, hi, hlo, hhi, hb, db, status = first_rising(h_end, ps, a, ha, da, b, M2, M3, hmin)
+        # Where the end guard cannot leave its rounding level, its end values decide (roots.decide).
+        at0, rate, cap = rounding_of(ps, a, b, k)
+        hit, lo, hi, hlo, hhi, hb, db, status = first_rising(h_end, ps, a, ha, da, b, M2, M3, hmin, at0, rate, cap)
         if status == SEARCH_FAILED:
             return t0, x0, v0, NO_GUARD, 0.0, 0.0, 0.0, 0.0, status
         if hit:
@@ -482,7 +532,8 @@ advance_piece = njit_inline(_advance_piece)
 def advance_slip(p, mc, r, s, armed, t0, x0, v0, t_end):
     """One slipping piece of eq. 3 from ``(t0, x0, v0)``: :func:`_advance_piece` on its closed form."""
     ps = piece_state(mc, t0, x0, v0)
-    return advance_piece(p, ps, r, s, armed, t_end, _h_end, _h_position, _state_at, _int_y, _squares, _bounds)
+    return advance_piece(p, ps, r, s, armed, t_end, _h_end, _h_position, _state_at, _int_y, _squares, _bounds,
+                         _rounding)
 
 
 def _evaluate_piece(ps, taus, state_at, int_y_of):
