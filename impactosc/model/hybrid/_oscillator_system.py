@@ -69,7 +69,7 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     reset ``V -> -e V`` in the free modes (``"impact upper"``, ``"impact lower"``) and a mode of
     rest on it (``"upper0"``, ``"lower0"``: ``X' = V' = 0``), entered where an impact keeps no
     speed (``e = 0``), where a slip ends on the wall (moving to it or off it) and, at the accumulation time, where the
-    engine's chatter model resolves a sequence of impacts (:class:`WallChatter`, the guard's
+    engine's chatter model resolves a sequence of impacts (``WallChatter``, the guard's
     ``accumulation``; the run goes on with the engine's jump, from the same impact), and left by
     the release away from the wall (``"upper release-"``: ``f + beta_s`` falls through 0;
     ``"lower release+"``), the built-in engine's rule. The parameters keep the
