@@ -204,21 +204,12 @@ class _WatchedCallback(_Callback):
         return super().freeze(modes)
 
     def __call__(self, ta, d_sgn) -> bool:
-        # _Callback.__call__ written out (one Python frame less at every event of a system with frozen modes)
         run = self.holder.run
         mode = run.mode
-        checks = self.extrema[mode]
-        if checks is not None:
-            if not run.extremum(ta, checks):
-                return False
-            if run.mode != mode:
-                return True
-        g = self.cross[mode]
-        if g >= 0 and not run.crossing(ta, g):
-            return False
-        if run.mode == mode and self.watched[mode]:  # not a transition: an extremum check, a marker
+        go = _Callback.__call__(self, ta, d_sgn)  # named, not super(): this runs at every event
+        if go and run.mode == mode and self.watched[mode]:  # not a transition: an extremum check, a marker
             return self.watch(ta)
-        return True
+        return go
 
 
 class CompiledSystem:
