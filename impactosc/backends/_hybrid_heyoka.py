@@ -476,7 +476,7 @@ class _Run:
         mode = self.mode
         switch = self.switch
         values = self.mode_values[mode](t, y, switch.p)
-        scale = switch.touch_tol * (1.0 + max(map(abs, y[:self.n])))
+        scale = switch.touch_scale(y)
         armed, direction = self.armed[mode], switch.direction
         for i in self.others[mode]:
             other = armed[i]
@@ -684,8 +684,7 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
             g, t_past = run.missed
             run.missed = None
             y_past = ta.state.tolist()  # the propagation stopped at t_past
-            hair = (switch.direction[g] * switch.guard_value(g, t_past, y_past)
-                    <= switch.touch_tol * (1.0 + max(abs(c) for c in y_past[:switch.n])))
+            hair = switch.direction[g] * switch.guard_value(g, t_past, y_past) <= switch.touch_scale(y_past)
             t_root, y_root, at_once = _first_root(comp, run, g, t_past)
             t_start, _, y_start = switch.pieces[-1]
             # (only a guard a hair past zero: one far past it has crossed, whatever rounding says

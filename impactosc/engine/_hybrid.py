@@ -360,7 +360,7 @@ class Switch:
             return -1
         values = self.rules.probe[mode](t, y, self.p)
         k = len(armed)
-        scale = self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
+        scale = self.touch_scale(y)
         for i, g in enumerate(armed):
             if abs(values[i]) <= scale and self.terminal[g] and g != crossed:
                 d, rate = self.direction[g], values[k + i]
@@ -400,6 +400,10 @@ class Switch:
             return rate
         return second
 
+    def touch_scale(self, y) -> float:
+        """How close to zero (``touch_tol (1 + max |state|)``) a guard at the state ``y`` counts as on it."""
+        return self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
+
     def leaves(self, g: int, mode: int, t: float, y) -> bool:
         """Whether guard ``g``, on zero at ``(t, y)`` in ``mode``, moves away from the side it fires towards.
 
@@ -418,7 +422,7 @@ class Switch:
         if d == 0:
             return False
         rate = values[k + i]
-        if abs(rate) > self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n])):
+        if abs(rate) > self.touch_scale(y):
             return d * rate < 0.0
         return d * self._heading(g, mode, t, y, rate) < 0.0
 

@@ -176,10 +176,10 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
 
     The run's crossings become arrays (pieces between them, events, piece starts) and
     :func:`~impactosc.results._bulk.bulk` takes them at once: the same records and sums as the calls one
-    by one (:func:`_replay_each`, which a rigid flange's wall force still needs).
+    by one (:func:`_replay_each`); a rigid flange's impacts and chatter go one by one (:func:`_replay_rigid`).
     """
     if osc.rigid:
-        _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
+        _replay_rigid(osc, hybrid, rec, modes, guards, slots, start, max_events)
         return
     y0 = hybrid._pieces[0][2]
     events = [e for e in hybrid._raw_events if e[2] == CROSSING]
@@ -317,21 +317,7 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     n = len(events)
     y0 = hybrid._pieces[0][2]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
-    # the integrals at each event (before it) and at the end: piece increments as differences
-    cols = [slots.get(q, -1) for q in ("Q", "Q2", "W", "VV")]
-    ends = np.empty((n + 1, len(y0)))
-    if n:
-        ends[:n] = [e[5] for e in events]
-    ends[n] = hybrid.state_final
-    after = np.empty((n + 1, len(y0)))
-    after[0] = y0
-    if n:
-        after[1:] = [e[6] for e in events]
-    incr = np.zeros((n + 1, 4))
-    for k, c in enumerate(cols):
-        if c >= 0:
-            incr[:, k] = ends[:, c] - after[:, c]
-    incr /= INTEGRAL_SCALE
+    incr = _piece_increments(hybrid, events, slots)
     # a flange's impulse int K d is >= 0: a touch (d ~ 0 throughout) may integrate d's rounding
     np.maximum(incr[:, 0], 0.0, out=incr[:, 0])
     increments = incr.tolist()
@@ -361,7 +347,7 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     _finish(hybrid, rec, mode, max_events)
 
 
-def _piece_increments(hybrid, events, slots) -> list:
+def _piece_increments(hybrid, events, slots) -> np.ndarray:
     """The increments of ``Q, Q2, W, VV`` (0 where the run has no such integral) over each piece of ``hybrid``:
     from the start or an event of ``events`` (the state after it) to the next event or the end (before it)."""
     y0 = hybrid._pieces[0][2]
@@ -378,7 +364,7 @@ def _piece_increments(hybrid, events, slots) -> list:
         c = slots.get(q, -1)
         if c >= 0:
             incr[:, k] = ends[:, c] - after[:, c]
-    return (incr / INTEGRAL_SCALE).tolist()
+    return incr / INTEGRAL_SCALE
 
 
 def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int) -> None:
@@ -397,7 +383,7 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
     events = [e for e in hybrid._raw_events if e[2] == CROSSING or e[2] == REST]
     y0 = hybrid._pieces[0][2]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
-    increments = _piece_increments(hybrid, events, slots)
+    increments = _piece_increments(hybrid, events, slots).tolist()
     walls = {1: osc.gap_upper, -1: -osc.gap_lower}
     tracker = ChatterTracker(osc)
     jump = None  # the engine's jump after the last impact, where it takes one
