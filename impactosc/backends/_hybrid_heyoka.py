@@ -419,7 +419,8 @@ class _Run:
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         if self.frozen[mode] and switch.shallow(g, mode, t, y):
             return True  # a touch that rounding split into two roots (Switch.shallow): its extremum check records it
-        if len(self.others[mode]) > 1 and self.lost(g, t, y):
+        others = self.others[mode]  # the check needs a guard besides g (which may have no direction: not in them)
+        if others and (len(others) > 1 or self.armed[mode][others[0]] != g) and self.lost(g, t, y):
             return False  # an earlier crossing of another guard was not located: the loop applies it first
         try:
             target, after = switch.transition(g, mode, t, y)
