@@ -164,3 +164,23 @@ def illinois(lo: float, flo: float, hi: float, fhi: float, s: float, fs: float, 
     if side == -1:
         flo *= 0.5
     return lo, flo, s, fs, -1
+
+
+def step_past(problem, u_g, direction, step: float, settings, refusal):
+    """The point corrected from ``u_g + s direction`` (``s = step, step/2, ...``) that ``refusal`` accepts, or why not.
+
+    ``refusal(result) -> str | None`` says why a corrected point is not the one sought (None: it is);
+    the halving stops at ``settings.min_step``, and the last reason is returned.
+    """
+    why = "no step tried"
+    step *= 2.0
+    while step > settings.min_step:
+        step *= 0.5
+        result = correct(problem, u_g + step * direction, direction, settings, max_distance=2.0 * step + 1e-9)
+        if not isinstance(result, Corrected):
+            why = result
+            continue
+        why = refusal(result)
+        if why is None:
+            return result
+    return why

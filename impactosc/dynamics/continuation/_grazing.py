@@ -38,7 +38,7 @@ import numpy as np
 
 from .._common import oscillator_of
 from ..saltation import vector_field
-from ._arclength import Corrected, Settings, correct, jacobian_rows, tangent, unscaled
+from ._arclength import Corrected, Settings, correct, jacobian_rows, step_past, tangent, unscaled
 from ._multi_impact import grazing_of_new_impact, grazing_of_one_impact, impacts_on
 from ._newton import along, halving
 from ._newton import newton as _newton
@@ -344,27 +344,21 @@ def _grazes_other(virtual: MapProblem, ev, side: int) -> bool:
 
 def beyond(problem, u_g, direction, h, settings, side, want_contact: bool):
     """The first point of the branch's own family a step ``h`` from the grazing along ``direction``."""
-    why = "no step tried"
-    # from a step the branch came with (not less than FAR_STEP: right past a stiff flange's grazing the map is
-    # steep and its orbits' contacts near-tangent, a corrector struggles there), halved when it fails
-    step = 2.0 * max(h, FAR_STEP)
-    while step > settings.min_step:
-        step *= 0.5
-        result = correct(problem, u_g + step * direction, direction, settings, max_distance=2.0 * step + 1e-9)
-        if not isinstance(result, Corrected):
-            why = result
-            continue
+
+    def refusal(result: Corrected) -> str | None:
         m = margin(point_info(problem, result.ev), side)
         if (m < 0.0) != want_contact:
-            why = f"the corrected point lies on the wrong side of the grazing (margin {m:.3g})"
-            continue
+            return f"the corrected point lies on the wrong side of the grazing (margin {m:.3g})"
         t_far = tangent(jacobian_rows(problem, result.ev), direction)
         d = problem.dimension
         if (result.u[d] - u_g[d]) * direction[d] < 0.0 or t_far[d] * direction[d] < 0.0:
-            why = "a fold lies within the step"  # the family turned back in the parameter: locate it normally
-            continue
-        return result
-    return f"no orbit was found beyond the grazing: {why}"
+            return "a fold lies within the step"  # the family turned back in the parameter: locate it normally
+        return None
+
+    # from a step the branch came with (not less than FAR_STEP: right past a stiff flange's grazing the map is
+    # steep and its orbits' contacts near-tangent, a corrector struggles there), halved when it fails
+    found = step_past(problem, u_g, direction, max(h, FAR_STEP), settings, refusal)
+    return found if isinstance(found, Corrected) else f"no orbit was found beyond the grazing: {found}"
 
 
 def _beyond_rigid(problem, virtual, ev_g, u_g, side, h, settings):

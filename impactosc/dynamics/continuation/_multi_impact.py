@@ -23,7 +23,7 @@ import numpy as np
 
 from .._common import oscillator_of
 from ..saltation import vector_field
-from ._arclength import Corrected, Settings, correct, tangent, unscaled
+from ._arclength import Corrected, Settings, correct, step_past, tangent, unscaled
 from ._newton import along, halving, newton
 from ._points import point_info
 from ._problem import MapProblem
@@ -140,6 +140,23 @@ def _newton_grazing(wmap: WindowedMap, u0, tol: float, gap: float):
     return f"the grazing of one impact was not solved: {solved}" if isinstance(solved, str) else solved
 
 
+def _windowed_grazing(problem: MapProblem, node, side: int, window, settings: Settings, bounds):
+    """The grazing on the map windowed ``window = (centre, half width)`` around ``side``'s impact, or why not.
+
+    ``_newton_grazing``'s ``(u_g, (M, dp, grad, evaluations), error)`` from ``node``'s point, refused
+    when the grazing's parameter lies beyond ``bounds``.
+    """
+    wmap = WindowedMap.around(problem, side, *window)
+    gap = problem.flange_gaps[(side + 1) // 2]
+    solved = _newton_grazing(wmap, node.u, settings.tol, gap)
+    if isinstance(solved, str):
+        return solved
+    value = solved[0][2] * problem.scales[0]
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        return f"the grazing lies beyond the limits, at {problem.names[0]} = {value!r}"
+    return solved
+
+
 def grazing_of_one_impact(problem: MapProblem, node, side: int, h: float, settings: Settings, bounds):
     """``(u_g, ev_g, info, accuracy, far, case, message)``: one impact of ``node``'s orbit grazing, or why not."""
     if len(problem.names) != 1 or not problem.rigid:
@@ -147,15 +164,10 @@ def grazing_of_one_impact(problem: MapProblem, node, side: int, h: float, settin
     window = window_around(problem, node, side)
     if isinstance(window, str):
         return window
-    wmap = WindowedMap.around(problem, side, *window)
-    gap = problem.flange_gaps[(side + 1) // 2]
-    solved = _newton_grazing(wmap, node.u, settings.tol, gap)
+    solved = _windowed_grazing(problem, node, side, window, settings, bounds)
     if isinstance(solved, str):
         return solved
     u_g, (M, dp, grad, _), error = solved
-    value = u_g[2] * problem.scales[0]
-    if bounds is not None and not bounds[0] <= value <= bounds[1]:
-        return f"the grazing lies beyond the limits, at {problem.names[0]} = {value!r}"
     rows = np.hstack([M - np.eye(2), dp * np.asarray(problem.scales)[None, :]])
     t = tangent(rows)
     slope = float(-side * grad @ t)  # growth of gap - side X_extreme along t
@@ -201,24 +213,19 @@ def _crossed(problem: MapProblem, u_g, params: tuple, came: float, went: float, 
 
 def _fewer(problem: MapProblem, u_g, direction, h: float, settings: Settings, side: int, count: int):
     """The first orbit of the real map a step from the grazing along ``direction``, ``count`` impacts on ``side``."""
-    why = "no step tried"
-    step = 2.0 * max(h, 0.01)
-    while step > settings.min_step:
-        step *= 0.5
-        result = correct(problem, u_g + step * direction, direction, settings, max_distance=2.0 * step + 1e-9)
-        if not isinstance(result, Corrected):
-            why = result
-            continue
-        info = point_info(problem, result.ev)
-        impacts = len(impacts_on(info, side))
+
+    def refusal(result: Corrected) -> str | None:
+        impacts = len(impacts_on(point_info(problem, result.ev), side))
         if impacts != count:
-            why = f"the corrected orbit has {impacts} impacts on that flange, not {count}"
-            continue
+            return f"the corrected orbit has {impacts} impacts on that flange, not {count}"
         if (result.u[2] - u_g[2]) * direction[2] < 0.0:
-            why = "a fold lies within the step"
-            continue
-        return result
-    return f"no orbit with one impact fewer was found past the grazing: {why}"
+            return "a fold lies within the step"
+        return None
+
+    found = step_past(problem, u_g, direction, max(h, 0.01), settings, refusal)
+    if isinstance(found, Corrected):
+        return found
+    return f"no orbit with one impact fewer was found past the grazing: {found}"
 
 
 # -- the other way: a turning point of an impacting orbit reaches the wall (one impact more) ------------------------
@@ -304,15 +311,10 @@ def grazing_of_new_impact(problem: MapProblem, node, side: int, h: float, settin
     if isinstance(window, str):
         return window
     centre, half = window
-    wmap = WindowedMap.around(problem, side, centre, half)
-    gap = problem.flange_gaps[(side + 1) // 2]
-    solved = _newton_grazing(wmap, node.u, settings.tol, gap)
+    solved = _windowed_grazing(problem, node, side, window, settings, bounds)
     if isinstance(solved, str):
         return solved
     u_g, (M, dp, grad, evs), error = solved
-    value = u_g[2] * problem.scales[0]
-    if bounds is not None and not bounds[0] <= value <= bounds[1]:
-        return f"the grazing lies beyond the limits, at {problem.names[0]} = {value!r}"
     params = unscaled(problem, u_g)[1]
     omega = problem.section(params).Omega
     rec = evs[1].recorder
