@@ -27,7 +27,7 @@ def assert_contact_alternation(sol):
         if e.kind == "contact_start":
             assert open_side is None
             open_side = int(e.side)
-            assert e.x == e.side
+            assert e.x == e.side * sol.oscillator.gap(int(e.side))  # on the flange's surface, at its gap
         else:
             assert open_side == e.side
             open_side = None
