@@ -58,6 +58,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -239,7 +240,6 @@ class CompiledSystem:
         self.has_events = bool(events)
         self.pars = self.ta.pars
         self.state = self.ta.state
-        self.lock = threading.Lock()
 
     def load(self, params, mode: int, on: float) -> None:
         """The parameters, ``mode``'s indicator and the events' switch (indices the expressions do not use
@@ -336,20 +336,65 @@ def _words(text: str) -> set[str]:
     return set(text.replace("(", " ").replace(")", " ").replace(",", " ").split())
 
 
-_cache: BuiltOnce[CompiledSystem] = BuiltOnce()
+_cache: BuiltOnce[_Instances] = BuiltOnce()
 
 
 def compiled(system: HybridSystem, tol: float = DEFAULT_TOL, cooldown: float = DEFAULT_COOLDOWN) -> CompiledSystem:
-    """The :class:`CompiledSystem` of ``system`` at ``tol`` (compiled once per structure and tolerance)."""
+    """The first :class:`CompiledSystem` of ``system`` at ``tol`` (compiled once per structure and tolerance).
+
+    It warms the store up (a run does not wait for the compiler then); runs take an instance with
+    :func:`checked_out`, which may be this one or another of the same structure.
+    """
+    return _pool(system, tol, cooldown).first
+
+
+class _Instances:
+    """The compiled integrators of one structure: one per run going on at a time.
+
+    A run holds its instance (the integrator's state, parameters and callbacks are the run's)
+    and gives it back at its end. Runs in several threads at once each get their own: the first
+    instance compiles (seconds, said once), the others are built from heyoka's in-memory JIT
+    cache (about 10 ms for eq. 3), so threads do not wait on each other's runs.
+    """
+
+    def __init__(self, build):
+        self._build = build
+        self.first = build()
+        self._free = [self.first]
+        self._lock = threading.Lock()
+
+    def take(self) -> CompiledSystem:
+        with self._lock:
+            if self._free:
+                return self._free.pop()
+        return self._build()
+
+    def give_back(self, comp: CompiledSystem) -> None:
+        with self._lock:
+            self._free.append(comp)
+
+
+def _pool(system: HybridSystem, tol: float, cooldown: float) -> _Instances:
     key = (system.structure, tol, cooldown)
 
-    def build() -> CompiledSystem:
+    def first() -> _Instances:
         notice(f"hybrid-compile:{hash(key)}",
                f"impactosc: heyoka is compiling the integrator of the system {system.name!r} "
                f"(tol={tol:g}); this process compiles it once and reuses it for every run and parameter value")
-        return CompiledSystem(system, tol, cooldown)
+        return _Instances(lambda: CompiledSystem(system, tol, cooldown))
 
-    return _cache.get(key, build)
+    return _cache.get(key, first)
+
+
+@contextmanager
+def checked_out(system: HybridSystem, tol: float, cooldown: float):
+    """A :class:`CompiledSystem` of ``system`` that no other run uses until the ``with`` block ends."""
+    pool = _pool(system, tol, cooldown)
+    comp = pool.take()
+    try:
+        yield comp
+    finally:
+        pool.give_back(comp)
 
 
 class _Run:
@@ -579,7 +624,6 @@ def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: fl
     zeno_tol = _v.positive("zeno_tol", zeno_tol)
     y0 = check_state(system, state0) + [0.0] * len(system.integrals)
     cooldown = _v.nonnegative("cooldown", cooldown)
-    comp = compiled(system, tol, cooldown)
     switch = Switch(system, _v.positive("touch_tol", touch_tol))
     if until is not None:
         switch.stop_after(*until)
@@ -587,7 +631,7 @@ def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: fl
     if max_wall_time is not None:
         deadline = time.monotonic() + _v.positive("max_wall_time", max_wall_time)
     mode0 = switch.initial_mode(mode, t0, y0)
-    with comp.lock:
+    with checked_out(system, tol, cooldown) as comp:
         run = _Run(comp, switch, mode0, max_events, zeno_tol, _v.positive("graze_tol", graze_tol))
         comp.holder.run = run
         try:
@@ -836,11 +880,10 @@ def _dense(system: HybridSystem, tol: float, cooldown: float, params, mode: int,
 def _integrated(system: HybridSystem, tol: float, cooldown: float, params, mode: int, t_start: float, state,
                 times: np.ndarray) -> np.ndarray:
     """:func:`_dense` by integration from ``t_start`` to every time."""
-    comp = compiled(system, tol, cooldown)
     times = np.asarray(times, dtype=float)
     grid, where = np.unique(times, return_inverse=True)
     out = np.empty((grid.size, len(state)))
-    with comp.lock:
+    with checked_out(system, tol, cooldown) as comp:
         comp.load(params, mode, 0.0)
         ta = comp.ta
         ta.time = t_start
