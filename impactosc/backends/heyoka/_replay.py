@@ -27,6 +27,8 @@ closed form instead (:mod:`impactosc.engine._stuck`).
 
 from __future__ import annotations
 
+import math
+import threading
 from functools import lru_cache
 from itertools import chain
 from typing import NamedTuple
@@ -182,10 +184,51 @@ def _engine_guards(guard_names: tuple[str, ...]) -> tuple[int, ...]:
     return tuple(table)
 
 
+#: The systems of the members run so far, one per structure (:func:`_member_system`), with the lock that
+#: guards the dict (threads of a sweep).
+_STRUCTURES: dict = {}
+_STRUCTURES_LOCK = threading.Lock()
+
+
+def _member_system(osc: Oscillator):
+    """``_system(osc)``, built once per structure of member and given ``osc``'s values as runtime parameters.
+
+    A continuation or a sweep runs a new member at every point: building its
+    :func:`~impactosc.model.hybrid.oscillator_system` (expressions, checks) took 2 ms, twice
+    the map evaluation it served. Members that differ only in the values that system keeps
+    as parameters (``F, Omega, phase, beta, beta_s, K, zeta, e, gap_upper, gap_lower`` and the
+    harmonics' ``F2, Omega2, phase2, ...``: the oscillator's own names, as ``oscillator_system``
+    says) share one system, copied with their values (:meth:`HybridSystem.with_parameters`).
+    The key is conservative (whatever decides a branch of ``oscillator_system``, and more:
+    flange law and exponent, the number of forcing terms and which are static or zero, damping,
+    friction, which flanges exist); a system whose parameters are not all among those names is
+    built for its member as before.
+    """
+    key = (osc.flange, osc.exponent, tuple((F == 0.0, Om == 0.0) for F, Om, _ in osc.terms), osc.zeta == 0.0,
+           osc.beta == 0.0, osc.beta_s == osc.beta, math.isinf(osc.gap_upper), math.isinf(osc.gap_lower),
+           osc.K == 0.0, osc.restitution == 0.0)
+    with _STRUCTURES_LOCK:
+        built = _STRUCTURES.get(key)
+    if built is None:
+        built = _system(osc)
+        with _STRUCTURES_LOCK:
+            _STRUCTURES.setdefault(key, built)
+    values = {"beta": osc.beta, "beta_s": osc.beta_s, "K": osc.K, "zeta": osc.zeta, "e": osc.restitution,
+              "gap_upper": osc.gap_upper, "gap_lower": osc.gap_lower}
+    for i, (F, Om, ph) in enumerate(osc.terms):
+        tag = "" if i == 0 else str(i + 1)
+        values[f"F{tag}"], values[f"Omega{tag}"], values[f"phase{tag}"] = F, Om, ph
+    system, *tables = built
+    names = system.parameter_names
+    if not all(name in values for name in names):
+        return _system(osc)
+    return (system.with_parameters(**{name: values[name] for name in names}), *tables)
+
+
 def _run(osc: Oscillator, t_end: float, x0: float, v0: float, max_events: int, tol: float,
          max_wall_time: float | None):
     """``(hybrid, steps, start)``: ``osc`` run on the one heyoka loop from the engine's initial mode."""
-    system, _, index, _, _ = _system(osc)
+    system, _, index, _, _ = _member_system(osc)
     log_on_stderr(lambda: compiled(system, tol))  # heyoka's warnings on stderr, not in piped output
     v0 = 0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0  # rest, as the engine's drive takes it
     start = initial_mode(osc, 0.0, x0, v0)
@@ -214,7 +257,7 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     The arguments are those of :func:`impactosc.backends.heyoka.run` (already checked);
     ``osc`` must be a member that :func:`piece_loop_reason` accepts.
     """
-    system, modes, index, guards, slots = _system(osc)
+    _, modes, _, guards, slots = _member_system(osc)
     hybrid, steps, start = _run(osc, t_end, x0, v0, max_events, tol, max_wall_time)
     rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
     _replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
@@ -251,7 +294,7 @@ def drive_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, re
     sample_at : sequence of float, optional
         The sample stops, sorted (:func:`impactosc.engine.check_sample_times`).
     """
-    _, modes, _, guards, slots = _system(osc)
+    _, modes, _, guards, slots = _member_system(osc)
     hybrid, steps, start = _run(osc, t_end, x0, v0, max_events, tol, max_wall_time)
     _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end, stops=sample_at)
     rec.steps += steps
