@@ -216,3 +216,12 @@ def test_the_heyoka_backend_has_no_piece_stepper_any_more():
         piece_stepper("heyoka", SOFT, {})
     with pytest.raises(ValueError, match="backend must be one of"):
         tangent_run(SOFT, 5.0, 0.5, 0.0, backend="rk4")
+
+
+def test_the_examples_of_the_tangent_module():
+    import doctest
+
+    from impactosc.dynamics import tangent
+
+    result = doctest.testmod(tangent)
+    assert result.attempted >= 3 and result.failed == 0
