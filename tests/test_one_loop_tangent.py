@@ -225,3 +225,29 @@ def test_the_examples_of_the_tangent_module():
 
     result = doctest.testmod(tangent)
     assert result.attempted >= 3 and result.failed == 0
+
+
+# -- one system per structure -------------------------------------------------------------
+def test_members_of_one_structure_share_a_system_with_their_own_values():
+    """A continuation or a sweep runs a new member at every point: the replay builds ``oscillator_system`` once
+    per structure and hands each member its values. Members that differ in values only share it and each
+    runs with its own (events as exact's); members of other structures (damping, a harmonic, one flange,
+    rigid) get their own system."""
+    from impactosc.backends.heyoka import _replay
+
+    members = [SOFT, SOFT.replace(F=0.9), SOFT.replace(Omega=1.2, beta=0.02, K=30.0, gap_upper=0.8),
+               SOFT.replace(zeta=0.05), SOFT.replace(harmonics=((0.2, 2.6, 0.3),)), SOFT.replace(gap_lower=None),
+               RIGID, RIGID.replace(restitution=0.6)]
+    systems = []
+    for osc in members:
+        system, *_ = _replay._member_system(osc)
+        systems.append(system)
+        assert dict(system.parameters) == dict(_replay._system(osc)[0].parameters)
+        ref = impactosc.simulate(osc, 30.0, 0.5, 0.0, backend="exact", record="events")
+        sol = _replay.run_on_hybrid_loop(osc, 30.0, 0.5, 0.0, record="events", max_events=10**6, tol=2.0**-52)
+        assert sol.status == ref.status == 0 and sol.counts == ref.counts
+        np.testing.assert_allclose(sol.events.t, ref.events.t, rtol=0, atol=1e-9)
+    structure = [s.structure for s in systems]
+    assert structure[0] == structure[1] == structure[2] and systems[0].modes is systems[2].modes
+    assert len({structure[0], structure[3], structure[4], structure[5], structure[6]}) == 5
+    assert systems[6].modes is systems[7].modes
