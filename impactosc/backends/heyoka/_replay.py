@@ -188,6 +188,7 @@ def _engine_guards(guard_names: tuple[str, ...]) -> tuple[int, ...]:
 #: guards the dict (threads of a sweep).
 _STRUCTURES: dict = {}
 _STRUCTURES_LOCK = threading.Lock()
+_MAX_STRUCTURES = 64
 
 
 def _member_system(osc: Oscillator):
@@ -212,6 +213,8 @@ def _member_system(osc: Oscillator):
     if built is None:
         built = _system(osc)
         with _STRUCTURES_LOCK:
+            if len(_STRUCTURES) >= _MAX_STRUCTURES:  # e.g. a sweep of the exponent: the oldest goes
+                del _STRUCTURES[next(iter(_STRUCTURES))]
             _STRUCTURES.setdefault(key, built)
     values = {"beta": osc.beta, "beta_s": osc.beta_s, "K": osc.K, "zeta": osc.zeta, "e": osc.restitution,
               "gap_upper": osc.gap_upper, "gap_lower": osc.gap_lower}
