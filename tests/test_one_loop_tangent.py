@@ -242,7 +242,8 @@ def test_members_of_one_structure_share_a_system_with_their_own_values():
     for osc in members:
         system, *_ = _replay._member_system(osc)
         systems.append(system)
-        assert dict(system.parameters) == dict(_replay._system(osc)[0].parameters)
+        built = _replay._system(osc)[0]  # what the member's own build gives: the sharing must not change it
+        assert system.structure == built.structure and dict(system.parameters) == dict(built.parameters)
         ref = impactosc.simulate(osc, 30.0, 0.5, 0.0, backend="exact", record="events")
         sol = _replay.run_on_hybrid_loop(osc, 30.0, 0.5, 0.0, record="events", max_events=10**6, tol=2.0**-52)
         assert sol.status == ref.status == 0 and sol.counts == ref.counts
@@ -251,3 +252,23 @@ def test_members_of_one_structure_share_a_system_with_their_own_values():
     assert structure[0] == structure[1] == structure[2] and systems[0].modes is systems[2].modes
     assert len({structure[0], structure[3], structure[4], structure[5], structure[6]}) == 5
     assert systems[6].modes is systems[7].modes
+
+
+@pytest.mark.parametrize("field", ["F", "Omega", "phase", "beta", "beta_static", "K", "zeta", "gap_upper",
+                                   "gap_lower", "harmonics", "restitution"])
+def test_a_shared_system_is_the_members_own_build_whatever_value_changes(field):
+    """The sharing is sound only if every number of the member that ``oscillator_system`` uses is a runtime
+    parameter: the shared system (expressions, guards, rules: its ``structure``) and values must be those of
+    the member's own build, for a change of any field's value within a structure."""
+    from impactosc.backends.heyoka import _replay
+
+    base = RIGID.replace(zeta=0.02, beta_static=0.07, harmonics=((0.2, 2.2, 0.3),)) if field == "restitution" else \
+        SOFT.replace(zeta=0.02, beta_static=0.07, harmonics=((0.2, 2.6, 0.3),), gap_upper=0.9)
+    values = {"F": 0.7, "Omega": 1.1, "phase": 0.4, "beta": 0.03, "beta_static": 0.09, "K": 55.0, "zeta": 0.07,
+              "gap_upper": 1.2, "gap_lower": 0.8, "harmonics": ((0.3, 3.3, -0.2),), "restitution": 0.55}
+    _replay._member_system(base)
+    other = base.replace(**{field: values[field]})
+    shared, *tables = _replay._member_system(other)
+    own, *own_tables = _replay._system(other)
+    assert shared.structure == own.structure and shared.parameters == own.parameters
+    assert tables == own_tables
