@@ -41,7 +41,7 @@ import numpy as np
 
 from .._util import validation as _v
 from ..backends._simulate import DEFAULT_MAX_EVENTS, simulate
-from ..engine._driver import CHATTER, CONTACT_START, IMPACT, drive
+from ..engine._driver import CHATTER, CONTACT_START, IMPACT
 from ..model._oscillator import Oscillator
 from ..results._solution import Solution, _Recorder
 from ._common import (
@@ -53,7 +53,7 @@ from ._common import (
     oscillator_of,
     with_parameter,
 )
-from .tangent import check_backend, check_start, piece_stepper
+from .tangent import check_backend, check_start, drive_recorder, evaluator_of
 
 __all__ = ["ContactOnset", "contact_margin", "contact_onset"]
 
@@ -91,10 +91,9 @@ def _margin(osc, x0, v0, cycle0, transient_periods, record_periods, backend, opt
     t_end = t_start + record_periods * T
     run = advanced(osc, cycle0 * T)
     if stop_at_contact:
-        stepper, evaluator = piece_stepper(backend, run, options)
-        rec = _ContactWatch(backend, evaluator, t_start)
+        rec = _ContactWatch(backend, evaluator_of(backend, run, options), t_start)
         try:
-            drive(stepper, run, t_end, x0, v0, rec, DEFAULT_MAX_EVENTS, (t_start,))
+            drive_recorder(backend, run, t_end, x0, v0, rec, DEFAULT_MAX_EVENTS, (t_start,), options)
         except _Touched:
             return 0.0, math.nan, math.nan, math.nan
         sol = Solution(rec, t_end)

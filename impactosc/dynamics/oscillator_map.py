@@ -9,7 +9,8 @@ saltation product. It is what :func:`~impactosc.dynamics.periodic_orbit`,
 * ``backend="exact"`` (the compiled closed form of linear members: the fast path) and
   ``"scipy"`` (the cross-check) run the built-in engine with the tangent recorder
   (:mod:`.tangent`: state-transition matrices and the model's saltation matrices);
-* ``backend="heyoka"`` runs the engine's heyoka stepper the same way; with
+* ``backend="heyoka"`` runs the member on heyoka's one event loop and replays the run into the
+  same recorder, with the engine's transitions (:func:`.tangent.drive_recorder`); with
   ``user_system=True`` it writes the member as a user system
   (:func:`~impactosc.model.hybrid.oscillator_system`) and evaluates its
   :class:`~impactosc.dynamics.HybridMap` instead (heyoka's variational equations and the

@@ -1,14 +1,18 @@
 """Tangent dynamics of the hybrid flow: the Jacobian of a run, piece by piece and event by event.
 
 :class:`TangentRecorder` is a ``impactosc.solution._Recorder`` that the engine's driver
-loop (:func:`impactosc.engine.drive`) feeds like any other: it multiplies the Jacobian of the
+loop (:func:`impactosc.engine.drive`), or the replay of a heyoka run, feeds like any other: it
+multiplies the Jacobian of the
 run so far by the state-transition matrix of every smooth piece (:mod:`.flow`) and by the
 saltation matrix of every transition (:mod:`.saltation`), internal ones included. At the end
 (or at every sample time) it holds ``d(X, V)(t) / d(X0, V0)``.
 
-:func:`tangent_run` drives a backend's piece stepper with that recorder. The steppers are
-built here the way each backend's ``run`` builds them (see :func:`piece_stepper`), after the
-backend has validated the model and the options through :func:`impactosc.simulate`.
+:func:`tangent_run` runs a member with that recorder through the one dispatch of the toolkit's
+recorders, :func:`drive_recorder`: the engine's driver loop steps the piece stepper of ``scipy``
+and ``exact`` (built here the way each backend's ``run`` builds it, :func:`piece_stepper`);
+``heyoka`` runs its one event loop and replays the run into the recorder with the calls the
+driver loop would make. The backend has validated the model and the options through
+:func:`impactosc.simulate` before (``check_backend``).
 """
 
 from __future__ import annotations
@@ -24,8 +28,8 @@ from ..results._solution import Solution, _Recorder
 from .flow import IDENTITY, matmul, transition_matrix
 from .saltation import Saltation, saltation_matrix
 
-__all__ = ["TangentRecorder", "tangent_run", "piece_stepper", "held_by_static_friction", "check_start",
-           "TANGENT_BACKENDS"]
+__all__ = ["TangentRecorder", "tangent_run", "piece_stepper", "evaluator_of", "drive_recorder",
+           "held_by_static_friction", "check_start", "TANGENT_BACKENDS"]
 
 #: Backends whose pieces and events the tangent dynamics can follow (rk4 has no events).
 TANGENT_BACKENDS = ("heyoka", "scipy", "exact")
@@ -196,16 +200,14 @@ def held_by_static_friction(osc: Oscillator, t: float, x: float) -> Saltation | 
 
 
 def piece_stepper(backend: str, osc: Oscillator, options: dict):
-    """``(stepper, evaluator)`` of ``backend`` for ``osc``, as that backend's ``run`` builds them.
+    """``(stepper, evaluator)`` of the engine's ``drive`` on ``backend`` for ``osc``, as its ``run`` builds them.
 
-    To be replaced by a public constructor in each backend (``backends.<name>.stepper``)
-    once the engine offers one; until then this mirrors the three ``run`` functions.
+    The backends whose runs the engine's driver loop steps piece by piece: ``"scipy"`` and
+    ``"exact"``. ``"heyoka"`` runs on its own event loop (:func:`drive_recorder` replays it);
+    ``"rk4"`` locates no events. To be replaced by a public constructor in each backend
+    (``backends.<name>.stepper``) once the engine offers one; until then this mirrors their
+    ``run`` functions.
     """
-    if backend == "heyoka":
-        from ..backends import heyoka as hb
-
-        tol = hb.check_tol(options.get("tol", hb.DEFAULT_TOL))
-        return hb._Stepper(hb.integrator(tol, hb.shape_of(osc)), osc), hb._Evaluator(osc, tol)
     if backend == "scipy":
         from ..backends import scipy as sb
 
@@ -216,8 +218,51 @@ def piece_stepper(backend: str, osc: Oscillator, options: dict):
         from ..backends import exact as eb
 
         return eb._Stepper(osc), eb._Stepper(osc).evaluate
+    if backend == "heyoka":
+        raise ValueError("backend='heyoka' has no piece stepper: its runs are one event loop, replayed into a recorder "
+                         "by drive_recorder")
     raise ValueError(f"backend must be one of {', '.join(map(repr, TANGENT_BACKENDS))} for the tangent dynamics "
                      f"(the rk4 baseline locates no events), got {backend!r}")
+
+
+def evaluator_of(backend: str, osc: Oscillator, options: dict):
+    """The dense output ``(mode, t0, x, v, times) -> (X, V, impulse)`` of a recorder of ``backend``'s runs of ``osc``.
+
+    What a recorder hands to its :class:`~impactosc.Solution` (``sample``, ``evaluate``) and
+    the continuation's quadratures read: the heyoka run's integrator at its tolerance
+    (``options["tol"]``, checked as :func:`impactosc.simulate` checks it), the piece stepper's
+    of the other backends (:func:`piece_stepper`).
+    """
+    if backend == "heyoka":
+        from ..backends.heyoka import DEFAULT_TOL, check_tol
+        from ..backends.heyoka._replay import _Evaluator
+
+        return _Evaluator(osc, check_tol(options.get("tol", DEFAULT_TOL)))
+    return piece_stepper(backend, osc, options)[1]
+
+
+def drive_recorder(backend: str, osc: Oscillator, t_end: float, x0: float, v0: float, rec, max_events: int,
+                   stops=(), options: dict | None = None) -> None:
+    """Run ``osc`` from ``(x0, v0)`` at time 0 to ``t_end`` on ``backend`` and feed the engine recorder ``rec``.
+
+    The one dispatch of the dynamics toolkit's runs with a recorder of its own (the tangent
+    dynamics, the continuation's sensitivities, the contact onset's watch). ``"scipy"`` and
+    ``"exact"``: the engine's driver loop (:func:`impactosc.engine.drive`) steps their piece
+    stepper. ``"heyoka"``: its one event loop runs the member and its run is replayed into
+    ``rec`` with the same calls in the same order
+    (:func:`impactosc.backends.heyoka._replay.drive_on_hybrid_loop`), ``options["tol"]`` its
+    tolerance. ``stops`` are the sample times (sorted, :func:`impactosc.engine.check_sample_times`).
+    """
+    options = options or {}
+    if backend == "heyoka":
+        from ..backends.heyoka import DEFAULT_TOL, check_tol
+        from ..backends.heyoka._replay import drive_on_hybrid_loop
+
+        drive_on_hybrid_loop(osc, t_end, x0, v0, rec, max_events=max_events, sample_at=stops,
+                             tol=check_tol(options.get("tol", DEFAULT_TOL)))
+        return
+    stepper, _ = piece_stepper(backend, osc, options)
+    drive(stepper, osc, t_end, x0, v0, rec, max_events, stops)
 
 
 def check_backend(osc: Oscillator, backend: str, options: dict) -> None:
@@ -262,11 +307,26 @@ def tangent_run(osc: Oscillator, t_end: float, x0: float, v0: float, *, backend:
     Returns
     -------
     (Solution, TangentRecorder)
+
+    Examples
+    --------
+    The Jacobian ``d(X, V)(30) / d(X0, V0)`` of a run with soft flanges (contacts and reversals
+    inside them), on heyoka's one event loop and on the closed-form backend:
+
+    >>> from impactosc import Oscillator
+    >>> from impactosc.dynamics.tangent import tangent_run
+    >>> osc = Oscillator(0.8, 1.3, 0.05, 10.0)
+    >>> for backend in ("heyoka", "exact"):
+    ...     sol, rec = tangent_run(osc, 30.0, 0.5, 0.0, backend=backend)
+    ...     print(backend, [round(j, 6) for j in rec.jacobian], sol.counts["contact_start"])
+    heyoka [0.649155, -0.152402, -0.546495, 0.975503] 11
+    exact [0.649155, -0.152402, -0.546495, 0.975503] 11
     """
     x0, v0 = check_start(osc, t_end, x0, v0)
     check_cost(osc, t_end, backend, options or {})  # simulate's refusal of runs that would take minutes
     stops = check_sample_times(sample_at, t_end)
-    stepper, evaluator = piece_stepper(backend, osc, options or {})
-    rec = TangentRecorder(record, backend, evaluator, keep_saltations=keep_saltations, on_sample=on_sample)
-    drive(stepper, osc, t_end, x0, v0, rec, max_events, stops)
+    options = options or {}
+    rec = TangentRecorder(record, backend, evaluator_of(backend, osc, options), keep_saltations=keep_saltations,
+                          on_sample=on_sample)
+    drive_recorder(backend, osc, t_end, x0, v0, rec, max_events, stops, options)
     return Solution(rec, t_end), rec

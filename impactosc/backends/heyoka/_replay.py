@@ -27,6 +27,8 @@ closed form instead (:mod:`impactosc.engine._stuck`).
 
 from __future__ import annotations
 
+import math
+import threading
 from functools import lru_cache
 from itertools import chain
 from typing import NamedTuple
@@ -35,12 +37,21 @@ import numpy as np
 
 from ...engine._chatter import ChatterTracker
 from ...engine._driver import (
+    AT_WALL,
+    CHATTER,
     CONTACT_END,
     CONTACT_START,
+    ENTER_LOWER,
+    ENTER_UPPER,
     IMPACT,
     KINEMATIC_GUARD_OFFSET,
+    LEAVE,
+    NO_GUARD,
     RELEASE,
+    RELEASE_DOWN,
+    RELEASE_UP,
     REVERSAL,
+    SLIP_END,
     STICK,
     Mode,
     initial_mode,
@@ -54,7 +65,7 @@ from ...results._solution import EVENT_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
 from .._hybrid_heyoka import DEFAULT_COOLDOWN, compiled, dense_states, run_counted
 from ._ode import log_on_stderr
 
-__all__ = ["piece_loop_reason", "run_on_hybrid_loop"]
+__all__ = ["piece_loop_reason", "run_on_hybrid_loop", "drive_on_hybrid_loop"]
 
 #: The scale of the replayed system's integrals (``oscillator_system(integral_scale=...)``): a power of
 #: two keeps them exact and out of heyoka's error norm, which is relative to the largest state
@@ -140,14 +151,87 @@ def _system(osc: Oscillator):
     return system, tuple(modes), index, tuple(guards), slots
 
 
-def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
-                       sample_at=(), tol: float, max_wall_time: float | None = None) -> Solution:
-    """Run ``osc`` on the one heyoka event loop and replay the run into the built-in :class:`Solution`.
+@lru_cache(maxsize=64)
+def _engine_guards(guard_names: tuple[str, ...]) -> tuple[int, ...]:
+    """The engine's guard index of each hybrid guard (``NO_GUARD``: none), for a recorder's ``on_transition``.
 
-    The arguments are those of :func:`impactosc.backends.heyoka.run` (already checked);
-    ``osc`` must be a member that :func:`piece_loop_reason` accepts.
+    The table beside ``_system``'s kinds: the hybrid guards of
+    :func:`~impactosc.model.hybrid.oscillator_system` by name, onto the guards of the engine's
+    transition rule (:data:`~impactosc.engine.GUARD_NAMES`) that the saltation matrices read
+    (``dynamics.saltation``: the guard's normal and time rate). A flange's entry and a rigid
+    flange's impact are ``ENTER_UPPER``/``ENTER_LOWER``, its exit ``LEAVE``, a slip's stop
+    ``SLIP_END``, a release (from a stick, or from rest on a rigid wall) ``RELEASE_UP`` or
+    ``RELEASE_DOWN`` by the direction of the force it follows. A guard of none of these forms
+    (an internal one, with no counterpart in the engine) gives ``NO_GUARD``: the replay tells the
+    recorder of no transition there.
     """
-    system, modes, index, guards, slots = _system(osc)
+    sides = {"upper": (ENTER_UPPER, LEAVE), "lower": (ENTER_LOWER, LEAVE)}
+    table = []
+    for name in guard_names:
+        words = name.split()
+        if len(words) == 2 and words[0] in ("enter", "impact") and words[1] in sides:
+            table.append(sides[words[1]][0])
+        elif len(words) == 2 and words[0] == "leave" and words[1] in sides:
+            table.append(LEAVE)
+        elif words[-1] == "stop":
+            table.append(SLIP_END)
+        elif words[-1] == "release+":
+            table.append(RELEASE_UP)
+        elif words[-1] == "release-":
+            table.append(RELEASE_DOWN)
+        else:
+            table.append(NO_GUARD)
+    return tuple(table)
+
+
+#: The systems of the members run so far, one per structure (:func:`_member_system`), with the lock that
+#: guards the dict (threads of a sweep).
+_STRUCTURES: dict = {}
+_STRUCTURES_LOCK = threading.Lock()
+_MAX_STRUCTURES = 64
+
+
+def _member_system(osc: Oscillator):
+    """``_system(osc)``, built once per structure of member and given ``osc``'s values as runtime parameters.
+
+    A continuation or a sweep runs a new member at every point: building its
+    :func:`~impactosc.model.hybrid.oscillator_system` (expressions, checks) took 2 ms, twice
+    the map evaluation it served. Members that differ only in the values that system keeps
+    as parameters (``F, Omega, phase, beta, beta_s, K, zeta, e, gap_upper, gap_lower`` and the
+    harmonics' ``F2, Omega2, phase2, ...``: the oscillator's own names, as ``oscillator_system``
+    says) share one system, copied with their values (:meth:`HybridSystem.with_parameters`).
+    The key is conservative (whatever decides a branch of ``oscillator_system``, and more:
+    flange law and exponent, the number of forcing terms and which are static or zero, damping,
+    friction, which flanges exist); a system whose parameters are not all among those names is
+    built for its member as before.
+    """
+    key = (osc.flange, osc.exponent, tuple((F == 0.0, Om == 0.0) for F, Om, _ in osc.terms), osc.zeta == 0.0,
+           osc.beta == 0.0, osc.beta_s == osc.beta, math.isinf(osc.gap_upper), math.isinf(osc.gap_lower),
+           osc.K == 0.0, osc.restitution == 0.0)
+    with _STRUCTURES_LOCK:
+        built = _STRUCTURES.get(key)
+    if built is None:
+        built = _system(osc)
+        with _STRUCTURES_LOCK:
+            if len(_STRUCTURES) >= _MAX_STRUCTURES:  # e.g. a sweep of the exponent: the oldest goes
+                del _STRUCTURES[next(iter(_STRUCTURES))]
+            _STRUCTURES.setdefault(key, built)
+    values = {"beta": osc.beta, "beta_s": osc.beta_s, "K": osc.K, "zeta": osc.zeta, "e": osc.restitution,
+              "gap_upper": osc.gap_upper, "gap_lower": osc.gap_lower}
+    for i, (F, Om, ph) in enumerate(osc.terms):
+        tag = "" if i == 0 else str(i + 1)
+        values[f"F{tag}"], values[f"Omega{tag}"], values[f"phase{tag}"] = F, Om, ph
+    system, *tables = built
+    names = system.parameter_names
+    if not all(name in values for name in names):
+        return _system(osc)
+    return (system.with_parameters(**{name: values[name] for name in names}), *tables)
+
+
+def _run(osc: Oscillator, t_end: float, x0: float, v0: float, max_events: int, tol: float,
+         max_wall_time: float | None):
+    """``(hybrid, steps, start)``: ``osc`` run on the one heyoka loop from the engine's initial mode."""
+    system, _, index, _, _ = _member_system(osc)
     log_on_stderr(lambda: compiled(system, tol))  # heyoka's warnings on stderr, not in piped output
     v0 = 0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0  # rest, as the engine's drive takes it
     start = initial_mode(osc, 0.0, x0, v0)
@@ -160,15 +244,64 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     quiet = f"{name} stop" if start.motion != 0 else None
     hybrid, steps = run_counted(system, t_end, [x0, v0], mode=name, max_events=max_events, tol=tol,
                                 max_wall_time=max_wall_time, quiet_at_start=quiet)
-    rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
-    _replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
-    rec.steps += steps  # the loop's integrator steps (the replay's pieces carry none)
+    return hybrid, steps, start
+
+
+def _wall_time_message(hybrid, rec: _Recorder, max_wall_time: float | None) -> None:
     if hybrid.status == 1 and "max_wall_time" in hybrid.message:
         rec.message = (f"The wall-time limit max_wall_time={max_wall_time!r} s was reached; "
                        "results up to t_final are kept.")
+
+
+def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,
+                       sample_at=(), tol: float, max_wall_time: float | None = None) -> Solution:
+    """Run ``osc`` on the one heyoka event loop and replay the run into the built-in :class:`Solution`.
+
+    The arguments are those of :func:`impactosc.backends.heyoka.run` (already checked);
+    ``osc`` must be a member that :func:`piece_loop_reason` accepts.
+    """
+    _, modes, _, guards, slots = _member_system(osc)
+    hybrid, steps, start = _run(osc, t_end, x0, v0, max_events, tol, max_wall_time)
+    rec = _Recorder(record, "heyoka", _Evaluator(osc, tol))
+    _replay(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end)
+    rec.steps += steps  # the loop's integrator steps (the replay's pieces carry none)
+    _wall_time_message(hybrid, rec, max_wall_time)
     if len(sample_at):
         _samples(hybrid, rec, modes, sample_at)
     return Solution(rec, t_end)
+
+
+def drive_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, rec, *, max_events: int,
+                         sample_at=(), tol: float, max_wall_time: float | None = None) -> None:
+    """Run ``osc`` on the one heyoka event loop and feed ``rec`` every call the engine's ``drive`` would make.
+
+    The heyoka counterpart of :func:`impactosc.engine.drive` for any engine recorder (a
+    :class:`~impactosc.results._solution._Recorder`, or one of the dynamics toolkit's: the
+    tangent dynamics' Jacobian, the continuation's parameter sensitivities, the contact onset's
+    watch): ``begin``; the smooth pieces, events and piece starts (``piece``, ``event``,
+    ``segment``) one call at a time, with ``on_transition(t, mode_before, guard, mode_after,
+    x_before, v_before, x_after, v_after, kind)`` before each event where the recorder has that
+    method (``guard`` the engine's index of the hybrid guard, :func:`_engine_guards`); a rigid
+    flange's ``chatter`` with the engine's two transitions around it (guard None, then the wall's
+    rest test ``AT_WALL``); ``sample`` at each of ``sample_at`` (sorted times in ``[0, t_end]``)
+    with the piece cut there as ``drive`` cuts it (``piece`` up to the time, ``segment`` and
+    ``sample`` there, the same mode on); ``finish``. The whole run is integrated first, so an
+    exception the recorder raises (a watch that stops at a contact) ends the replay, not the run.
+
+    Parameters
+    ----------
+    osc, t_end, x0, v0, max_events, tol, max_wall_time
+        As :func:`run_on_hybrid_loop` (already checked).
+    rec
+        The recorder.
+    sample_at : sequence of float, optional
+        The sample stops, sorted (:func:`impactosc.engine.check_sample_times`).
+    """
+    _, modes, _, guards, slots = _member_system(osc)
+    hybrid, steps, start = _run(osc, t_end, x0, v0, max_events, tol, max_wall_time)
+    _replay_each(osc, hybrid, rec, modes, guards, slots, start, max_events, t_end, stops=sample_at)
+    rec.steps += steps
+    _wall_time_message(hybrid, rec, max_wall_time)
 
 
 def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int, t_end: float) -> None:
@@ -308,10 +441,14 @@ def _kinds(modes: tuple, guards: tuple) -> _KindTable:
 
 
 def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int,
-                 t_end: float) -> None:
-    """Feed ``rec`` with the pieces and events of ``hybrid`` one call at a time, as the engine's ``drive`` does."""
+                 t_end: float, stops=()) -> None:
+    """Feed ``rec`` with the pieces and events of ``hybrid`` one call at a time, as the engine's ``drive`` does.
+
+    With the engine's transitions (``rec.on_transition``, where it has it) and the sample
+    ``stops`` cut into the pieces (:class:`_Stops`): :func:`drive_on_hybrid_loop`.
+    """
     if osc.rigid:
-        _replay_rigid(osc, hybrid, rec, modes, guards, slots, start, max_events)
+        _replay_rigid(osc, hybrid, rec, modes, guards, slots, start, max_events, stops)
         return
     events = _crossings_without_touches(hybrid._raw_events, guards)
     n = len(events)
@@ -322,29 +459,113 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     np.maximum(incr[:, 0], 0.0, out=incr[:, 0])
     increments = incr.tolist()
     walls = {1: osc.gap_upper, -1: -osc.gap_lower}
+    hook = getattr(rec, "on_transition", None)
+    engine = _engine_guards(hybrid.system.guard_names)
+    cut = _Stops(hybrid, rec, stops, slots) if len(stops) else None
     t_prev, x_prev, mode = 0.0, float(y0[0]), start
     for k in range(n):
         t, g, _, _, b, before, state = events[k]
+        if cut is not None:
+            cut.reached(t_prev, mode)
+            t_prev, x_prev = cut.split(mode, t_prev, x_prev, t)
         if t > t_prev:  # not a second event at one instant (the engine records no piece between them)
-            dq, dq2, dw, dvv = increments[k]
+            dq, dq2, dw, dvv = increments[k] if cut is None else cut.increments(before, increments[k])
             rec.piece(mode, t_prev, x_prev, t, before[0], dq, dq2, dw, dvv, 0)
         kind, side = guards[g]
-        mode = modes[b]
+        new = modes[b]
         if kind is None:
-            kind = STICK if mode.motion == 0 else REVERSAL
+            kind = STICK if new.motion == 0 else REVERSAL
         # a flange crossing is recorded on the flange's surface, as the engine snaps it (the hybrid
         # run keeps the located state, within rounding of it, so that its Jacobians stay those of the flow)
         x = walls[side] if side else state[0]
+        if hook is not None and engine[g] != NO_GUARD:
+            hook(t, mode, engine[g], new, before[0], before[1], x, state[1], kind)
+        mode = new
         rec.event(t, kind, x, state[1], side, 1, mode.motion)
         if k + 1 == n or events[k + 1][0] != t:
             rec.segment(t, x, state[1], mode)
         t_prev, x_prev = t, x
+        if cut is not None:
+            cut.moved(state, x)
     t_final = hybrid.t_final
     y1 = hybrid.state_final
     dq, dq2, dw, dvv = increments[n]
+    if cut is not None:
+        cut.reached(t_prev, mode)
+        t_prev, x_prev = cut.split(mode, t_prev, x_prev, t_final)
+        dq, dq2, dw, dvv = cut.increments(y1, increments[n])
     if t_final > t_prev or n == 0:
         rec.piece(mode, t_prev, x_prev, t_final, float(y1[0]), dq, dq2, dw, dvv, 0)
+    if cut is not None and hybrid.status == 0:
+        cut.moved(y1, float(y1[0]))
+        cut.reached(t_final, mode)  # a sample time at the end itself
     _finish(hybrid, rec, mode, max_events)
+
+
+class _Stops:
+    """The sample stops of the engine's ``drive`` on a replayed run: each cuts the piece it falls in.
+
+    ``drive`` ends a piece at a sample time (``piece`` up to it), starts the next one there in
+    the same mode (``segment``) and hands the state to ``sample``; a time that an event or the
+    start reaches exactly is sampled with the state after it. The states at the stops come from
+    the run's dense output (:meth:`HybridSolution.sample`), the pieces' integrals from the same
+    rows. A replay keeps its place here: the state where the current piece starts
+    (:meth:`moved`) and the next stop.
+    """
+
+    def __init__(self, hybrid, rec, stops, slots):
+        t_final = hybrid.t_final
+        self.times = [float(t) for t in stops if t <= t_final]
+        self.states = hybrid.sample(self.times).tolist() if self.times else []
+        self.rec = rec
+        self.next = 0
+        self.columns = [slots.get(q, -1) for q in ("Q", "Q2", "W", "VV")]
+        self.start = list(hybrid._pieces[0][2])  # the state where the current piece starts
+        self.v = float(self.start[1])
+        self.cut = False  # the current piece has been cut at a stop
+
+    def moved(self, state, x: float) -> None:
+        """A piece starts after an event (or the run ends) at ``state``, recorded at position ``x``."""
+        self.start = list(state)
+        self.start[0] = x
+        self.v = float(state[1])
+        self.cut = False
+
+    def reached(self, t: float, mode: Mode) -> None:
+        """Sample the stops at or before ``t``, where a piece starts: the state there, in ``mode``."""
+        while self.next < len(self.times) and self.times[self.next] <= t:
+            self.rec.sample(self.times[self.next], self.start[0], self.v, mode)
+            self.next += 1
+
+    def split(self, mode: Mode, t0: float, x0: float, t1: float) -> tuple[float, float]:
+        """Cut the piece from ``(t0, x0)`` at the stops before ``t1``; the start ``(t, x)`` of what is left."""
+        while self.next < len(self.times) and self.times[self.next] < t1:
+            ts, y = self.times[self.next], self.states[self.next]
+            dq, dq2, dw, dvv = self.increments(y, None)
+            self.rec.piece(mode, t0, x0, ts, y[0], dq, dq2, dw, dvv, 0)
+            self.rec.segment(ts, y[0], y[1], mode)
+            self.start, self.v, self.cut = list(y), y[1], True
+            self.rec.sample(ts, y[0], y[1], mode)
+            self.next += 1
+            t0, x0 = ts, y[0]
+        return t0, x0
+
+    def increments(self, end, whole):
+        """The integrals' increments from the current piece's start to ``end``: ``whole`` where it was not cut."""
+        if not self.cut and whole is not None:
+            return whole
+        out = [(end[c] - self.start[c]) / INTEGRAL_SCALE if c >= 0 else 0.0 for c in self.columns]
+        out[0] = max(out[0], 0.0)  # a flange's impulse int K d is >= 0 (as the whole pieces' are)
+        return out
+
+    def tail(self, jump, t: float) -> None:
+        """The stops inside a chatter's tail, up to ``t``: the engine's local-model state there."""
+        while (self.next < len(self.times) and self.times[self.next] < jump.t_inf
+               and self.times[self.next] <= t):
+            ts = self.times[self.next]
+            x, v, motion = jump.state_at(ts)[:3]
+            self.rec.sample(ts, x, v, Mode(0, motion, True))
+            self.next += 1
 
 
 def _piece_increments(hybrid, events, slots) -> np.ndarray:
@@ -367,7 +588,8 @@ def _piece_increments(hybrid, events, slots) -> np.ndarray:
     return incr / INTEGRAL_SCALE
 
 
-def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int) -> None:
+def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_events: int,
+                  stops=()) -> None:
     """:func:`_replay_each` of a member with rigid flanges: impacts, chatter, rest on the wall and release from it.
 
     The records of the engine's ``drive``: an ``impact`` at each crossing of a flange's impact guard
@@ -379,6 +601,9 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
     (``rec.chatter``), then the rest on the wall. A run that ends inside a tail ends with the local
     model's state there, as the engine's does. The wall's push on a resting mass is the recorder's
     (``wall_force_integrals``), the impacts' impulses and losses come from their velocities.
+    ``rec.on_transition`` (where the recorder has it) is told of each of the engine's transitions
+    in the same order, and the sample ``stops`` cut the pieces (:class:`_Stops`; inside a tail the
+    local model's state), as in :func:`_replay_each`.
     """
     events = [e for e in hybrid._raw_events if e[2] == CROSSING or e[2] == REST]
     y0 = hybrid._pieces[0][2]
@@ -386,6 +611,9 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
     increments = _piece_increments(hybrid, events, slots).tolist()
     walls = {1: osc.gap_upper, -1: -osc.gap_lower}
     tracker = ChatterTracker(osc)
+    hook = getattr(rec, "on_transition", None) or _told_nothing
+    engine = _engine_guards(hybrid.system.guard_names)
+    cut = _Stops(hybrid, rec, stops, slots) if len(stops) else None
     jump = None  # the engine's jump after the last impact, where it takes one
     t_prev, x_prev, mode = 0.0, float(y0[0]), start
     for k, (t, g, kind, _, b, before, state) in enumerate(events):
@@ -399,6 +627,8 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
                            "the engine takes no chatter jump (a degenerate tie of the net force with static "
                            "friction); backend='exact' resolves it")
                 return
+            if cut is not None:
+                cut.tail(jump, t)
             if t < jump.t_inf:  # the run ends inside the tail: the local model's state at its end
                 x1, v1, motion = rec.chatter(jump, t)
                 rec.finish(t, x1, v1, Mode(0, motion, True), 0,
@@ -407,14 +637,23 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
                 return
             rec.chatter(jump, jump.t_inf)
             x = jump.wall
+            at_wall = Mode(0, 0, True)
+            hook(t, mode, None, at_wall, x, 0.0, x, 0.0, CHATTER)  # the jump: no guard, into rest at the wall
+            hook(t, at_wall, AT_WALL, new, x, 0.0, x, 0.0, CONTACT_START)  # the wall's rest test
             rec.event(t, CONTACT_START, x, 0.0, jump.side, 1, 0)
             tracker.interrupt()
             jump = None
             rec.segment(t, x, 0.0, new)
             t_prev, x_prev, mode = t, x, new
+            if cut is not None:
+                cut.moved(state, x)
+                cut.v = 0.0
             continue
+        if cut is not None:
+            cut.reached(t_prev, mode)
+            t_prev, x_prev = cut.split(mode, t_prev, x_prev, t)
         if t > t_prev:  # not a second event at one instant (the engine records no piece between them)
-            dq, dq2, dw, dvv = increments[k]
+            dq, dq2, dw, dvv = increments[k] if cut is None else cut.increments(before, increments[k])
             rec.piece(mode, t_prev, x_prev, t, before[0], dq, dq2, dw, dvv, 0)
         what, side = guards[g]
         x, v = (walls[side] if side else state[0]), state[1]
@@ -422,16 +661,22 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
         if what == IMPACT and side * before[1] <= 0.0:  # a touch at a turning point: no impact (the engine's rule)
             v = 0.0
             if new.region:
+                hook(t, mode, engine[g], new, before[0], before[1], x, v, CONTACT_START)
                 rec.event(t, CONTACT_START, x, v, side, 1, 0)
                 tracker.interrupt()
             else:
+                hook(t, mode, engine[g], new, before[0], before[1], x, v, REVERSAL)
                 rec.event(t, REVERSAL, x, v, 0, 1, new.motion)
         elif what == IMPACT:
             away = side * v < -KINEMATIC_GUARD_OFFSET
+            # the engine's impact leaves a mass without speed at the wall (Mode(0, 0)), where its rest test follows
+            hook(t, mode, engine[g], new if away else Mode(0, 0, True), before[0], before[1], x,
+                 v if away else 0.0, IMPACT)
             rec.event(t, IMPACT, x, before[1], side, 1, -side if away else 0)
             jump = tracker.impact(t, side, abs(before[1]))
             if new.region:  # no speed left: at rest against the wall
                 v, jump = 0.0, None
+                hook(t, Mode(0, 0, True), AT_WALL, new, x, v, x, v, CONTACT_START)
                 rec.event(t, CONTACT_START, x, v, side, 1, 0)
                 tracker.interrupt()
         elif what is None and new.region:  # a slip that ends on the wall (a touch): at rest against it
@@ -439,14 +684,19 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
             # the engine's slip end there first (its stick test: a stick, a reversal, or a pause without an
             # event), then the wall it lies on takes the mass
             motion, _ = motion_at_rest(osc, t, state[0])
-            if motion != mode.motion:
-                rec.event(t, STICK if motion == 0 else REVERSAL, state[0], v, 0, 1, motion)
+            turn = (STICK if motion == 0 else REVERSAL) if motion != mode.motion else None
+            hook(t, mode, SLIP_END, Mode(0, motion, True), before[0], before[1], state[0], v, turn)
+            if turn is not None:
+                rec.event(t, turn, state[0], v, 0, 1, motion)
             x = walls[side]
+            hook(t, Mode(0, motion, True), AT_WALL, new, x, v, x, v, CONTACT_START)
             rec.event(t, CONTACT_START, x, v, side, 1, 0)
             tracker.interrupt()
         else:
             if what is None:
                 what = STICK if new.motion == 0 else REVERSAL
+            if engine[g] != NO_GUARD:
+                hook(t, mode, engine[g], new, before[0], before[1], x, v, what)
             rec.event(t, what, x, v, side, 1, new.motion)
             if what != REVERSAL:
                 tracker.interrupt()
@@ -454,12 +704,26 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
         if k + 1 == len(events) or events[k + 1][0] != t or events[k + 1][2] == REST:
             rec.segment(t, x, v, mode)
         t_prev, x_prev = t, x
+        if cut is not None:
+            cut.moved(state, x)
+            cut.v = v
     t_final = hybrid.t_final
     y1 = hybrid.state_final
     dq, dq2, dw, dvv = increments[len(events)]
+    if cut is not None:
+        cut.reached(t_prev, mode)
+        t_prev, x_prev = cut.split(mode, t_prev, x_prev, t_final)
+        dq, dq2, dw, dvv = cut.increments(y1, increments[len(events)])
     if t_final > t_prev or not events:
         rec.piece(mode, t_prev, x_prev, t_final, float(y1[0]), dq, dq2, dw, dvv, 0)
+    if cut is not None and hybrid.status == 0:
+        cut.moved(y1, float(y1[0]))
+        cut.reached(t_final, mode)  # a sample time at the end itself
     _finish(hybrid, rec, mode, max_events)
+
+
+def _told_nothing(*transition) -> None:
+    """The ``on_transition`` of a recorder that has none."""
 
 
 def _tail_states(osc, hybrid, times):

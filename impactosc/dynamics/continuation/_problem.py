@@ -18,12 +18,11 @@ from typing import Any
 import numpy as np
 
 from ...backends._simulate import DEFAULT_MAX_EVENTS
-from ...engine._driver import drive
 from ...model._oscillator import Oscillator
 from .._common import advanced, check_parameter, oscillator_of, parameter_value, periods_in, with_parameter
 from .._map import ImageAndResidual
 from ..saltation import vector_field
-from ..tangent import check_backend, piece_stepper
+from ..tangent import check_backend, drive_recorder, evaluator_of
 from ._sensitivity import SensitivityRecorder, Stencil, flange_gap
 
 __all__ = ["MapProblem", "MapEvaluation", "without_flange", "UNSUPPORTED", "BOTH", "MARGIN_TESTS"]
@@ -211,9 +210,8 @@ class MapProblem:
         span = self.span(sec)
 
         try:
-            stepper, evaluator = piece_stepper(self.backend, sec, self.options)
-            rec = SensitivityRecorder(record, self.backend, evaluator, stencils)
-            drive(stepper, sec, span, float(z[0]), float(z[1]), rec, self.max_events, ())
+            rec = SensitivityRecorder(record, self.backend, evaluator_of(self.backend, sec, self.options), stencils)
+            drive_recorder(self.backend, sec, span, float(z[0]), float(z[1]), rec, self.max_events, (), self.options)
         except (ValueError, FloatingPointError) as exc:
             return MapEvaluation(z, params, None, nan2, np.full((2, k), math.nan), None, str(exc))
         if rec.status != 0:
