@@ -388,6 +388,7 @@ class _Run:
         self.mode_values = switch.rules.values
         # read at every event: bound once (the same lists as the switch's, which only appends to them)
         self.terminal, self.pieces, self.events = switch.terminal, switch.pieces, switch.events
+        self.ruled = switch.ruled
 
     def transition(self, g: int, t: float, y: list) -> list:
         """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
@@ -419,6 +420,8 @@ class _Run:
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         if self.frozen[mode] and switch.shallow(g, mode, t, y):
             return True  # a touch that rounding split into two roots (Switch.shallow): its extremum check records it
+        if self.ruled[g] and switch.keeps(g, mode, t, y):
+            return True  # the guard's transition rule keeps the mode (a tie at rest): a rounding root, no event
         others = self.others[mode]  # the check needs a guard besides g (which may have no direction: not in them)
         if others and (len(others) > 1 or self.armed[mode][others[0]] != g) and self.lost(g, t, y):
             return False  # an earlier crossing of another guard was not located: the loop applies it first
@@ -695,6 +698,12 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
                 # The "root" is the piece start, where the guard moves away from the side it fires
                 # towards (a release with v = v' = 0: rounding took v a hair the wrong way, and back):
                 # not a crossing. Applying it re-entered the same piece at the same instant, for ever.
+                if at_end:
+                    break
+                continue
+            if switch.keeps(g, run.mode, t_root, y_root):
+                # the guard's transition rule keeps the mode there (a slip from a tie at rest whose speed
+                # rounding took a hair below zero and back): not a crossing, the run goes on from t_past
                 if at_end:
                     break
                 continue

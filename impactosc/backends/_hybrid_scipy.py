@@ -223,6 +223,9 @@ class _Loop:
                 and self.switch.leaves(g, self.mode, self.t, self.y)):
             self.cool, self.cool_until = g, self.t + self.cooldown  # a rounding root at the piece start
             return True
+        if not extremum and self.switch.keeps(g, self.mode, self.t, self.y):
+            self.cool, self.cool_until = g, self.t + self.cooldown  # its transition rule keeps the mode: rounding
+            return True
         if extremum:
             self.extremum(g)
         elif not self.switch.terminal[g]:
@@ -267,9 +270,11 @@ class _Loop:
         if d * h > 0.0 and -d * switch.guard_value(g, t_start, list(y_start)) >= 0.0:
             # the guard went past zero and back within a step: its first root lies between the
             # piece start and this extremum
-            self.t, self.y = _first_root(self, g, t_start, list(y_start), t)
-            self.mode, self.y = switch.transition(g, self.mode, self.t, self.y)
-            return
+            t_root, y_root = _first_root(self, g, t_start, list(y_start), t)
+            if not switch.keeps(g, self.mode, t_root, y_root):  # (its transition rule may call it rounding)
+                self.t, self.y = t_root, y_root
+                self.mode, self.y = switch.transition(g, self.mode, self.t, self.y)
+                return
         # Its extremum event is off for a moment (scipy would find the zero it starts on again),
         # not for the rest of the piece: a later extremum may show a crossing lost inside a step
         # (a guard y0 - d up through zero and back within one DOP853 step after a minimum: missed).

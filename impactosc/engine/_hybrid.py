@@ -9,6 +9,11 @@ with an accumulation rule (``Guard.accumulation``) is asked instead, at each of 
 whether its events accumulate from there (:meth:`Switch.transition`), and the loops then jump
 to the accumulation time and enter the guard's rest mode (:meth:`Switch.rest`). The rigid
 flanges of the oscillator family carry the engine's chatter model (:func:`wall_chatter`).
+A guard with a transition rule (``Guard.choose``) is asked where its crossing leads instead
+of the entry conditions, and whether a state on it at an instant crosses it at all
+(:meth:`Switch.choice`): the stops and releases of the oscillator family carry the engine's
+stick test at rest (:func:`stick_test`), so that a tie at rest is decided by the forcing's
+trend, not by the sign of a rounding error.
 """
 
 from __future__ import annotations
@@ -18,12 +23,14 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..model._rule import P_RIGID, beyond, motion_at_rest
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, plan, rules
-from ..model.hybrid._oscillator_system import WallChatter
+from ..model.hybrid._oscillator_system import StickTest, WallChatter
 from ._chatter import J_SIZE, J_T_INF, J_WALL, predict_jump
 
-__all__ = ["Switch", "Accumulation", "AccumulationJump", "InstantAccumulation", "wall_chatter", "RULED_ZENO_SCALE",
+__all__ = ["Switch", "Accumulation", "AccumulationJump", "InstantAccumulation", "wall_chatter", "stick_test",
+           "RULED_ZENO_SCALE",
            "check_state", "frozen_modes", "period_jump", "usable_period",
            "frozen_dense", "CROSSING",
            "GRAZING", "MARKER", "REST", "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE", "TIE"]
@@ -138,6 +145,8 @@ class Switch:
     zeno_scale : list of float
         The factor of the Zeno watch's tolerance for each guard's events (:data:`RULED_ZENO_SCALE`
         for a guard with an accumulation rule, else 1).
+    ruled : list of bool
+        For each guard, whether it has a transition rule (``Guard.choose``, see :meth:`choice`).
     """
 
     def __init__(self, system: HybridSystem, touch_tol: float = 1e-12):
@@ -166,6 +175,9 @@ class Switch:
         self._accumulate = [_accumulation_rule(guard.accumulation) for guard in system.guards]
         self.zeno_scale = [1.0 if rule is None else RULED_ZENO_SCALE for rule in self._accumulate]
         self.jump: tuple[int, AccumulationJump] | None = None
+        self._choose = [_choice_rule(guard, system) for guard in system.guards]
+        self.ruled = [rule is not None for rule in self._choose]
+        self._chosen: tuple = (None, -1, 0.0, -1, None)  # (state, guard, time, mode, state after) last chosen
 
     def initial_mode(self, mode, t: float, y) -> int:
         """The index of ``mode`` (a name), or of the first mode whose entry conditions hold at ``(t, y)``."""
@@ -175,6 +187,13 @@ class Switch:
             return self.system.mode_index(mode)
         for m, entry in enumerate(self.rules.entry):
             if entry is None or all(c >= 0.0 for c in entry(t, y, self.p)):
+                # a start on a guard with a transition rule, where its transition would move no state
+                # (a start at rest on a stop or a release): the rule's mode, not an event at the start
+                g = self.pending(m, t, y)
+                if g >= 0 and self.ruled[g]:
+                    target, after = self.choice(g, t, y)
+                    if target >= 0 and list(after[:self.n]) == list(y[:self.n]):
+                        return target
                 return m
         raise ValueError(f"{self.system.name}: no mode's entry conditions hold at t={t!r}, state={list(y)}; "
                          "give the initial mode (mode=...)")
@@ -243,19 +262,30 @@ class Switch:
         events, plans, p, touch, modes = self.events, self._plans, self.p, self.touch_tol, self._modes
         chained = 0
         before = tuple(y)
+        ruled = self.ruled
         while True:
-            # the reset, the next mode and whether the state after lies near a guard of it: one
-            # generated function per (guard, mode), made on first use (this runs at every event)
-            step = plans[g * modes + mode]
-            if step is None:
-                step = plans[g * modes + mode] = plan(self.num, self.rules, g, mode) or False
-            if step:
-                target, after, then = step(t, y, p, touch)
-                if target < 0:
-                    self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
-            else:
-                target, after = self.apply(g, mode, t, y)
+            target = -1
+            if ruled[g]:
+                # the guard's transition rule chooses the mode (a tie at rest: not the entry conditions)
+                target, after = self.choice(g, t, y)
+                if target == mode and not chained:
+                    return mode, y  # it keeps the mode: the crossing was rounding (the loops ask first, keeps)
                 then = -2
+            if target < 0:
+                # the reset, the next mode and whether the state after lies near a guard of it: one
+                # generated function per (guard, mode), made on first use (this runs at every event)
+                step = plans[g * modes + mode]
+                if step is None:
+                    step = plans[g * modes + mode] = plan(self.num, self.rules, g, mode) or False
+                if step:
+                    target, after, then = step(t, y, p, touch)
+                    if target < 0:
+                        self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
+                    elif then >= 0 and ruled[then]:
+                        then = -2  # a guard with a transition rule: pending asks it
+                else:
+                    target, after = self.apply(g, mode, t, y)
+                    then = -2
             state = before if after is y else tuple(after)
             events.append((t, g, CROSSING, mode, target, before, state))
             mode, y = target, after
@@ -281,6 +311,39 @@ class Switch:
             before = state
         self.pieces.append((t, mode, state))
         return mode, y
+
+    def choice(self, g: int, t: float, y) -> tuple[int, list]:
+        """``(mode, state after)`` that guard ``g``'s transition rule (``Guard.choose``) chooses at ``(t, y)``.
+
+        The rule is asked at the state after the guard's reset (a stop's ``v -> 0``); the mode
+        is -1 where it leaves the choice to the entry conditions. The last answer is kept: the
+        loops ask :meth:`keeps` and then :meth:`transition` at the same state.
+
+        Raises
+        ------
+        RuntimeError
+            When the rule answers a name that is not a mode of the system (named).
+        """
+        last = self._chosen
+        if last[0] is y and last[1] == g and last[2] == t:
+            return last[3], last[4]
+        reset = self._reset[g]
+        after = list(y)
+        if reset is not None:
+            after[:self.n] = reset(t, y, self.p)
+        target = self._choose[g](t, after, self.p)
+        self._chosen = (y, g, t, target, after)
+        return target, after
+
+    def keeps(self, g: int, mode: int, t: float, y) -> bool:
+        """Whether guard ``g``'s transition rule keeps ``mode`` at ``(t, y)``: its crossing there is rounding.
+
+        A mass that stops where the net force vanishes and then grows the way it moved (a
+        frictionless tie at rest) goes on: the stop guard's root is a rounding error of a
+        double or triple root, and the loops ignore it (no event), as a root at a piece start
+        that :meth:`leaves`.
+        """
+        return self.ruled[g] and self.choice(g, t, y)[0] == mode
 
     def _checked_jump(self, g: int, t: float, found) -> AccumulationJump:
         """The answer ``found`` of guard ``g``'s accumulation rule at ``t``, checked, or a RuntimeError naming it."""
@@ -367,8 +430,17 @@ class Switch:
                 if abs(rate) > scale:
                     if d == 0 or d * rate > 0.0:
                         return g
-                elif d != 0 and d * self._heading(g, mode, t, y, rate) > 0.0 and not self._ahead(g, mode, t, y,
-                                                                                               values[i], rate):
+                    continue
+                if self.ruled[g]:
+                    # tangent to a guard with a transition rule (a stop or a release at a tie): the rule
+                    # says whether the state crosses it now, not the sign of its rounded curvature
+                    target = self.choice(g, t, y)[0]
+                    if target >= 0:
+                        if target != mode:
+                            return g
+                        continue
+                if d != 0 and d * self._heading(g, mode, t, y, rate) > 0.0 and not self._ahead(g, mode, t, y,
+                                                                                            values[i], rate):
                     return g  # tangent to the guard, curving across it
         return -1
 
@@ -458,6 +530,53 @@ class Switch:
 
     def guard_value(self, g: int, t: float, y) -> float:
         return self.rules.guard[g](t, y, self.p)[0]
+
+
+def _choice_rule(guard, system: HybridSystem):
+    """The callable of ``guard``'s transition rule (``Guard.choose``), ``rule(t, after, p) -> mode index or -1``,
+    or None: the engine's stick test for a region of the family, a user's rule with its answers checked."""
+    rule = guard.choose
+    if rule is None:
+        return None
+    if isinstance(rule, StickTest):
+        return stick_test(rule, system)
+    names = system.mode_names
+
+    def chosen(t, after, p):
+        answer = rule(t, tuple(after), p)
+        if answer is None:
+            return -1
+        if answer not in names:
+            raise RuntimeError(f"guard {guard.name!r}: its transition rule (choose) answered {answer!r} at t={t!r}, "
+                               f"which is not a mode of {system.name} (its modes are {list(names)}, or None)")
+        return names.index(answer)
+
+    return chosen
+
+
+def stick_test(spec: StickTest, system: HybridSystem):
+    """The engine's stick test at rest (:func:`impactosc.model._rule.motion_at_rest`) as a region's transition rule.
+
+    ``rule(t, state, p)``: the index of the mode of ``spec.region`` with the motion the test
+    gives at ``(t, x)`` (stick, or slip towards the net force; at a tie the forcing's trend
+    decides), for the member that the parameter values ``p`` describe (:meth:`StickTest.member`);
+    -1 on a rigid flange's wall, where the wall's rest decides. The built-in engine decides
+    every stop and release with the same call.
+    """
+    names = system.parameter_names
+    by_motion = [system.mode_index(f"{spec.region}{s}") for s in ("0", "+", "-")]  # motion 0, 1, -1
+    x = spec.position
+    held: list = [None, None]  # the parameter values of the run and their member's vector
+
+    def rule(t, state, p):
+        if p is not held[0]:
+            held[0], held[1] = p, spec.member(names, p)._p
+        params = held[1]
+        if params[P_RIGID] != 0.0 and beyond(params, state[x]) != 0:
+            return -1
+        return by_motion[motion_at_rest(params, float(t), float(state[x]))[0]]
+
+    return rule
 
 
 def _accumulation_rule(rule):

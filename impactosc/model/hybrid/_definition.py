@@ -175,12 +175,13 @@ class HybridMode:
 
 
 class EngineRule:
-    """An accumulation rule that the engine implements (``Guard.accumulation``): a declaration, not a callable.
+    """A rule that the engine implements (``Guard.accumulation``, ``Guard.choose``): a declaration, not a callable.
 
-    The model says *which* physics a guard's accumulations follow, the engine (a layer above)
-    holds that physics once; a subclass carries only what names it, such as the flange of a
-    member of the oscillator family whose chatter the engine resolves
-    (:class:`~impactosc.model.hybrid._oscillator_system.WallChatter`).
+    The model says *which* physics a guard follows, the engine (a layer above) holds that
+    physics once; a subclass carries only what names it, such as the flange of a member of
+    the oscillator family whose chatter the engine resolves
+    (:class:`~impactosc.model.hybrid._oscillator_system.WallChatter`), or the region whose
+    stick test at rest is the engine's (:class:`~impactosc.model.hybrid._oscillator_system.StickTest`).
     """
 
     __slots__ = ()
@@ -236,6 +237,21 @@ class Guard:
         ``zeno_tol (1 + |t|)`` (a rule that never answers cannot run into flights below rounding).
         The oscillator family's rigid flanges (:func:`~impactosc.model.hybrid.oscillator_system`)
         carry the engine's chatter rule.
+    choose : callable, optional
+        A transition rule that chooses the mode a crossing of this guard leads to, where the
+        candidates' entry conditions would decide by rounding: at a tie, such as a mass that
+        comes to rest where the net force equals the static friction level (or, without friction,
+        vanishes), the force's own trend decides whether it sticks or slips, and which way.
+        ``rule(t, state, parameters)`` gets the time, the state after the reset (states, then
+        integrals) and the parameter values (in the system's order), and returns the name of
+        the mode to enter, the name of the mode the guard is armed in (the crossing was
+        rounding: no event, the run goes on in that mode), or ``None`` (the entry conditions
+        of ``to`` decide, as without a rule). It is asked at every crossing of the guard, where
+        a state of a mode lies on the guard at an instant (after another transition, at the
+        start of a run), and at the start of a run without an initial mode. Part of the
+        system's structure, like ``accumulation``: hashable, and reading the parameters from
+        its arguments. :func:`~impactosc.stick_slip` gives it to its stop and release guards
+        (``choose=``), and the oscillator family's carry the engine's stick test at rest.
 
     Examples
     --------
@@ -279,6 +295,7 @@ class Guard:
     rest: Any = None
     rest_reset: Any = ()
     accumulation: Any = None
+    choose: Any = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -313,6 +330,18 @@ class Guard:
             except TypeError:
                 raise TypeError(f"{where}: accumulation must be hashable (it is part of the system's structure), "
                                 f"got {self.accumulation!r}") from None
+        if self.choose is not None:
+            if not (callable(self.choose) or isinstance(self.choose, EngineRule)):
+                raise TypeError(f"{where}: choose must be a callable rule(t, state, parameters) that returns a mode's "
+                                f"name or None, got {self.choose!r}")
+            if not self.terminal:
+                raise ValueError(f"{where}: a non-terminal guard (terminal=False) has no transition to choose, "
+                                 f"got choose={self.choose!r}")
+            try:
+                hash(self.choose)
+            except TypeError:
+                raise TypeError(f"{where}: choose must be hashable (it is part of the system's structure), "
+                                f"got {self.choose!r}") from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -507,6 +536,6 @@ def _structure(system: HybridSystem) -> tuple:
     """
     modes = tuple((m.name, tuple(m.field), tuple(m.entry), tuple(m.integrands)) for m in system.modes)
     guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal,
-                    g.rest, tuple(g.rest_reset), g.accumulation) for g in system.guards)
+                    g.rest, tuple(g.rest_reset), g.accumulation, g.choose) for g in system.guards)
     return _Structure((tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
                        system.section, modes, guards))
