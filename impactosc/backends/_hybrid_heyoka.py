@@ -520,7 +520,8 @@ class _Run:
         y = (self.state if ta is self.ta else ta.state).tolist()
         values, direction = self.guard_values, switch.direction
         p = switch.p
-        tie = TIE * (1.0 + max(map(abs, y[:self.n])))
+        size = switch.floor + max(map(abs, y[:self.n]))  # (HybridSystem.scale)
+        tie = TIE * size
         for g in guards:
             h = values[g](t, y, p)[0]
             d = direction[g]
@@ -530,7 +531,7 @@ class _Run:
                 # propagation; the loop applies the guard at its first root (see _first_root).
                 self.missed = (g, t)
                 return False
-            if abs(h) <= self.graze_tol * (1.0 + max(map(abs, y[:self.n]))):
+            if abs(h) <= self.graze_tol * size:
                 switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
                 if not self._go_on(t):
                     return False

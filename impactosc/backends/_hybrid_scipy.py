@@ -142,7 +142,7 @@ class _Loop:
             return probe(t, y, p)
 
         start = values(t, y, None)
-        band = 16.0 * 2.0**-52 * (1.0 + max(abs(c) for c in y))
+        band = 16.0 * 2.0**-52 * (switch.floor + max(abs(c) for c in y))
         fns, what = [], []
         for i, g in enumerate(armed):
             d = switch.direction[g]
@@ -280,7 +280,7 @@ class _Loop:
         # (a guard y0 - d up through zero and back within one DOP853 step after a minimum: missed).
         self.quiet, self.quiet_until = g, t + QUIET_SPAN * (1.0 + abs(t))
         at_start = t - t_start <= 16.0 * 2.0**-52 * (1.0 + abs(t))  # the extremum the piece starts at
-        if not at_start and abs(h) <= self.graze_tol * (1.0 + max(abs(c) for c in y[:self.system.dimension])):
+        if not at_start and abs(h) <= self.graze_tol * (switch.floor + max(abs(c) for c in y[:self.system.dimension])):
             switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
         switch.pieces.append((t, self.mode, tuple(y)))
 

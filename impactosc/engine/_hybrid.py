@@ -58,8 +58,8 @@ START_NUDGE = 1e-300
 #: curvature and the system's time scale (:meth:`Switch._heading`).
 TIME_ROUNDING = 64.0 * 2.0**-52
 
-#: How far past zero (relative to ``1 + max |y|``) a guard may go by rounding alone: an excursion
-#: this small that turns back is a touch, not a crossing (:meth:`Switch.shallow`).
+#: How far past zero (relative to ``scale + max |y|``, ``HybridSystem.scale``) a guard may go by rounding
+#: alone: an excursion this small that turns back is a touch, not a crossing (:meth:`Switch.shallow`).
 TIE = 16.0 * 2.0**-52
 
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
@@ -159,6 +159,9 @@ class Switch:
         self.terminal = self.num.terminal
         self.to = self.num.to
         self.touch_tol = touch_tol
+        #: the size of the states near rest (``HybridSystem.scale``, 1 by default): the absolute part of every
+        #: "on zero" tolerance, ``tol (floor + max |y|)``
+        self.floor = system.scale_value()
         period = usable_period(system)
         self.time_scale = 1.0 + (period if period is not None and math.isfinite(period) else 0.0)
         # read at every event: bound once (the loops' Python per event is what they cost)
@@ -263,6 +266,7 @@ class Switch:
         chained = 0
         before = tuple(y)
         ruled = self.ruled
+        floored = self.floor < 1.0  # the generated plans test "on zero" against touch_tol (1 + max |y|)
         while True:
             target = -1
             if ruled[g]:
@@ -281,8 +285,8 @@ class Switch:
                     target, after, then = step(t, y, p, touch)
                     if target < 0:
                         self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
-                    elif then >= 0 and ruled[then]:
-                        then = -2  # a guard with a transition rule: pending asks it
+                    elif then >= 0 and (ruled[then] or floored):
+                        then = -2  # a guard with a transition rule, or a scale below 1: pending asks
                 else:
                     target, after = self.apply(g, mode, t, y)
                     then = -2
@@ -406,7 +410,7 @@ class Switch:
     def pending(self, mode: int, t: float, y, crossed: int = -1) -> int:
         """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.
 
-        On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way,
+        On it: ``|h| <= touch_tol (scale + max |y|)``; crossing: the Lie derivative points its way,
         or, where it is zero within the same tolerance (a tangency, such as the slip-end guard
         of a mass just released), the second Lie derivative does. ``crossed`` is a guard
         crossed at this instant without a reset: not fired again. A tangency that still lies
@@ -419,7 +423,7 @@ class Switch:
         if not armed:
             return -1
         values = self._values[mode](t, y, self.p)
-        if min(map(abs, values)) > self.touch_tol * (1.0 + max(map(abs, y))):  # the common case: on no guard
+        if min(map(abs, values)) > self.touch_tol * (self.floor + max(map(abs, y))):  # the common case: on none
             return -1
         values = self.rules.probe[mode](t, y, self.p)
         k = len(armed)
@@ -473,8 +477,9 @@ class Switch:
         return second
 
     def touch_scale(self, y) -> float:
-        """How close to zero (``touch_tol (1 + max |state|)``) a guard at the state ``y`` counts as on it."""
-        return self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
+        """How close to zero (``touch_tol (scale + max |state|)``, ``HybridSystem.scale``) a guard at the state ``y``
+        counts as on it."""
+        return self.touch_tol * (self.floor + max(abs(c) for c in y[:self.n]))
 
     def leaves(self, g: int, mode: int, t: float, y) -> bool:
         """Whether guard ``g``, on zero at ``(t, y)`` in ``mode``, moves away from the side it fires towards.
@@ -502,7 +507,7 @@ class Switch:
         """Whether guard ``g``, at a root at ``(t, y)`` in ``mode``, goes past zero by rounding only and turns back.
 
         Near the root ``h(t + s) ~ h' s + h'' s^2 / 2``; where ``h''`` turns it back, the
-        excursion past zero is ``h'^2 / (2 |h''|)``. Within :data:`TIE` ``(1 + max |y|)`` that
+        excursion past zero is ``h'^2 / (2 |h''|)``. Within :data:`TIE` ``(scale + max |y|)`` that
         is a touch that rounding split into two roots (a stuck mass with ``F = beta_s``
         exactly: ``F cos t + beta_s`` touches zero at ``t = pi`` and its Taylor polynomial
         dips 1e-19 below), not a crossing: the Filippov rule ``|f| <= beta_s`` holds there.
@@ -515,7 +520,7 @@ class Switch:
         if d == 0 or d * second >= 0.0:
             return False
         rate = self.rules.probe[mode](t, y, self.p)[len(armed) + armed.index(g)]
-        return rate * rate <= 2.0 * abs(second) * TIE * (1.0 + max(abs(c) for c in y[:self.n]))
+        return rate * rate <= 2.0 * abs(second) * TIE * (self.floor + max(abs(c) for c in y[:self.n]))
 
     def second_derivative(self, g: int, mode: int, t: float, y) -> float:
         """``h''`` of guard ``g`` along the flow of ``mode`` at ``(t, y)`` (built on first use)."""
@@ -560,7 +565,8 @@ def stick_test(spec: StickTest, system: HybridSystem):
     ``rule(t, state, p)``: the index of the mode of ``spec.region`` with the motion the test
     gives at ``(t, x)`` (stick, or slip towards the net force; at a tie the forcing's trend
     decides), for the member that the parameter values ``p`` describe (:meth:`StickTest.member`);
-    -1 on a rigid flange's wall, where the wall's rest decides. The built-in engine decides
+    -1 on a rigid flange's wall, where the wall's rest decides, and for values that describe no
+    member (``beta_s < beta``), where the entry conditions decide. The built-in engine decides
     every stop and release with the same call.
     """
     names = system.parameter_names
@@ -570,9 +576,12 @@ def stick_test(spec: StickTest, system: HybridSystem):
 
     def rule(t, state, p):
         if p is not held[0]:
-            held[0], held[1] = p, spec.member(names, p)._p
+            try:
+                held[0], held[1] = p, spec.member(names, p)._p
+            except ValueError:  # values no member has (beta_s < beta, as a parameter derivative's differences take)
+                held[0], held[1] = p, None
         params = held[1]
-        if params[P_RIGID] != 0.0 and beyond(params, state[x]) != 0:
+        if params is None or (params[P_RIGID] != 0.0 and beyond(params, state[x]) != 0):
             return -1
         return by_motion[motion_at_rest(params, float(t), float(state[x]))[0]]
 
@@ -662,7 +671,7 @@ def period_jump(switch: Switch, mode: int, period: float, t_end: float, t1: floa
         p = switch.p
         values = switch.rules.values[mode]
         a, b = values(t1, list(y1), p), values(t2, list(y2), p)
-        scale = 1.0 + max(abs(c) for c in y2)
+        scale = switch.floor + max(abs(c) for c in y2)
         # the rounding of the guards' time arguments, ~eps |t| |dh/dt|, with |dh/dt| ~ |h| / period
         slack = 64.0 * 2.0**-52 * (scale + max(map(abs, b))) * (1.0 + abs(t2) / period)
         if any(abs(u - w) > slack for u, w in zip(a, b, strict=True)):

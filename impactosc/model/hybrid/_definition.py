@@ -368,6 +368,15 @@ class HybridSystem:
         a long stay in a *frozen* mode (every state's rate zero, such as a mass stuck by
         friction): after a whole period there without an event, whose guards take the same
         values at its two ends, they go on to the last whole period before the end time.
+    scale : float or expression, optional
+        The size of the states near rest, a number or an expression in the parameters (default 1):
+        the loops take a guard to lie on its zero within ``touch_tol (scale + max |state|)``, a
+        touch of zero within rounding as ``16 eps (scale + max |state|)`` and an extremum of a
+        guard as a grazing within ``graze_tol (scale + max |state|)``. With the default, a system
+        whose forces and states are all far below 1 has every guard on its zero at every instant
+        (a mass stuck with forcing and friction of 1e-20 was released at once, its releases
+        taken for touches); it declares the size of its forces here (the oscillator family
+        declares ``min(1, F + beta + beta_s)``, :func:`~impactosc.model.hybrid.oscillator_system`).
     section : str, optional
         The name of a guard whose events are the Poincare section of an autonomous system
         (:class:`impactosc.dynamics.hybrid_map.HybridMap` maps the state on it to its next
@@ -404,6 +413,7 @@ class HybridSystem:
     period: Any = None
     section: str | None = None
     name: str = "system"
+    scale: Any = None
     structure: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -422,6 +432,8 @@ class HybridSystem:
         object.__setattr__(self, "guards", tuple(self.guards))
         if self.period is not None:
             object.__setattr__(self, "period", _expression("period", self.period))
+        if self.scale is not None:
+            object.__setattr__(self, "scale", _expression("scale", self.scale))
         for m in self.modes:
             if not isinstance(m, HybridMode):
                 raise TypeError(f"modes must be impactosc.HybridMode objects, got {m!r}")
@@ -495,6 +507,32 @@ class HybridSystem:
                              f"{dict(self.parameters)}; it must be finite and > 0")
         return float(value)
 
+    def scale_value(self) -> float:
+        """The size of the states near rest (``scale``) at the current parameter values: 1 without one.
+
+        Raises
+        ------
+        ValueError
+            When it is not a finite number ``>= 0`` there.
+        """
+        if self.scale is None:
+            return 1.0
+        from ._numeric import evaluator, numeric
+
+        num = numeric(self)
+        fn = _scale_functions.get(self.structure)
+        if fn is None:
+            fn = _scale_functions[self.structure] = evaluator(num, [num.with_params(self.scale)], "the scale")
+        value = fn(0.0, [0.0] * len(num.states), self.parameter_values)[0]
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"{self.name}: the scale {self.scale} is {value!r} at the parameters "
+                             f"{dict(self.parameters)}; it must be finite and >= 0")
+        return float(value)
+
+
+#: The evaluator of each structure's scale (built on first use).
+_scale_functions: dict = {}
+
 
 def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:
     """``mode`` with its field as a tuple of rates in state order, then the integrands in integral order."""
@@ -538,4 +576,4 @@ def _structure(system: HybridSystem) -> tuple:
     guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal,
                     g.rest, tuple(g.rest_reset), g.accumulation, g.choose) for g in system.guards)
     return _Structure((tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
-                       system.section, modes, guards))
+                       system.section, modes, guards, system.scale))

@@ -164,9 +164,11 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
         return symbols(name)
 
     forcing = None
+    amplitudes = []
     for i, (F, Om, ph) in enumerate(osc.terms):
         tag = "" if i == 0 else str(i + 1)
-        term = par(f"F{tag}", F) * hy.cos(par(f"Omega{tag}", Om) * hy.time + par(f"phase{tag}", ph))
+        amplitudes.append(par(f"F{tag}", F))
+        term = amplitudes[-1] * hy.cos(par(f"Omega{tag}", Om) * hy.time + par(f"phase{tag}", ph))
         forcing = term if forcing is None else forcing + term
     beta, beta_s = par("beta", osc.beta), par("beta_s", osc.beta_s)
     base = forcing - x
@@ -216,7 +218,22 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     if energy:
         integrals += ([] if osc.rigid else ["Q2"]) + ["W"] + (["VV"] if osc.zeta != 0.0 else [])
     return HybridSystem("x v", params, modes, guards, integrals=integrals, period=period,
-                        name="eq3" if not osc.rigid else "eq3 rigid")
+                        name="eq3" if not osc.rigid else "eq3 rigid", scale=_force_level(amplitudes, beta, beta_s))
+
+
+def _force_level(amplitudes, beta, beta_s):
+    """``min(1, sum |F_i| + beta + beta_s)``: the size of the states near rest (``HybridSystem.scale``).
+
+    A member's motion from rest is as large as its forces (the spring's stiffness is 1). Below 1
+    the loops' tolerances follow it, so that a member with forcing and friction of 1e-45 is not on
+    every guard at every instant; at 1 and above they are those of any system.
+    """
+    import heyoka as hy
+
+    level = beta + beta_s
+    for F in amplitudes:
+        level = level + hy.select(hy.lt(F, 0.0), -F, F)
+    return hy.select(hy.lt(level, 1.0), level, 1.0)
 
 
 def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, x, v, force, beta_s, e,
