@@ -268,28 +268,33 @@ class Switch:
         ruled = self.ruled
         floored = self.floor < 1.0  # the generated plans test "on zero" against touch_tol (1 + max |y|)
         while True:
-            target = -1
+            chosen = -1
             if ruled[g]:
                 # the guard's transition rule chooses the mode (a tie at rest: not the entry conditions)
-                target, after = self.choice(g, t, y)
-                if target == mode and not chained:
+                chosen, after = self.choice(g, t, y)
+                if chosen == mode and not chained:
                     return mode, y  # it keeps the mode: the crossing was rounding (the loops ask first, keeps)
-                then = -2
-            if target < 0:
-                # the reset, the next mode and whether the state after lies near a guard of it: one
-                # generated function per (guard, mode), made on first use (this runs at every event)
-                step = plans[g * modes + mode]
-                if step is None:
-                    step = plans[g * modes + mode] = plan(self.num, self.rules, g, mode) or False
-                if step:
-                    target, after, then = step(t, y, p, touch)
-                    if target < 0:
-                        self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
-                    elif then >= 0 and (ruled[then] or floored):
-                        then = -2  # a guard with a transition rule, or a scale below 1: pending asks
+            # the reset, the next mode and whether the state after lies near a guard of it: one
+            # generated function per (guard, mode), made on first use (this runs at every event)
+            step = plans[g * modes + mode]
+            if step is None:
+                step = plans[g * modes + mode] = plan(self.num, self.rules, g, mode) or False
+            if step:
+                target, planned, then = step(t, y, p, touch)
+                if chosen >= 0 and chosen != target:
+                    target, then = chosen, -2  # the rule's mode (its guards asked by pending)
+                elif target < 0:
+                    self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
                 else:
+                    after = planned
+                    if then >= 0 and floored:
+                        then = -2  # a scale below 1: pending asks, with the system's scale
+            else:
+                if chosen < 0:
                     target, after = self.apply(g, mode, t, y)
-                    then = -2
+                else:
+                    target = chosen
+                then = -2
             state = before if after is y else tuple(after)
             events.append((t, g, CROSSING, mode, target, before, state))
             mode, y = target, after
@@ -572,18 +577,20 @@ def stick_test(spec: StickTest, system: HybridSystem):
     names = system.parameter_names
     by_motion = [system.mode_index(f"{spec.region}{s}") for s in ("0", "+", "-")]  # motion 0, 1, -1
     x = spec.position
-    held: list = [None, None]  # the parameter values of the run and their member's vector
+    values, params, rigid = None, None, False  # the parameter values of the run, their member's vector
 
     def rule(t, state, p):
-        if p is not held[0]:
+        nonlocal values, params, rigid
+        if p is not values:  # (a run's Switch passes the same tuple at every event: one member per run)
+            values = p
             try:
-                held[0], held[1] = p, spec.member(names, p)._p
+                params = spec.member(names, p)._p
+                rigid = bool(params[P_RIGID] != 0.0)
             except ValueError:  # values no member has (beta_s < beta, as a parameter derivative's differences take)
-                held[0], held[1] = p, None
-        params = held[1]
-        if params is None or (params[P_RIGID] != 0.0 and beyond(params, state[x]) != 0):
+                params = None
+        if params is None or (rigid and beyond(params, state[x]) != 0):
             return -1
-        return by_motion[motion_at_rest(params, float(t), float(state[x]))[0]]
+        return by_motion[motion_at_rest(params, t, state[x])[0]]
 
     return rule
 
