@@ -388,7 +388,6 @@ class _Run:
         self.mode_values = switch.rules.values
         # read at every event: bound once (the same lists as the switch's, which only appends to them)
         self.terminal, self.pieces, self.events = switch.terminal, switch.pieces, switch.events
-        self.ruled = switch.ruled
 
     def transition(self, g: int, t: float, y: list) -> list:
         """Apply guard ``g`` (and what follows at the same instant), switch the indicators; the state after.
@@ -420,8 +419,6 @@ class _Run:
             return True  # a rounding root at the start of the piece (see Switch.leaves)
         if self.frozen[mode] and switch.shallow(g, mode, t, y):
             return True  # a touch that rounding split into two roots (Switch.shallow): its extremum check records it
-        if self.ruled[g] and switch.keeps(g, mode, t, y):
-            return True  # the guard's transition rule keeps the mode (a tie at rest): a rounding root, no event
         others = self.others[mode]  # the check needs a guard besides g (which may have no direction: not in them)
         if others and (len(others) > 1 or self.armed[mode][others[0]] != g) and self.lost(g, t, y):
             return False  # an earlier crossing of another guard was not located: the loop applies it first
@@ -436,6 +433,9 @@ class _Run:
         except RuntimeError as exc:
             self.status, self.message = -1, str(exc)
             return False
+        if switch.kept:
+            switch.kept = False
+            return True  # the guard's transition rule kept the mode (a tie at rest): a rounding root, no event
         if target != mode:
             pars, P = self.pars, self.P
             pars[P + mode] = 0.0

@@ -147,6 +147,9 @@ class Switch:
         for a guard with an accumulation rule, else 1).
     ruled : list of bool
         For each guard, whether it has a transition rule (``Guard.choose``, see :meth:`choice`).
+    kept : bool
+        Set by :meth:`transition` when a guard's transition rule kept the mode: no event, the loop
+        goes on as after a rounding root (and sets it back to False).
     """
 
     def __init__(self, system: HybridSystem, touch_tol: float = 1e-12):
@@ -181,6 +184,7 @@ class Switch:
         self._choose = [_choice_rule(guard, system) for guard in system.guards]
         self.ruled = [rule is not None for rule in self._choose]
         self._chosen: tuple = (None, -1, 0.0, -1, None)  # (state, guard, time, mode, state after) last chosen
+        self.kept = False  # set by transition when a guard's rule kept the mode (the loop resets it)
 
     def initial_mode(self, mode, t: float, y) -> int:
         """The index of ``mode`` (a name), or of the first mode whose entry conditions hold at ``(t, y)``."""
@@ -252,6 +256,8 @@ class Switch:
         """Apply guard ``g`` in ``mode`` at ``(t, y)``, then every guard the new state lies on and crosses.
 
         Records each event and the new piece; returns ``(mode, state)`` after the last. A guard
+        whose transition rule (``Guard.choose``) keeps ``mode`` records nothing and sets
+        :attr:`kept` (its crossing was rounding, see :meth:`keeps`). A guard
         with an accumulation rule (``Guard.accumulation``) asks it after its transition; when it
         answers, the transition ends there and :attr:`jump` holds the answer for the loop.
 
@@ -263,37 +269,36 @@ class Switch:
             After :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at ``t``.
         """
         events, plans, p, touch, modes = self.events, self._plans, self.p, self.touch_tol, self._modes
+        self.kept = False
         chained = 0
         before = tuple(y)
         ruled = self.ruled
         floored = self.floor < 1.0  # the generated plans test "on zero" against touch_tol (1 + max |y|)
         while True:
-            chosen = -1
-            if ruled[g]:
-                # the guard's transition rule chooses the mode (a tie at rest: not the entry conditions)
-                chosen, after = self.choice(g, t, y)
-                if chosen == mode and not chained:
-                    return mode, y  # it keeps the mode: the crossing was rounding (the loops ask first, keeps)
             # the reset, the next mode and whether the state after lies near a guard of it: one
             # generated function per (guard, mode), made on first use (this runs at every event)
             step = plans[g * modes + mode]
             if step is None:
                 step = plans[g * modes + mode] = plan(self.num, self.rules, g, mode) or False
             if step:
-                target, planned, then = step(t, y, p, touch)
+                target, after, then = step(t, y, p, touch)
+                # a guard's transition rule chooses the mode (a tie at rest: not the entry conditions)
+                chosen = self._choose[g](t, after, p) if ruled[g] else -1
                 if chosen >= 0 and chosen != target:
+                    if chosen == mode and not chained:
+                        self.kept = True
+                        return mode, y  # it keeps the mode: the crossing was rounding (no event, no piece)
                     target, then = chosen, -2  # the rule's mode (its guards asked by pending)
                 elif target < 0:
                     self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
-                else:
-                    after = planned
-                    if then >= 0 and floored:
-                        then = -2  # a scale below 1: pending asks, with the system's scale
+                elif then >= 0 and floored:
+                    then = -2  # a scale below 1: pending asks, with the system's scale
             else:
-                if chosen < 0:
-                    target, after = self.apply(g, mode, t, y)
-                else:
-                    target = chosen
+                chosen, after = self.choice(g, t, y) if ruled[g] else (-1, y)
+                if chosen == mode and not chained:
+                    self.kept = True
+                    return mode, y
+                target, after = (chosen, after) if chosen >= 0 else self.apply(g, mode, t, y)
                 then = -2
             state = before if after is y else tuple(after)
             events.append((t, g, CROSSING, mode, target, before, state))
@@ -325,8 +330,10 @@ class Switch:
         """``(mode, state after)`` that guard ``g``'s transition rule (``Guard.choose``) chooses at ``(t, y)``.
 
         The rule is asked at the state after the guard's reset (a stop's ``v -> 0``); the mode
-        is -1 where it leaves the choice to the entry conditions. The last answer is kept: the
-        loops ask :meth:`keeps` and then :meth:`transition` at the same state.
+        is -1 where it leaves the choice to the entry conditions. The last answer is kept (the
+        loops' rare paths ask :meth:`keeps` and then :meth:`transition` at the same state; a
+        crossing located by a loop goes to :meth:`transition` alone, which asks the rule on the
+        state its generated plan resets).
 
         Raises
         ------
