@@ -247,8 +247,9 @@ class Guard:
         the mode to enter, the name of the mode the guard is armed in (the crossing was
         rounding: no event, the run goes on in that mode), or ``None`` (the entry conditions
         of ``to`` decide, as without a rule). It is asked at every crossing of the guard, where
-        a state of a mode lies on the guard at an instant (after another transition, at the
-        start of a run), and at the start of a run without an initial mode. Part of the
+        a state lies on the guard tangent to it at an instant (after another transition, at the
+        start of a run: the rule says whether it crosses, not the sign of a rounded curvature),
+        and at the start of a run without an initial mode. Part of the
         system's structure, like ``accumulation``: hashable, and reading the parameters from
         its arguments. :func:`~impactosc.stick_slip` gives it to its stop and release guards
         (``choose=``), and the oscillator family's carry the engine's stick test at rest.
