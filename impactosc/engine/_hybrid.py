@@ -13,7 +13,8 @@ A guard with a transition rule (``Guard.choose``) is asked where its crossing le
 of the entry conditions, and whether a state on it at an instant crosses it at all
 (:meth:`Switch.choice`): the stops and releases of the oscillator family carry the engine's
 stick test at rest (:func:`stick_test`), so that a tie at rest is decided by the forcing's
-trend, not by the sign of a rounding error.
+trend, not by the sign of a rounding error. Both kinds of rule are resolved in
+:mod:`impactosc.engine._guard_rules` (re-exported here: ``wall_chatter``, ``stick_test``).
 """
 
 from __future__ import annotations
@@ -23,11 +24,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..model._rule import P_RIGID, beyond, motion_at_rest
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, plan, rules
-from ..model.hybrid._oscillator_system import StickTest, WallChatter
-from ._chatter import J_SIZE, J_T_INF, J_WALL, predict_jump
+from ._guard_rules import accumulation_rule, choice_rule, stick_test, wall_chatter
 
 __all__ = ["Switch", "Accumulation", "AccumulationJump", "InstantAccumulation", "wall_chatter", "stick_test",
            "RULED_ZENO_SCALE",
@@ -178,10 +177,10 @@ class Switch:
         self.pieces: list[tuple] = []
         self.until_guard, self.until_count, self.seen, self.done = -1, 0, 0, False
         self._second: dict = self.num.second
-        self._accumulate = [_accumulation_rule(guard.accumulation) for guard in system.guards]
+        self._accumulate = [accumulation_rule(guard.accumulation) for guard in system.guards]
         self.zeno_scale = [1.0 if rule is None else RULED_ZENO_SCALE for rule in self._accumulate]
         self.jump: tuple[int, AccumulationJump] | None = None
-        self._choose = [_choice_rule(guard, system) for guard in system.guards]
+        self._choose = [choice_rule(guard, system) for guard in system.guards]
         self.ruled = [rule is not None for rule in self._choose]
         self._chosen: tuple = (None, -1, 0.0, -1, None)  # (state, guard, time, mode, state after) last chosen
         self.kept = False  # set by transition when a guard's rule kept the mode (the loop resets it)
@@ -547,89 +546,6 @@ class Switch:
 
     def guard_value(self, g: int, t: float, y) -> float:
         return self.rules.guard[g](t, y, self.p)[0]
-
-
-def _choice_rule(guard, system: HybridSystem):
-    """The callable of ``guard``'s transition rule (``Guard.choose``), ``rule(t, after, p) -> mode index or -1``,
-    or None: the engine's stick test for a region of the family, a user's rule with its answers checked."""
-    rule = guard.choose
-    if rule is None:
-        return None
-    if isinstance(rule, StickTest):
-        return stick_test(rule, system)
-    names = system.mode_names
-
-    def chosen(t, after, p):
-        answer = rule(t, tuple(after), p)
-        if answer is None:
-            return -1
-        if answer not in names:
-            raise RuntimeError(f"guard {guard.name!r}: its transition rule (choose) answered {answer!r} at t={t!r}, "
-                               f"which is not a mode of {system.name} (its modes are {list(names)}, or None)")
-        return names.index(answer)
-
-    return chosen
-
-
-def stick_test(spec: StickTest, system: HybridSystem):
-    """The engine's stick test at rest (:func:`impactosc.model._rule.motion_at_rest`) as a region's transition rule.
-
-    ``rule(t, state, p)``: the index of the mode of ``spec.region`` with the motion the test
-    gives at ``(t, x)`` (stick, or slip towards the net force; at a tie the forcing's trend
-    decides), for the member that the parameter values ``p`` describe (:meth:`StickTest.member`);
-    -1 on a rigid flange's wall, where the wall's rest decides, and for values that describe no
-    member (``beta_s < beta``), where the entry conditions decide. The built-in engine decides
-    every stop and release with the same call.
-    """
-    names = system.parameter_names
-    by_motion = [system.mode_index(f"{spec.region}{s}") for s in ("0", "+", "-")]  # motion 0, 1, -1
-    x = spec.position
-    values, params, rigid = None, None, False  # the parameter values of the run, their member's vector
-
-    def rule(t, state, p):
-        nonlocal values, params, rigid
-        if p is not values:  # (a run's Switch passes the same tuple at every event: one member per run)
-            values = p
-            try:
-                params = spec.member(names, p)._p
-                rigid = bool(params[P_RIGID] != 0.0)
-            except ValueError:  # values no member has (beta_s < beta, as a parameter derivative's differences take)
-                params = None
-        if params is None or (rigid and beyond(params, state[x]) != 0):
-            return -1
-        return by_motion[motion_at_rest(params, t, state[x])[0]]
-
-    return rule
-
-
-def _accumulation_rule(rule):
-    """The callable of a guard's accumulation rule: the engine's chatter for a rigid flange of the family."""
-    if isinstance(rule, WallChatter):
-        return wall_chatter(rule)
-    return rule
-
-
-def wall_chatter(spec: WallChatter):
-    """The engine's chatter rule (:mod:`impactosc.engine._chatter`) for the rigid flange ``spec`` describes.
-
-    ``rule(t, before, after, p)`` at an impact of speed ``|v|`` (before the reset) on the flange of
-    ``spec.side``: the accumulation time ``t_inf`` and the state at rest on the wall, when the
-    engine's local model (:func:`~impactosc.engine._chatter.predict_jump`, the one copy) predicts the
-    rest of the sequence to its time tolerance, else None. ``p`` are the system's parameter values,
-    read as the member they describe (:meth:`WallChatter.member`). The engine's loop decides with the
-    same call at the same impact, so the two loops jump at the same impact.
-    """
-    side, x, v = spec.side, spec.position, spec.velocity
-    row = np.empty(J_SIZE)
-
-    def rule(t, before, after, p):
-        if not predict_jump(spec.member(tuple(p))._p, float(t), side, abs(float(before[v])), 1, row):
-            return None
-        state = [0.0, 0.0]
-        state[x] = float(row[J_WALL])
-        return float(row[J_T_INF]), state
-
-    return rule
 
 
 _frozen: dict[tuple, tuple[bool, ...]] = {}
