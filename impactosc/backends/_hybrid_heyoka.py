@@ -478,6 +478,9 @@ class _Run:
         except RuntimeError as exc:
             self.status, self.message = -1, str(exc)
             return False
+        if switch.kept:
+            switch.kept = False
+            return True  # the guard's transition rule kept the mode (a tie at rest): a rounding root, no event
         if target != mode:
             pars, P = self.pars, self.P
             pars[P + mode] = 0.0
@@ -562,7 +565,8 @@ class _Run:
         y = (self.state if ta is self.ta else ta.state).tolist()
         values, direction = self.guard_values, switch.direction
         p = switch.p
-        tie = TIE * (1.0 + max(map(abs, y[:self.n])))
+        size = switch.floor + max(map(abs, y[:self.n]))  # (HybridSystem.scale)
+        tie = TIE * size
         for g in guards:
             h = values[g](t, y, p)[0]
             d = direction[g]
@@ -572,7 +576,7 @@ class _Run:
                 # propagation; the loop applies the guard at its first root (see _first_root).
                 self.missed = (g, t)
                 return False
-            if abs(h) <= self.graze_tol * (1.0 + max(map(abs, y[:self.n]))):
+            if abs(h) <= self.graze_tol * size:
                 switch.events.append((t, g, GRAZING, self.mode, self.mode, tuple(y), tuple(y)))
                 if not self._go_on(t):
                     return False
@@ -739,6 +743,12 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
                 # The "root" is the piece start, where the guard moves away from the side it fires
                 # towards (a release with v = v' = 0: rounding took v a hair the wrong way, and back):
                 # not a crossing. Applying it re-entered the same piece at the same instant, for ever.
+                if at_end:
+                    break
+                continue
+            if switch.keeps(g, run.mode, t_root, y_root):
+                # the guard's transition rule keeps the mode there (a slip from a tie at rest whose speed
+                # rounding took a hair below zero and back): not a crossing, the run goes on from t_past
                 if at_end:
                     break
                 continue

@@ -9,6 +9,12 @@ with an accumulation rule (``Guard.accumulation``) is asked instead, at each of 
 whether its events accumulate from there (:meth:`Switch.transition`), and the loops then jump
 to the accumulation time and enter the guard's rest mode (:meth:`Switch.rest`). The rigid
 flanges of the oscillator family carry the engine's chatter model (:func:`wall_chatter`).
+A guard with a transition rule (``Guard.choose``) is asked where its crossing leads instead
+of the entry conditions, and whether a state on it at an instant crosses it at all
+(:meth:`Switch.choice`): the stops and releases of the oscillator family carry the engine's
+stick test at rest (:func:`stick_test`), so that a tie at rest is decided by the forcing's
+trend, not by the sign of a rounding error. Both kinds of rule are resolved in
+:mod:`impactosc.engine._guard_rules` (re-exported here: ``wall_chatter``, ``stick_test``).
 """
 
 from __future__ import annotations
@@ -20,10 +26,10 @@ import numpy as np
 
 from ..model.hybrid._definition import HybridSystem
 from ..model.hybrid._numeric import evaluator, numeric, plan, rules
-from ..model.hybrid._oscillator_system import WallChatter
-from ._chatter import J_SIZE, J_T_INF, J_WALL, predict_jump
+from ._guard_rules import accumulation_rule, choice_rule, stick_test, wall_chatter
 
-__all__ = ["Switch", "Accumulation", "AccumulationJump", "InstantAccumulation", "wall_chatter", "RULED_ZENO_SCALE",
+__all__ = ["Switch", "Accumulation", "AccumulationJump", "InstantAccumulation", "wall_chatter", "stick_test",
+           "RULED_ZENO_SCALE",
            "check_state", "frozen_modes", "period_jump", "usable_period",
            "frozen_dense", "CROSSING",
            "GRAZING", "MARKER", "REST", "MAX_EVENTS_AT_AN_INSTANT", "START_NUDGE", "TIE"]
@@ -51,8 +57,8 @@ START_NUDGE = 1e-300
 #: curvature and the system's time scale (:meth:`Switch._heading`).
 TIME_ROUNDING = 64.0 * 2.0**-52
 
-#: How far past zero (relative to ``1 + max |y|``) a guard may go by rounding alone: an excursion
-#: this small that turns back is a touch, not a crossing (:meth:`Switch.shallow`).
+#: How far past zero (relative to ``scale + max |y|``, ``HybridSystem.scale``) a guard may go by rounding
+#: alone: an excursion this small that turns back is a touch, not a crossing (:meth:`Switch.shallow`).
 TIE = 16.0 * 2.0**-52
 
 #: Most transitions applied at one instant before the run stops as an accumulation (status 2).
@@ -138,6 +144,11 @@ class Switch:
     zeno_scale : list of float
         The factor of the Zeno watch's tolerance for each guard's events (:data:`RULED_ZENO_SCALE`
         for a guard with an accumulation rule, else 1).
+    ruled : list of bool
+        For each guard, whether it has a transition rule (``Guard.choose``, see :meth:`choice`).
+    kept : bool
+        Set by :meth:`transition` when a guard's transition rule kept the mode: no event, the loop
+        goes on as after a rounding root (and sets it back to False).
     """
 
     def __init__(self, system: HybridSystem, touch_tol: float = 1e-12):
@@ -150,6 +161,9 @@ class Switch:
         self.terminal = self.num.terminal
         self.to = self.num.to
         self.touch_tol = touch_tol
+        #: the size of the states near rest (``HybridSystem.scale``, 1 by default): the absolute part of every
+        #: "on zero" tolerance, ``tol (floor + max |y|)``
+        self.floor = system.scale_value()
         period = usable_period(system)
         self.time_scale = 1.0 + (period if period is not None and math.isfinite(period) else 0.0)
         # read at every event: bound once (the loops' Python per event is what they cost)
@@ -163,9 +177,13 @@ class Switch:
         self.pieces: list[tuple] = []
         self.until_guard, self.until_count, self.seen, self.done = -1, 0, 0, False
         self._second: dict = self.num.second
-        self._accumulate = [_accumulation_rule(guard.accumulation) for guard in system.guards]
+        self._accumulate = [accumulation_rule(guard.accumulation) for guard in system.guards]
         self.zeno_scale = [1.0 if rule is None else RULED_ZENO_SCALE for rule in self._accumulate]
         self.jump: tuple[int, AccumulationJump] | None = None
+        self._choose = [choice_rule(guard, system) for guard in system.guards]
+        self.ruled = [rule is not None for rule in self._choose]
+        self._chosen: tuple = (None, -1, 0.0, -1, None)  # (state, guard, time, mode, state after) last chosen
+        self.kept = False  # set by transition when a guard's rule kept the mode (the loop resets it)
 
     def initial_mode(self, mode, t: float, y) -> int:
         """The index of ``mode`` (a name), or of the first mode whose entry conditions hold at ``(t, y)``."""
@@ -175,6 +193,13 @@ class Switch:
             return self.system.mode_index(mode)
         for m, entry in enumerate(self.rules.entry):
             if entry is None or all(c >= 0.0 for c in entry(t, y, self.p)):
+                # a start on a guard with a transition rule, where its transition would move no state
+                # (a start at rest on a stop or a release): the rule's mode, not an event at the start
+                g = self.pending(m, t, y)
+                if g >= 0 and self.ruled[g]:
+                    target, after = self.choice(g, t, y)
+                    if target >= 0 and list(after[:self.n]) == list(y[:self.n]):
+                        return target
                 return m
         raise ValueError(f"{self.system.name}: no mode's entry conditions hold at t={t!r}, state={list(y)}; "
                          "give the initial mode (mode=...)")
@@ -230,6 +255,8 @@ class Switch:
         """Apply guard ``g`` in ``mode`` at ``(t, y)``, then every guard the new state lies on and crosses.
 
         Records each event and the new piece; returns ``(mode, state)`` after the last. A guard
+        whose transition rule (``Guard.choose``) keeps ``mode`` records nothing and sets
+        :attr:`kept` (its crossing was rounding, see :meth:`keeps`). A guard
         with an accumulation rule (``Guard.accumulation``) asks it after its transition; when it
         answers, the transition ends there and :attr:`jump` holds the answer for the loop.
 
@@ -241,8 +268,11 @@ class Switch:
             After :data:`MAX_EVENTS_AT_AN_INSTANT` transitions at ``t``.
         """
         events, plans, p, touch, modes = self.events, self._plans, self.p, self.touch_tol, self._modes
+        self.kept = False
         chained = 0
         before = tuple(y)
+        ruled = self.ruled
+        floored = self.floor < 1.0  # the generated plans test "on zero" against touch_tol (1 + max |y|)
         while True:
             # the reset, the next mode and whether the state after lies near a guard of it: one
             # generated function per (guard, mode), made on first use (this runs at every event)
@@ -251,10 +281,23 @@ class Switch:
                 step = plans[g * modes + mode] = plan(self.num, self.rules, g, mode) or False
             if step:
                 target, after, then = step(t, y, p, touch)
-                if target < 0:
+                # a guard's transition rule chooses the mode (a tie at rest: not the entry conditions)
+                chosen = self._choose[g](t, after, p) if ruled[g] else -1
+                if chosen >= 0 and chosen != target:
+                    if chosen == mode and not chained:
+                        self.kept = True
+                        return mode, y  # it keeps the mode: the crossing was rounding (no event, no piece)
+                    target, then = chosen, -2  # the rule's mode (its guards asked by pending)
+                elif target < 0:
                     self.apply(g, mode, t, y)  # no admissible mode: apply raises the error naming it
+                elif then >= 0 and floored:
+                    then = -2  # a scale below 1: pending asks, with the system's scale
             else:
-                target, after = self.apply(g, mode, t, y)
+                chosen, after = self.choice(g, t, y) if ruled[g] else (-1, y)
+                if chosen == mode and not chained:
+                    self.kept = True
+                    return mode, y
+                target, after = (chosen, after) if chosen >= 0 else self.apply(g, mode, t, y)
                 then = -2
             state = before if after is y else tuple(after)
             events.append((t, g, CROSSING, mode, target, before, state))
@@ -281,6 +324,41 @@ class Switch:
             before = state
         self.pieces.append((t, mode, state))
         return mode, y
+
+    def choice(self, g: int, t: float, y) -> tuple[int, list]:
+        """``(mode, state after)`` that guard ``g``'s transition rule (``Guard.choose``) chooses at ``(t, y)``.
+
+        The rule is asked at the state after the guard's reset (a stop's ``v -> 0``); the mode
+        is -1 where it leaves the choice to the entry conditions. The last answer is kept (the
+        loops' rare paths ask :meth:`keeps` and then :meth:`transition` at the same state; a
+        crossing located by a loop goes to :meth:`transition` alone, which asks the rule on the
+        state its generated plan resets).
+
+        Raises
+        ------
+        RuntimeError
+            When the rule answers a name that is not a mode of the system (named).
+        """
+        last = self._chosen
+        if last[0] is y and last[1] == g and last[2] == t:
+            return last[3], last[4]
+        reset = self._reset[g]
+        after = list(y)
+        if reset is not None:
+            after[:self.n] = reset(t, y, self.p)
+        target = self._choose[g](t, after, self.p)
+        self._chosen = (y, g, t, target, after)
+        return target, after
+
+    def keeps(self, g: int, mode: int, t: float, y) -> bool:
+        """Whether guard ``g``'s transition rule keeps ``mode`` at ``(t, y)``: its crossing there is rounding.
+
+        A mass that stops where the net force vanishes and then grows the way it moved (a
+        frictionless tie at rest) goes on: the stop guard's root is a rounding error of a
+        double or triple root, and the loops ignore it (no event), as a root at a piece start
+        that :meth:`leaves`.
+        """
+        return self.ruled[g] and self.choice(g, t, y)[0] == mode
 
     def _checked_jump(self, g: int, t: float, found) -> AccumulationJump:
         """The answer ``found`` of guard ``g``'s accumulation rule at ``t``, checked, or a RuntimeError naming it."""
@@ -343,7 +421,7 @@ class Switch:
     def pending(self, mode: int, t: float, y, crossed: int = -1) -> int:
         """A guard armed in ``mode`` that the state ``y`` lies on and crosses now in its direction, else -1.
 
-        On it: ``|h| <= touch_tol (1 + max |y|)``; crossing: the Lie derivative points its way,
+        On it: ``|h| <= touch_tol (scale + max |y|)``; crossing: the Lie derivative points its way,
         or, where it is zero within the same tolerance (a tangency, such as the slip-end guard
         of a mass just released), the second Lie derivative does. ``crossed`` is a guard
         crossed at this instant without a reset: not fired again. A tangency that still lies
@@ -356,7 +434,7 @@ class Switch:
         if not armed:
             return -1
         values = self._values[mode](t, y, self.p)
-        if min(map(abs, values)) > self.touch_tol * (1.0 + max(map(abs, y))):  # the common case: on no guard
+        if min(map(abs, values)) > self.touch_tol * (self.floor + max(map(abs, y))):  # the common case: on none
             return -1
         values = self.rules.probe[mode](t, y, self.p)
         k = len(armed)
@@ -367,8 +445,17 @@ class Switch:
                 if abs(rate) > scale:
                     if d == 0 or d * rate > 0.0:
                         return g
-                elif d != 0 and d * self._heading(g, mode, t, y, rate) > 0.0 and not self._ahead(g, mode, t, y,
-                                                                                               values[i], rate):
+                    continue
+                if self.ruled[g]:
+                    # tangent to a guard with a transition rule (a stop or a release at a tie): the rule
+                    # says whether the state crosses it now, not the sign of its rounded curvature
+                    target = self.choice(g, t, y)[0]
+                    if target >= 0:
+                        if target != mode:
+                            return g
+                        continue
+                if d != 0 and d * self._heading(g, mode, t, y, rate) > 0.0 and not self._ahead(g, mode, t, y,
+                                                                                            values[i], rate):
                     return g  # tangent to the guard, curving across it
         return -1
 
@@ -401,8 +488,9 @@ class Switch:
         return second
 
     def touch_scale(self, y) -> float:
-        """How close to zero (``touch_tol (1 + max |state|)``) a guard at the state ``y`` counts as on it."""
-        return self.touch_tol * (1.0 + max(abs(c) for c in y[:self.n]))
+        """How close to zero (``touch_tol (scale + max |state|)``, ``HybridSystem.scale``) a guard at the state ``y``
+        counts as on it."""
+        return self.touch_tol * (self.floor + max(abs(c) for c in y[:self.n]))
 
     def leaves(self, g: int, mode: int, t: float, y) -> bool:
         """Whether guard ``g``, on zero at ``(t, y)`` in ``mode``, moves away from the side it fires towards.
@@ -430,7 +518,7 @@ class Switch:
         """Whether guard ``g``, at a root at ``(t, y)`` in ``mode``, goes past zero by rounding only and turns back.
 
         Near the root ``h(t + s) ~ h' s + h'' s^2 / 2``; where ``h''`` turns it back, the
-        excursion past zero is ``h'^2 / (2 |h''|)``. Within :data:`TIE` ``(1 + max |y|)`` that
+        excursion past zero is ``h'^2 / (2 |h''|)``. Within :data:`TIE` ``(scale + max |y|)`` that
         is a touch that rounding split into two roots (a stuck mass with ``F = beta_s``
         exactly: ``F cos t + beta_s`` touches zero at ``t = pi`` and its Taylor polynomial
         dips 1e-19 below), not a crossing: the Filippov rule ``|f| <= beta_s`` holds there.
@@ -443,7 +531,7 @@ class Switch:
         if d == 0 or d * second >= 0.0:
             return False
         rate = self.rules.probe[mode](t, y, self.p)[len(armed) + armed.index(g)]
-        return rate * rate <= 2.0 * abs(second) * TIE * (1.0 + max(abs(c) for c in y[:self.n]))
+        return rate * rate <= 2.0 * abs(second) * TIE * (self.floor + max(abs(c) for c in y[:self.n]))
 
     def second_derivative(self, g: int, mode: int, t: float, y) -> float:
         """``h''`` of guard ``g`` along the flow of ``mode`` at ``(t, y)`` (built on first use)."""
@@ -458,36 +546,6 @@ class Switch:
 
     def guard_value(self, g: int, t: float, y) -> float:
         return self.rules.guard[g](t, y, self.p)[0]
-
-
-def _accumulation_rule(rule):
-    """The callable of a guard's accumulation rule: the engine's chatter for a rigid flange of the family."""
-    if isinstance(rule, WallChatter):
-        return wall_chatter(rule)
-    return rule
-
-
-def wall_chatter(spec: WallChatter):
-    """The engine's chatter rule (:mod:`impactosc.engine._chatter`) for the rigid flange ``spec`` describes.
-
-    ``rule(t, before, after, p)`` at an impact of speed ``|v|`` (before the reset) on the flange of
-    ``spec.side``: the accumulation time ``t_inf`` and the state at rest on the wall, when the
-    engine's local model (:func:`~impactosc.engine._chatter.predict_jump`, the one copy) predicts the
-    rest of the sequence to its time tolerance, else None. ``p`` are the system's parameter values,
-    read as the member they describe (:meth:`WallChatter.member`). The engine's loop decides with the
-    same call at the same impact, so the two loops jump at the same impact.
-    """
-    side, x, v = spec.side, spec.position, spec.velocity
-    row = np.empty(J_SIZE)
-
-    def rule(t, before, after, p):
-        if not predict_jump(spec.member(tuple(p))._p, float(t), side, abs(float(before[v])), 1, row):
-            return None
-        state = [0.0, 0.0]
-        state[x] = float(row[J_WALL])
-        return float(row[J_T_INF]), state
-
-    return rule
 
 
 _frozen: dict[tuple, tuple[bool, ...]] = {}
@@ -543,7 +601,7 @@ def period_jump(switch: Switch, mode: int, period: float, t_end: float, t1: floa
         p = switch.p
         values = switch.rules.values[mode]
         a, b = values(t1, list(y1), p), values(t2, list(y2), p)
-        scale = 1.0 + max(abs(c) for c in y2)
+        scale = switch.floor + max(abs(c) for c in y2)
         # the rounding of the guards' time arguments, ~eps |t| |dh/dt|, with |dh/dt| ~ |h| / period
         slack = 64.0 * 2.0**-52 * (scale + max(map(abs, b))) * (1.0 + abs(t2) / period)
         if any(abs(u - w) > slack for u, w in zip(a, b, strict=True)):

@@ -48,6 +48,8 @@ def check_system(system) -> None:
                          f"(its guards are {list(system.guard_names)})")
     if system.period is not None:
         _check_symbols("period", system.period, set(params))
+    if system.scale is not None:
+        _check_symbols("scale", system.scale, set(params))
 
 
 def _check_mode(system, m, allowed: set[str]) -> None:

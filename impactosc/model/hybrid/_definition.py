@@ -175,12 +175,13 @@ class HybridMode:
 
 
 class EngineRule:
-    """An accumulation rule that the engine implements (``Guard.accumulation``): a declaration, not a callable.
+    """A rule that the engine implements (``Guard.accumulation``, ``Guard.choose``): a declaration, not a callable.
 
-    The model says *which* physics a guard's accumulations follow, the engine (a layer above)
-    holds that physics once; a subclass carries only what names it, such as the flange of a
-    member of the oscillator family whose chatter the engine resolves
-    (:class:`~impactosc.model.hybrid._oscillator_system.WallChatter`).
+    The model says *which* physics a guard follows, the engine (a layer above) holds that
+    physics once; a subclass carries only what names it, such as the flange of a member of
+    the oscillator family whose chatter the engine resolves
+    (:class:`~impactosc.model.hybrid._oscillator_system.WallChatter`), or the region whose
+    stick test at rest is the engine's (:class:`~impactosc.model.hybrid._oscillator_system.StickTest`).
     """
 
     __slots__ = ()
@@ -236,6 +237,22 @@ class Guard:
         ``zeno_tol (1 + |t|)`` (a rule that never answers cannot run into flights below rounding).
         The oscillator family's rigid flanges (:func:`~impactosc.model.hybrid.oscillator_system`)
         carry the engine's chatter rule.
+    choose : callable, optional
+        A transition rule that chooses the mode a crossing of this guard leads to, where the
+        candidates' entry conditions would decide by rounding: at a tie, such as a mass that
+        comes to rest where the net force equals the static friction level (or, without friction,
+        vanishes), the force's own trend decides whether it sticks or slips, and which way.
+        ``rule(t, state, parameters)`` gets the time, the state after the reset (states, then
+        integrals) and the parameter values (in the system's order), and returns the name of
+        the mode to enter, the name of the mode the guard is armed in (the crossing was
+        rounding: no event, the run goes on in that mode), or ``None`` (the entry conditions
+        of ``to`` decide, as without a rule). It is asked at every crossing of the guard, where
+        a state lies on the guard tangent to it at an instant (after another transition, at the
+        start of a run: the rule says whether it crosses, not the sign of a rounded curvature),
+        and at the start of a run without an initial mode. Part of the
+        system's structure, like ``accumulation``: hashable, and reading the parameters from
+        its arguments. :func:`~impactosc.stick_slip` gives it to its stop and release guards
+        (``choose=``), and the oscillator family's carry the engine's stick test at rest.
 
     Examples
     --------
@@ -279,6 +296,7 @@ class Guard:
     rest: Any = None
     rest_reset: Any = ()
     accumulation: Any = None
+    choose: Any = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -313,6 +331,18 @@ class Guard:
             except TypeError:
                 raise TypeError(f"{where}: accumulation must be hashable (it is part of the system's structure), "
                                 f"got {self.accumulation!r}") from None
+        if self.choose is not None:
+            if not (callable(self.choose) or isinstance(self.choose, EngineRule)):
+                raise TypeError(f"{where}: choose must be a callable rule(t, state, parameters) that returns a mode's "
+                                f"name or None, got {self.choose!r}")
+            if not self.terminal:
+                raise ValueError(f"{where}: a non-terminal guard (terminal=False) has no transition to choose, "
+                                 f"got choose={self.choose!r}")
+            try:
+                hash(self.choose)
+            except TypeError:
+                raise TypeError(f"{where}: choose must be hashable (it is part of the system's structure), "
+                                f"got {self.choose!r}") from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -339,6 +369,15 @@ class HybridSystem:
         a long stay in a *frozen* mode (every state's rate zero, such as a mass stuck by
         friction): after a whole period there without an event, whose guards take the same
         values at its two ends, they go on to the last whole period before the end time.
+    scale : float or expression, optional
+        The size of the states near rest, a number or an expression in the parameters (default 1):
+        the loops take a guard to lie on its zero within ``touch_tol (scale + max |state|)``, a
+        touch of zero within rounding as ``16 eps (scale + max |state|)`` and an extremum of a
+        guard as a grazing within ``graze_tol (scale + max |state|)``. With the default, a system
+        whose forces and states are all far below 1 has every guard on its zero at every instant
+        (a mass stuck with forcing and friction of 1e-20 was released at once, its releases
+        taken for touches); it declares the size of its forces here (the oscillator family
+        declares ``min(1, F + beta + beta_s)``, :func:`~impactosc.model.hybrid.oscillator_system`).
     section : str, optional
         The name of a guard whose events are the Poincare section of an autonomous system
         (:class:`impactosc.dynamics.hybrid_map.HybridMap` maps the state on it to its next
@@ -375,6 +414,7 @@ class HybridSystem:
     period: Any = None
     section: str | None = None
     name: str = "system"
+    scale: Any = None
     structure: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -393,6 +433,8 @@ class HybridSystem:
         object.__setattr__(self, "guards", tuple(self.guards))
         if self.period is not None:
             object.__setattr__(self, "period", _expression("period", self.period))
+        if self.scale is not None:
+            object.__setattr__(self, "scale", _expression("scale", self.scale))
         for m in self.modes:
             if not isinstance(m, HybridMode):
                 raise TypeError(f"modes must be impactosc.HybridMode objects, got {m!r}")
@@ -466,6 +508,32 @@ class HybridSystem:
                              f"{dict(self.parameters)}; it must be finite and > 0")
         return float(value)
 
+    def scale_value(self) -> float:
+        """The size of the states near rest (``scale``) at the current parameter values: 1 without one.
+
+        Raises
+        ------
+        ValueError
+            When it is not a finite number ``>= 0`` there.
+        """
+        if self.scale is None:
+            return 1.0
+        from ._numeric import evaluator, numeric
+
+        num = numeric(self)
+        fn = _scale_functions.get(self.structure)
+        if fn is None:
+            fn = _scale_functions[self.structure] = evaluator(num, [num.with_params(self.scale)], "the scale")
+        value = fn(0.0, [0.0] * len(num.states), self.parameter_values)[0]
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"{self.name}: the scale {self.scale} is {value!r} at the parameters "
+                             f"{dict(self.parameters)}; it must be finite and >= 0")
+        return float(value)
+
+
+#: The evaluator of each structure's scale (built on first use).
+_scale_functions: dict = {}
+
 
 def _complete_mode(system: HybridSystem, mode: HybridMode) -> HybridMode:
     """``mode`` with its field as a tuple of rates in state order, then the integrands in integral order."""
@@ -507,6 +575,6 @@ def _structure(system: HybridSystem) -> tuple:
     """
     modes = tuple((m.name, tuple(m.field), tuple(m.entry), tuple(m.integrands)) for m in system.modes)
     guards = tuple((g.name, g.expression, g.direction, tuple(g.armed), tuple(g.to), tuple(g.reset), g.terminal,
-                    g.rest, tuple(g.rest_reset), g.accumulation) for g in system.guards)
+                    g.rest, tuple(g.rest_reset), g.accumulation, g.choose) for g in system.guards)
     return _Structure((tuple(system.states), tuple(system.integrals), tuple(system.parameter_names), system.period,
-                       system.section, modes, guards))
+                       system.section, modes, guards, system.scale))

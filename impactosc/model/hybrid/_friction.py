@@ -9,7 +9,7 @@ from ._definition import Guard, HybridMode, _expression, _name_of
 
 def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Mapping | None = None,
                integrands: Mapping | None = None, stick_integrands: Mapping | None = None,
-               mass=1.0, entry=()) -> tuple[list[HybridMode], list[Guard]]:
+               mass=1.0, entry=(), choose=None) -> tuple[list[HybridMode], list[Guard]]:
     """The three friction modes of one degree of freedom and the four guards between them.
 
     The degree of freedom has the velocity state ``velocity`` and obeys
@@ -44,6 +44,15 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
     entry : sequence of expressions, optional
         Entry conditions ``c >= 0`` added to all three modes (the region they belong to,
         such as ``1 - x`` for a mass between the flanges).
+    choose : callable, optional
+        The transition rule of the four guards (``Guard.choose``): at rest, where ``|force|``
+        equals ``static`` within rounding, the entry conditions decide by the sign of a
+        rounding error (a net force that vanishes at a stop and then grows: the run stopped,
+        released and stopped again at one instant). ``rule(t, state, parameters)`` returns
+        the name of the mode to enter (``f"{prefix}0"``, ``f"{prefix}+"`` or ``f"{prefix}-"``),
+        e.g. from the force's trend at the tie, or None to leave it to the entry conditions.
+        The oscillator family's (:func:`~impactosc.model.hybrid.oscillator_system`) is the
+        engine's stick test.
 
     Returns
     -------
@@ -62,6 +71,20 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
     >>> system = HybridSystem("x v", {"A": 2.0, "w": 0.5, "mu": 0.5}, modes, guards)
     >>> system.mode_names
     ('m0', 'm+', 'm-')
+
+    The same floor with a rule for the ties at rest, ``|force| = mu``: the force's trend decides
+    (elsewhere the entry conditions do):
+
+    >>> import math
+    >>> def at_rest(t, state, p):
+    ...     A, w, mu = p
+    ...     f, trend = A * math.cos(w * t) - state[0], -A * w * math.sin(w * t)
+    ...     if abs(abs(f) - mu) > 1e-12 * (A + mu + abs(state[0])):
+    ...         return None
+    ...     return ("m+" if f > 0.0 else "m-") if f * trend > 0.0 else "m0"
+    >>> modes, guards = stick_slip("m", v, A * hy.cos(w * hy.time) - x, mu, rates={x: v}, choose=at_rest)
+    >>> [g.choose is at_rest for g in guards]
+    [True, True, True, True]
     """
     import heyoka as hy
 
@@ -95,9 +118,9 @@ def stick_slip(prefix: str, velocity, force, kinetic, static=None, *, rates: Map
     guards = [
         # the velocity is snapped onto the switching surface v = 0 (the located root is within
         # rounding of it, and the entry conditions test v against 0 exactly)
-        Guard(f"{up} stop", v, -1, armed=up, to=(stuck, down), reset={v_name: zero}),
-        Guard(f"{down} stop", v, 1, armed=down, to=(stuck, up), reset={v_name: zero}),
-        Guard(f"{prefix} release+", force - static, 1, armed=stuck, to=up),
-        Guard(f"{prefix} release-", force + static, -1, armed=stuck, to=down),
+        Guard(f"{up} stop", v, -1, armed=up, to=(stuck, down), reset={v_name: zero}, choose=choose),
+        Guard(f"{down} stop", v, 1, armed=down, to=(stuck, up), reset={v_name: zero}, choose=choose),
+        Guard(f"{prefix} release+", force - static, 1, armed=stuck, to=up, choose=choose),
+        Guard(f"{prefix} release-", force + static, -1, armed=stuck, to=down, choose=choose),
     ]
     return modes, guards

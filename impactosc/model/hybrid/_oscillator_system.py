@@ -10,7 +10,7 @@ from .._oscillator import Oscillator
 from ._definition import EngineRule, Guard, HybridMode, HybridSystem
 from ._friction import stick_slip
 
-__all__ = ["oscillator_system", "WallChatter"]
+__all__ = ["oscillator_system", "WallChatter", "StickTest"]
 
 #: A flange mode may be entered a few rounding errors outside its surface: a stop located inside a
 #: spring flange at the turning point of a grazing contact can round to ``X = gap (1 - eps)``, where
@@ -45,6 +45,29 @@ class WallChatter(EngineRule):
         return _member(self.names, tuple(float(c) for c in values))
 
 
+@dataclasses.dataclass(frozen=True)
+class StickTest(EngineRule):
+    """The transition rule of a region's stop and release guards: the engine's stick test at rest (``Guard.choose``).
+
+    A declaration: the engine resolves it to the Filippov stick test of the built-in family
+    (``impactosc.model._rule.motion_at_rest``, the one copy, through
+    ``impactosc.engine._hybrid.stick_test``), which decides a tie at rest (the net force at the
+    static friction level, or zero without friction, within its rounding) by the forcing's
+    trend, where the stick mode's entry conditions would decide by the sign of a rounding
+    error. It answers the mode of :attr:`region` with the motion the test gives (``"free0"``,
+    ``"free+"``, ``"free-"``, ...), and nothing on a rigid flange's wall (the rest on it is the
+    wall's rule). It holds no parameter value: :meth:`member` reads the member from the
+    system's parameter values.
+    """
+
+    region: str  #: the prefix of the region's modes: "free", "upper" or "lower"
+    position: int = 0  #: the index of ``x`` among the states
+
+    def member(self, names: tuple[str, ...], values) -> Oscillator:
+        """The member of the family whose parameters, named ``names`` in order, are ``values``."""
+        return _member(tuple(names), tuple(float(c) for c in values))
+
+
 @lru_cache(maxsize=256)
 def _member(names: tuple[str, ...], values: tuple[float, ...]) -> Oscillator:
     named = dict(zip(names, values, strict=True))
@@ -53,8 +76,10 @@ def _member(names: tuple[str, ...], values: tuple[float, ...]) -> Oscillator:
         tag = str(len(terms) + 1) if terms else ""
         terms.append((named[f"F{tag}"], named[f"Omega{tag}"], named[f"phase{tag}"]))
     (F, Omega, phase), harmonics = terms[0], terms[1:]
-    return Oscillator(F, Omega, named["beta"], 0.0, phase, zeta=named.get("zeta", 0.0), beta_static=named["beta_s"],
-                      flange="rigid", restitution=named["e"], harmonics=harmonics,
+    rigid = "e" in named  # a rigid member's restitution; a spring member's stiffness is K
+    flange = dict(flange="rigid", restitution=named["e"]) if rigid else {}
+    return Oscillator(F, Omega, named["beta"], 0.0 if rigid else named["K"], phase, zeta=named.get("zeta", 0.0),
+                      beta_static=named["beta_s"], harmonics=harmonics, **flange,  # type: ignore[arg-type]
                       gap_lower=named.get("gap_lower", math.inf), gap_upper=named.get("gap_upper", math.inf))
 
 
@@ -63,7 +88,9 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
 
     ``X'' + 2 zeta X' + X + beta sgn(X') = sum_i F_i cos(Omega_i t + phase_i) - flange(X)``
     with Coulomb friction as :func:`stick_slip` modes in each region (``free``, ``upper``,
-    ``lower``: ``"free+"``, ``"free0"``, ``"free-"``, ...). A spring flange compresses
+    ``lower``: ``"free+"``, ``"free0"``, ``"free-"``, ...), whose stops and releases choose
+    the mode after them by the engine's stick test at rest (``StickTest``, the guards'
+    ``choose``: a tie is decided by the forcing's trend, as the built-in engine decides it). A spring flange compresses
     with the force ``K (X - gap_upper)`` (upper) or ``K (X + gap_lower)`` (lower), and the
     integral ``Q`` is the flange impulse ``int K d dt``. A rigid flange is a guard with the
     reset ``V -> -e V`` in the free modes (``"impact upper"``, ``"impact lower"``) and a mode of
@@ -137,9 +164,11 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
         return symbols(name)
 
     forcing = None
+    amplitudes = []
     for i, (F, Om, ph) in enumerate(osc.terms):
         tag = "" if i == 0 else str(i + 1)
-        term = par(f"F{tag}", F) * hy.cos(par(f"Omega{tag}", Om) * hy.time + par(f"phase{tag}", ph))
+        amplitudes.append(par(f"F{tag}", F))
+        term = amplitudes[-1] * hy.cos(par(f"Omega{tag}", Om) * hy.time + par(f"phase{tag}", ph))
         forcing = term if forcing is None else forcing + term
     beta, beta_s = par("beta", osc.beta), par("beta_s", osc.beta_s)
     base = forcing - x
@@ -172,7 +201,7 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
             ints = {q: integral_scale * r for q, r in ints.items()}
             stuck = {q: integral_scale * r for q, r in stuck.items()}
         m, g = stick_slip(prefix, v, force, beta, beta_s, rates={x: v}, integrands=ints, stick_integrands=stuck,
-                          entry=region)
+                          entry=region, choose=StickTest(prefix))
         modes += m
         guards += g
     if osc.rigid:
@@ -189,7 +218,22 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     if energy:
         integrals += ([] if osc.rigid else ["Q2"]) + ["W"] + (["VV"] if osc.zeta != 0.0 else [])
     return HybridSystem("x v", params, modes, guards, integrals=integrals, period=period,
-                        name="eq3" if not osc.rigid else "eq3 rigid")
+                        name="eq3" if not osc.rigid else "eq3 rigid", scale=_force_level(amplitudes, beta, beta_s))
+
+
+def _force_level(amplitudes, beta, beta_s):
+    """``min(1, sum |F_i| + beta + beta_s)``: the size of the states near rest (``HybridSystem.scale``).
+
+    A member's motion from rest is as large as its forces (the spring's stiffness is 1). Below 1
+    the loops' tolerances follow it, so that a member with forcing and friction of 1e-45 is not on
+    every guard at every instant; at 1 and above they are those of any system.
+    """
+    import heyoka as hy
+
+    level = beta + beta_s
+    for F in amplitudes:
+        level = level + hy.select(hy.lt(F, 0.0), -F, F)
+    return hy.select(hy.lt(level, 1.0), level, 1.0)
 
 
 def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, x, v, force, beta_s, e,
