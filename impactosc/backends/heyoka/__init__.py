@@ -136,6 +136,7 @@ from ...engine._stuck import advance_stuck, evaluate_stuck
 from ...model._layout import P_AMPLITUDE as _P_AMPLITUDE
 from ...model._oscillator import Oscillator
 from ...results._solution import Solution, _Recorder
+from .._hybrid_heyoka import DEFAULT_COOLDOWN, compiled
 from ._ode import (
     _P_LAYER,
     _P_LAYER_GATE,
@@ -152,13 +153,14 @@ from ._ode import (
     integral_slots,
     integrator,
     layer_thickness,
+    log_on_stderr,
     parameter_values,
     shape_of,
 )
-from ._replay import piece_loop_reason, run_on_hybrid_loop
+from ._replay import _system, piece_loop_reason, run_on_hybrid_loop
 
-__all__ = ["run", "integrator", "check_tol", "shape_of", "layer_thickness", "Shape", "Integrators", "EQ3",
-           "DEFAULT_TOL", "MIN_TOL", "MAX_TOL"]
+__all__ = ["run", "compiled_integrator", "integrator", "check_tol", "shape_of", "layer_thickness", "Shape",
+           "Integrators", "EQ3", "DEFAULT_TOL", "MIN_TOL", "MAX_TOL"]
 
 # The usable tolerances (measured on the contact case and 150 random oscillators): below
 # eps event times do not improve while the Taylor order and the compile time grow with
@@ -477,6 +479,42 @@ class _Evaluator:
         # The integrators may have served other runs since: a fresh _Stepper reloads this
         # run's parameters.
         return _Stepper(integrator(self.tol, shape_of(self.osc)), self.osc).evaluate(mode, t0, x, v, times)
+
+
+def compiled_integrator(osc: Oscillator, tol: float = DEFAULT_TOL):
+    """The compiled heyoka integrator that runs ``osc`` (compiled on the first call, then reused).
+
+    ``osc`` runs as :func:`~impactosc.model.hybrid.oscillator_system` on the hybrid loop, whose
+    integrator is compiled once per system structure and tolerance (``backends/_hybrid_heyoka.py``,
+    ``compiled``): members that differ only in their numbers (``F``, ``Omega``, ``beta``, ``K``,
+    gaps...) share it, because every number is a runtime parameter. Call it to take the compile
+    (0.1-1 s, logged once per structure) out of a first timed run. The process's first heyoka
+    integrator is built with heyoka's log on ``stderr``, so its warnings never reach piped output.
+
+    Parameters
+    ----------
+    osc : Oscillator
+        The member (any member that ``simulate(osc, backend="heyoka")`` runs).
+    tol : float, optional
+        heyoka's tolerance, in ``[MIN_TOL, MAX_TOL]`` (default: machine epsilon).
+
+    Returns
+    -------
+    object
+        The hybrid loop's compiled system (its ``taylor_adaptive`` is ``.ta``): the same object
+        for every member of one structure at one tolerance.
+
+    Examples
+    --------
+    >>> import impactosc as io
+    >>> from impactosc.backends.heyoka import compiled_integrator
+    >>> a = compiled_integrator(io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4))
+    >>> a is compiled_integrator(io.Oscillator(F=0.3, Omega=0.7, beta=0.02, K=1e3))
+    True
+    """
+    system = _system(osc)[0]
+    tol = check_tol(tol)
+    return log_on_stderr(lambda: compiled(system, tol, DEFAULT_COOLDOWN))
 
 
 def check_tol(tol) -> float:
