@@ -151,8 +151,8 @@ def main(argv=None) -> int:
         h, s = res["heyoka"], res["scipy"]
         agree = agreement(h[2], s[2]) if not isinstance(h, str) and not isinstance(s, str) else ""
         # The conditioning of the member: heyoka against itself from x0 + 1e-14.
-        nudged = io.simulate(osc, t_end, x0 + 1e-14, v0, record="events")
-        rows.append((name, t_end, events, cells, agree, agreement(h[2], nudged) if not isinstance(h, str) else ""))
+        nudged = "" if isinstance(h, str) else agreement(h[2], io.simulate(osc, t_end, x0 + 1e-14, v0, record="events"))
+        rows.append((name, t_end, events, cells, agree, nudged))
 
     print(f"# Family members: events per second of wall time (load average {load0[0]:.2f} at the start, "
           f"{os.getloadavg()[0]:.2f} at the end, {os.cpu_count()} cores)\n")
