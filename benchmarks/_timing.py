@@ -50,3 +50,27 @@ def load_average() -> str:
         return " ".join(f"{x:.2f}" for x in os.getloadavg())
     except OSError:
         return "n/a"
+
+
+def cold_compile(osc, tol: float = 2.0**-52) -> float:
+    """Seconds to compile the heyoka integrator ``osc`` runs on, with heyoka's code caches bypassed.
+
+    The integrator of the one hybrid loop (``oscillator_system(osc)`` as the built-in backend
+    builds it, ``impactosc.backends._hybrid_heyoka.CompiledSystem``), built afresh: neither the
+    backend's own cache nor heyoka's in-memory and on-disk caches of compiled code are used.
+    """
+    import heyoka as hy
+
+    from impactosc.backends._hybrid_heyoka import DEFAULT_COOLDOWN, CompiledSystem
+    from impactosc.backends.heyoka._replay import _system
+
+    system = _system(osc)[0]
+    disk = hy.llvm_state.get_diskcache_enabled()
+    hy.llvm_state.set_diskcache_enabled(False)
+    hy.llvm_state.clear_memcache()
+    try:
+        t0 = time.perf_counter()
+        CompiledSystem(system, tol, DEFAULT_COOLDOWN)
+        return time.perf_counter() - t0
+    finally:
+        hy.llvm_state.set_diskcache_enabled(disk)

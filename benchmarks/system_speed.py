@@ -12,9 +12,12 @@ side in one run (every case once a round, rounds in shuffled orders, CPU-time me
   (``impactosc.backends.heyoka._replay``). Its parts: the hybrid loop alone, that system's
   integrator with the mode-switching callbacks only (the floor: the Taylor steps its states and
   events cost), and the replay of a stored run into the ``Solution``;
-- the engine's piece loop on the same member (the built-in path before the routing, kept for
-  rigid and power-law flanges), the compiled RK4 at its default step, and the user system on the
-  scipy loop (the cross-check, one run).
+- the compiled RK4 at its default step, and the user system on the scipy loop (the cross-check,
+  one run).
+
+The row of the engine's old piece loop on the same member (3.96 ms at the end of the fourth
+session, ``results/system_speed.md``) is gone with that loop: the built-in heyoka path has one
+loop, and its floor is the row of its integrator with raw callbacks.
 
 Targets: the user system within 1.5x of the built-in heyoka path per event; the built-in heyoka
 path at least 10x faster than the RK4. The compile of the user system's integrator is timed once
@@ -31,11 +34,9 @@ import time
 
 import impactosc as io
 from impactosc.backends._hybrid_heyoka import compiled, run_counted
-from impactosc.backends.heyoka import _Evaluator, _Stepper
 from impactosc.backends.heyoka import _replay as replay
-from impactosc.backends.heyoka._ode import integrator, shape_of
 from impactosc.backends.heyoka._replay import INTEGRAL_SCALE
-from impactosc.engine._driver import drive, initial_mode
+from impactosc.engine._driver import initial_mode
 from impactosc.model.hybrid import oscillator_system
 from impactosc.model.hybrid._numeric import numeric
 from impactosc.results._solution import Solution, _Recorder
@@ -86,13 +87,6 @@ def raw_run(system, comp):
     return stand.events
 
 
-def piece_loop(osc, t_end):
-    """The engine's piece loop with the heyoka stepper (the built-in path of spring members before the routing)."""
-    rec = _Recorder("full", "heyoka", _Evaluator(osc, 2.0**-52))
-    drive(_Stepper(integrator(2.0**-52, shape_of(osc)), osc), osc, t_end, 0.95, 0.0, rec, 10**6, ())
-    return Solution(rec, t_end)
-
-
 def stored_replay(osc, t_end):
     """The built-in path's replay of a stored hybrid run into the ``Solution`` (what follows the loop)."""
     system, modes, _, guards, slots = replay._system(osc)
@@ -127,7 +121,6 @@ def main(argv=None) -> int:
         "  its hybrid loop alone (integrals Q, Q2, W)": lambda: io.simulate(energy, T_END, [0.95, 0.0]),
         "  its integrator, raw callbacks (integrals Q, Q2, W)": lambda: raw_run(energy, comp_energy),
         "  its replay of a stored run into the Solution": stored_replay(CONTACT, T_END),
-        "built-in on the engine's piece loop": lambda: piece_loop(CONTACT, T_END),
         "built-in compiled RK4 (default dt)": lambda: io.simulate(CONTACT, T_END, backend="rk4"),
     }
     events = {}
@@ -140,7 +133,7 @@ def main(argv=None) -> int:
     shuffle = random.Random(27).shuffle
     for _ in range(reps):  # interleaved, so that a busy machine slows every case alike
         # in a new order each round: a case that follows another integrator finds its code and data
-        # out of the caches (the replay path after the piece loop took ~0.4 ms more than after itself)
+        # out of the caches (the replay path after the old piece loop took ~0.4 ms more than after itself)
         shuffle(order)
         for name in order:
             fn = cases[name]

@@ -11,9 +11,11 @@ Run: ``.venv/bin/python benchmarks/throughput.py [--quick] [--out DIR]``.
    after one untraced run (minus that of a subprocess that only warmed up), then the
    ``tracemalloc`` peak of a second, traced run.
 3. A cProfile of heyoka on the stick-slip regime (top 15 by own time), and the split of
-   the time per event into the ``propagate_until`` calls (integration and event location
-   in compiled code, plus the call) and the Python around them (engine.drive, transition,
-   recorder, the stepper's mode switching).
+   the time per event into the one hybrid loop (one ``propagate_until`` whose event callbacks
+   apply the transitions) and the replay into the built-in ``Solution``, with the fixed cost of
+   a ``propagate_until`` call. (With the old piece loop, deleted, the split timed each
+   ``propagate_until`` call through a proxy against the Python around them: the one loop's
+   Python runs inside the call.)
 
 Writes ``throughput.md``, ``throughput.json`` and ``throughput_profile.txt`` into ``--out``
 (default ``benchmarks/results``; with ``--quick`` ``benchmarks/results/quick``).
@@ -173,69 +175,49 @@ def memory(args) -> tuple[dict, list[dict]]:
 
 
 # -- 3. profile and the split of the time per event -------------------------------------------
-class _TimedTA:
-    """Proxy of a heyoka integrator that times its ``propagate_until`` calls."""
-
-    def __init__(self, ta):
-        object.__setattr__(self, "_ta", ta)
-        object.__setattr__(self, "spent", 0.0)
-        object.__setattr__(self, "calls", 0)
-
-    def __getattr__(self, name):
-        return getattr(self._ta, name)
-
-    def __setattr__(self, name, value):
-        setattr(self._ta, name, value)
-
-    def propagate_until(self, t):
-        t0 = time.perf_counter()
-        res = self._ta.propagate_until(t)
-        object.__setattr__(self, "spent", self.spent + time.perf_counter() - t0)
-        object.__setattr__(self, "calls", self.calls + 1)
-        return res
-
-
 def split(osc, n_events: int) -> dict:
-    """Time per event inside ``propagate_until`` and in the Python around it (same loop as simulate)."""
-    import types
+    """Time per event of ``simulate`` on the one hybrid heyoka loop: the loop alone, the replay, the raw integrator.
 
-    from impactosc.backends import heyoka as hb
-    from impactosc.engine import Mode, drive
-    from impactosc.results._solution import _Recorder
+    The loop is one ``propagate_until`` whose event callbacks apply the transitions in Python, so
+    the integration and the Python cannot be timed apart call by call (the old piece loop's
+    proxy did that): the loop alone (``run_counted`` on ``oscillator_system(osc, energy=True)``) is
+    set against ``simulate`` (loop and replay into the built-in ``Solution``), and the fixed cost
+    of one ``propagate_until`` call is measured on the compiled integrator with its events off.
+    """
+    from impactosc.backends._hybrid_heyoka import run_counted
+    from impactosc.backends.heyoka import compiled_integrator
+    from impactosc.backends.heyoka._replay import _system
+    from impactosc.engine import initial_mode
 
-    compiled = hb.integrator(hb.DEFAULT_TOL)
-    # The same integrators, each behind a proxy that times its propagate_until calls.
-    proxies = {family: _TimedTA(ta) for family, ta in compiled.ta.items()}
-    stepper = hb._Stepper(types.SimpleNamespace(shape=compiled.shape, dim=compiled.dim, ta=proxies), osc)
-    rec = _Recorder("stats", "heyoka", None)
+    system, modes, index, _, _ = _system(osc)
+    start = initial_mode(osc, 0.0, 0.95, 0.0)
+    mode = system.mode_names[index[(start.region, start.motion)]]
+    quiet = f"{mode} stop" if start.motion != 0 else None
     t0 = time.perf_counter()
-    drive(stepper, osc, HUGE_T, 0.95, 0.0, rec, n_events)
+    sol = io.simulate(osc, HUGE_T, record="stats", max_events=n_events)
     total = time.perf_counter() - t0
-    spent = sum(p.spent for p in proxies.values())
-    calls = sum(p.calls for p in proxies.values())
     t1 = time.perf_counter()
-    io.simulate(osc, HUGE_T, record="stats", max_events=n_events)
-    plain_wall = time.perf_counter() - t1
-    n = rec.n_events
-    # The fixed cost of one propagate_until call that takes a single tiny step (no event),
-    # on the integrator of free slipping.
-    raw_stepper = hb._Stepper(compiled, osc)
-    free = raw_stepper.families[0]
-    raw_stepper._set_mode(free, Mode(0, 1, True), 0.0, 0.0)
-    raw = free.ta
-    raw.state[:] = 0.0
-    raw.state[1] = 1e-3
-    n_calls = 2000
-    raw.time = 0.0
-    c0 = time.perf_counter()
-    for k in range(1, n_calls + 1):
-        raw.propagate_until(k * 1e-9)
-    call_cost = (time.perf_counter() - c0) / n_calls
-    return dict(events=n, pieces=rec.pieces, steps=rec.steps, total=total, plain_wall=plain_wall,
-                propagate=spent, calls=calls, python=total - spent,
-                us_event=1e6 * total / n, us_propagate_event=1e6 * spent / n,
-                us_python_event=1e6 * (total - spent) / n, us_propagate_call=1e6 * spent / calls,
-                us_tiny_call=1e6 * call_cost, steps_per_event=rec.steps / n, pieces_per_event=rec.pieces / n)
+    hybrid, steps = run_counted(system, HUGE_T, [0.95, 0.0], mode=mode, max_events=n_events,
+                                quiet_at_start=quiet)
+    loop = time.perf_counter() - t1
+    n = int(sum(sol.counts.values()))
+    # The fixed cost of one propagate_until call that takes a single tiny step, events off.
+    comp = compiled_integrator(osc)
+    with comp.lock:
+        comp.load(system.parameter_values, system.mode_index("free+"), 0.0)
+        raw = comp.ta
+        raw.state[:] = 0.0
+        raw.state[1] = 1e-3
+        n_calls = 2000
+        raw.time = 0.0
+        c0 = time.perf_counter()
+        for k in range(1, n_calls + 1):
+            raw.propagate_until(k * 1e-9)
+        call_cost = (time.perf_counter() - c0) / n_calls
+    return dict(events=n, hybrid_events=len(hybrid.events), steps=int(sol.n_steps), total=total, loop=loop,
+                replay=total - loop, us_event=1e6 * total / n, us_loop_event=1e6 * loop / n,
+                us_replay_event=1e6 * (total - loop) / n, us_tiny_call=1e6 * call_cost,
+                steps_per_event=sol.n_steps / n)
 
 
 def profile(osc, n_events: int) -> tuple[str, dict]:
@@ -250,17 +232,17 @@ def profile(osc, n_events: int) -> tuple[str, dict]:
     total = 0.0
     for (file, _line, func), (_cc, _nc, tt, _ct, _callers) in st.stats.items():
         if "propagate_until" in func:
-            g = "heyoka propagate_until (compiled)"
-        elif file.endswith("engine.py"):
-            g = "impactosc/engine.py (drive, transition, guards)"
-        elif file.endswith("solution.py"):
-            g = "impactosc/solution.py (recorder)"
-        elif file.endswith("backends/heyoka.py"):
-            g = "impactosc/backends/heyoka.py (stepper: pars, state, offsets)"
-        elif file.endswith("_stuck.py"):
-            g = "impactosc/_stuck.py (stuck pieces in closed form)"
-        elif file.endswith("model.py"):
-            g = "impactosc/model.py (forces for the stick test and the guards)"
+            g = "heyoka propagate_until (compiled steps, and the callbacks' Python below it)"
+        elif file.endswith("_hybrid_heyoka.py"):
+            g = "impactosc/backends/_hybrid_heyoka.py (the loop's event callbacks)"
+        elif file.endswith(os.path.join("engine", "_hybrid.py")):
+            g = "impactosc/engine/_hybrid.py (Switch: transitions, entry conditions)"
+        elif file.endswith("_replay.py"):
+            g = "impactosc/backends/heyoka/_replay.py (the replay into the Solution)"
+        elif os.path.join("impactosc", "results") in file:
+            g = "impactosc/results (recorder, Solution)"
+        elif os.path.join("impactosc", "model") in file:
+            g = "impactosc/model (the member, its hybrid system)"
         else:
             g = "other (builtins, numpy views, ...)"
         groups[g] = groups.get(g, 0.0) + tt
@@ -309,15 +291,16 @@ def report(args, rows, base, mem, sp, prof_text, groups, load0) -> str:
                  f"{peak / r['events']:.1f} |")
 
     L += ["", "## Where heyoka's time goes (stick-slip regime, record=\"stats\")", "",
-          f"Split over {sp['events']} events ({sp['pieces_per_event']:.3g} smooth pieces and "
-          f"{sp['steps_per_event']:.3g} Taylor steps per event), timing every `propagate_until` call through a proxy "
-          f"(the proxied run took {sp['total']:.3g} s, plain `simulate` {sp['plain_wall']:.3g} s):", "",
+          f"Over {sp['events']} events ({sp['steps_per_event']:.3g} Taylor steps per event) on the one hybrid loop: "
+          f"`simulate` took {sp['total']:.3g} s, the loop alone {sp['loop']:.3g} s (its callbacks' Python runs "
+          "inside `propagate_until`, so the two cannot be timed apart call by call):", "",
           "| per event | us |", "| --- | ---: |",
-          f"| total | {sp['us_event']:.2f} |",
-          f"| inside `propagate_until` (integration, event location, the call) | {sp['us_propagate_event']:.2f} |",
-          f"| Python around it (drive, transition, recorder, stepper) | {sp['us_python_event']:.2f} |",
-          f"| one `propagate_until` call, average | {sp['us_propagate_call']:.2f} |",
-          f"| one `propagate_until` call of a single tiny step (fixed cost) | {sp['us_tiny_call']:.2f} |", "",
+          f"| total (`simulate`: the loop and the replay into the `Solution`) | {sp['us_event']:.2f} |",
+          f"| the hybrid loop alone (integration, event location, transitions in callbacks) | "
+          f"{sp['us_loop_event']:.2f} |",
+          f"| the replay and `simulate`'s checks | {sp['us_replay_event']:.2f} |",
+          f"| one `propagate_until` call of a single tiny step, events off (fixed cost) | {sp['us_tiny_call']:.2f} |",
+          "",
           f"Target 1e5 events/s = 10 us/event: measured {1e6 / sp['us_event']:,.0f} events/s "
           f"({sp['us_event'] / 10:.3g}x the budget).", "",
           "cProfile own time by group (profiling inflates the Python share):", "",

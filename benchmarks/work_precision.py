@@ -14,9 +14,9 @@ with ``atol = rtol``, RK4 ``dt``) and measured against ``backend="exact"`` on:
 
 against the wall time, the median of repeats: each row runs once (its errors come from
 that run), then the repeats run round by round over all rows, so that the load of a shared
-machine weighs on every row alike. heyoka's compile time (a fresh
-``impactosc.backends.heyoka._build(tol)`` with heyoka's in-memory and on-disk caches of
-compiled code bypassed) and
+machine weighs on every row alike. heyoka's compile time (the one loop's integrator of the
+case's member built afresh, ``_timing.cold_compile``, with heyoka's in-memory and on-disk caches
+of compiled code bypassed) and
 numba's (a warm-up call) are measured apart and not in the wall times.
 
 Writes ``work_precision.md`` (one table per case, then the targets), one
@@ -41,7 +41,7 @@ import numpy as np
 import impactosc as io
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the shared _timing module beside this script
-from _timing import Timeout, timed  # noqa: E402
+from _timing import Timeout, cold_compile, timed  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 EPS = 2.0**-52  # heyoka's default tol
@@ -176,7 +176,6 @@ def run_case(case: Case, args) -> tuple[list[Row], dict]:
     The repeats run round by round over all rows (a row drops out once its runs took more
     than ``--budget`` seconds), so that the load of a shared machine weighs on every row alike.
     """
-    from impactosc.backends import heyoka as hb
     from impactosc.backends import rk4 as rb
 
     record = "stats" if case.tape else "events"
@@ -209,16 +208,8 @@ def run_case(case: Case, args) -> tuple[list[Row], dict]:
             if backend == "heyoka":
                 tol = opt["tol"]
                 if tol not in info["compile"]:
-                    import heyoka as hy
-
                     # A cold compile: heyoka's in-memory and on-disk caches of compiled code are bypassed.
-                    disk = hy.llvm_state.get_diskcache_enabled()
-                    hy.llvm_state.set_diskcache_enabled(False)
-                    hy.llvm_state.clear_memcache()
-                    t0 = time.perf_counter()
-                    hb._build(tol)
-                    info["compile"][tol] = time.perf_counter() - t0
-                    hy.llvm_state.set_diskcache_enabled(disk)
+                    info["compile"][tol] = cold_compile(case.osc, tol)
                 sim("heyoka", t_end=1e-3, tol=tol)  # builds the cached integrator (not timed)
             elif backend == "rk4":
                 dt = case.period / opt["n"] if opt["n"] else rb.default_dt(case.osc.K)

@@ -1,7 +1,7 @@
 """heyoka backend on the model family (issue 10): closed forms first, then scipy on random members.
 
-Every member runs on a compiled integrator of its shape (backends/heyoka.py); the paper's
-eq. 3 keeps its own. The closed forms: damped Coulomb decay (turning times k pi / w_d),
+Every member runs on the one heyoka loop, on the compiled integrator of its system structure
+(``compiled_integrator``). The closed forms: damped Coulomb decay (turning times k pi / w_d),
 static against kinetic friction, a Hertz contact (energy conservation and a quadrature for
 its duration), chatter on a rigid flange under a constant push (the impact sequence summed
 to convergence), the release from a rigid flange under harmonic forcing (an arccos) and a
@@ -24,23 +24,23 @@ O = io.Oscillator
 
 
 # -- shapes ---------------------------------------------------------------------------------
-def test_each_shape_compiles_its_own_integrator_and_eq3_keeps_the_paper_one():
+def test_each_structure_compiles_its_own_integrator_and_equal_members_share_one():
     eq3 = O(0.5, 1.1, 0.01, 1e4)
-    assert hb.shape_of(eq3) == hb.EQ3 and hb.integrator() is hb.integrator(hb.DEFAULT_TOL, hb.EQ3)
-    # Equal static friction is the same member: same shape, the same run bit for bit.
+    assert hb.compiled_integrator(eq3) is hb.compiled_integrator(eq3, hb.DEFAULT_TOL)
+    assert hb.compiled_integrator(eq3) is hb.compiled_integrator(O(0.2, 0.7, 0.05, 1e3, phase=1.0))
+    # Equal static friction is the same member: the same integrator, the same run bit for bit.
     same = O(0.5, 1.1, 0.01, 1e4, beta_static=0.01)
-    assert hb.shape_of(same) == hb.EQ3
+    assert hb.compiled_integrator(same) is hb.compiled_integrator(eq3)
     a, b = io.simulate(eq3, 100.0, 0.95, 0.0), io.simulate(same, 100.0, 0.95, 0.0)
     np.testing.assert_array_equal(a.events.t, b.events.t)
     assert a.mean_flange_force() == b.mean_flange_force()
-    # int V^2 is a state of damped shapes only; a rigid flange has no flange impulse states.
-    dims = {shape: hb.integrator(hb.DEFAULT_TOL, shape).dim for shape in
-            (hb.EQ3, hb.Shape(1, True, "linear"), hb.Shape(1, False, "rigid"), hb.Shape(1, True, "rigid"))}
-    assert list(dims.values()) == [5, 6, 3, 4]
-    assert hb.shape_of(O(0.5, 1.0, 0.1, 1e3, exponent=1.5, zeta=0.1, harmonics=[(0.1, 2.0)])) == \
-        hb.Shape(2, True, "power")
-    with pytest.raises(ValueError, match="another shape"):
-        hb._Stepper(hb.integrator(), O(0.5, 1.0, 0.1, 1e3, zeta=0.1))
+    # int V^2 is a state of damped members only; a rigid flange has no flange impulse states.
+    dims = [hb.compiled_integrator(osc).ta.dim for osc in
+            (eq3, O(0.5, 1.1, 0.01, 1e4, zeta=0.1), O(0.5, 1.1, 0.01, flange="rigid"),
+             O(0.5, 1.1, 0.01, flange="rigid", zeta=0.1))]
+    assert dims == [5, 6, 3, 4]
+    with pytest.raises(ValueError, match="tol must be in"):
+        hb.compiled_integrator(eq3, tol=0.5)
 
 
 # -- damping and friction -------------------------------------------------------------------
@@ -144,15 +144,6 @@ def test_hertz_contact_closed_form(K, p, v0):
     x, v = sol.sample(ts)
     np.testing.assert_allclose(O(0.0, 0.0, 0.0, K, exponent=p).energy(x, v), 0.5 * v0 * v0, rtol=0, atol=1e-13)
     assert abs(sol.energy_balance()["residual"]) <= 1e-13
-
-
-def test_hertz_boundary_layer_is_below_rounding():
-    osc = O(0.5, 1.1, 0.01, 1e4, exponent=1.5)
-    delta = hb.layer_thickness(osc)
-    assert osc.K * delta**osc.exponent <= 2.0**-53 * (1 + 1e-12) and delta >= 4 * 2.0**-52
-    # Stiff: the floor of 4 ulps of 1 decides, and the force there is what the rounding of X costs.
-    stiff = O(0.5, 1.1, 0.01, 1e9, exponent=1.5)
-    assert hb.layer_thickness(stiff) == 4 * 2.0**-52
 
 
 # -- rigid flange -------------------------------------------------------------------------------

@@ -98,28 +98,24 @@ def test_dynamics_plots_without_matplotlib_give_the_install_hint(monkeypatch):
             plot(None)
 
 
-def test_a_slow_heyoka_compile_gets_its_notice(monkeypatch, fresh_notices):
-    from impactosc.backends.heyoka import _ode
+def test_a_heyoka_compile_gets_its_notice_once(fresh_notices):
+    """The built-in backend's integrator is the hybrid loop's: its compile is said once, with the tolerance."""
+    import impactosc as io
+    from impactosc.backends.heyoka import compiled_integrator
 
-    said = threading.Event()
     messages = []
 
     class Catch(logging.Handler):
         def emit(self, record):
             messages.append(record.getMessage())
-            said.set()
 
-    def slow_build(tol, shape=_ode.EQ3):  # a compile that lasts until its notice has come
-        assert said.wait(timeout=60.0), "no notice while the compile ran"
-        return "integrators"
-
-    monkeypatch.setattr(_ode, "_build", slow_build)
     catch = Catch(level=logging.WARNING)
     notice_module.LOGGER.addHandler(catch)
     tol = 1.2345e-13  # a tolerance nothing else compiles: not in the cache
     try:
-        assert _ode.integrator(tol) == "integrators"
+        first = compiled_integrator(io.Oscillator(0.5, 1.1, 0.01, 1e4), tol)
+        again = compiled_integrator(io.Oscillator(0.3, 0.7, 0.02, 1e3), tol)  # the same structure: no compile
     finally:
         notice_module.LOGGER.removeHandler(catch)
-        _ode._cache.integrators.pop((tol, _ode.EQ3), None)
+    assert again is first
     assert len(messages) == 1 and "heyoka is compiling" in messages[0] and "1.2345e-13" in messages[0]

@@ -2,10 +2,10 @@
 
 ``run_on_hybrid_loop(osc, ...)`` runs a member that ``oscillator_system`` writes on the user
 systems' heyoka loop and replays it into the built-in ``Solution``
-(``impactosc/backends/heyoka/_replay.py``); ``simulate(osc, backend="heyoka")`` does not route
-there yet (degenerate runs fail, see ``piece_loop_reason``). Checked against the closed-form ``exact``
-backend first, then against the user system's own run (the same loop: the same numbers to
-rounding, where the old piece loop differed by ~6e-13 over the contact case).
+(``impactosc/backends/heyoka/_replay.py``); ``simulate(osc, backend="heyoka")`` runs every member
+there. Checked against the closed-form ``exact`` backend first, then against the user system's own
+run (the same loop: the same numbers to rounding, where the old piece loop, now deleted, differed
+by ~6e-13 over the contact case).
 """
 
 from __future__ import annotations
@@ -14,12 +14,7 @@ import numpy as np
 import pytest
 
 import impactosc
-from impactosc.backends.heyoka._replay import (
-    INTEGRAL_SCALE,
-    _hybrid_loop_reason,
-    piece_loop_reason,
-    run_on_hybrid_loop,
-)
+from impactosc.backends.heyoka._replay import INTEGRAL_SCALE, run_on_hybrid_loop
 from impactosc.model.hybrid import oscillator_system
 
 CONTACT = impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
@@ -36,14 +31,22 @@ def hybrid(osc, t_end, x0, v0, *, record="full", max_events=10**6, sample_at=())
                               tol=2.0**-52)
 
 
-def test_the_dispatch_names_why_a_member_stays_on_the_piece_loop():
-    assert piece_loop_reason(CONTACT, None) is None
-    assert _hybrid_loop_reason(CONTACT) is None
-    assert _hybrid_loop_reason(MEMBERS["static friction, damping"]) is None
-    assert _hybrid_loop_reason(CONTACT.replace(flange="rigid")) is None  # the engine's chatter rule on its guards
-    assert "power-law" in _hybrid_loop_reason(CONTACT.replace(exponent=1.5))
-    assert "harmonics" in _hybrid_loop_reason(MEMBERS["harmonic, one flange"])  # Omega_2 / Omega = 2.44
-    assert _hybrid_loop_reason(CONTACT.replace(harmonics=[(0.1, 3.3, 0.2)])) is None  # 3 Omega
+def test_every_member_runs_on_the_hybrid_loop_by_default(monkeypatch):
+    """One loop: ``simulate(osc, backend="heyoka")`` is ``run_on_hybrid_loop`` for every member, rigid and
+    incommensurate harmonics included (they had reasons to stay on the old piece loop)."""
+    seen: list = []
+
+    def spy(osc, *a, **k):
+        seen.append(osc)
+        return run_on_hybrid_loop(osc, *a, **k)
+
+    monkeypatch.setattr("impactosc.backends.heyoka.run_on_hybrid_loop", spy)
+    members = [CONTACT, MEMBERS["static friction, damping"], CONTACT.replace(flange="rigid"),
+               MEMBERS["harmonic, one flange"], CONTACT.replace(harmonics=[(0.1, 3.3, 0.2)])]
+    for osc in members:
+        sol = impactosc.simulate(osc, 20.0, 0.95, 0.0)
+        assert sol.status == 0, sol.message
+    assert seen == members
 
 
 @pytest.mark.parametrize("case", list(MEMBERS))

@@ -1,8 +1,8 @@
 """Issue 27 item 4: the built-in members on the one hybrid heyoka loop (``run_on_hybrid_loop``), by default.
 
 ``run_on_hybrid_loop`` replays the hybrid run into the built-in ``Solution``; ``simulate(osc,
-backend="heyoka")`` sends every member with spring flanges and a forcing periodic in
-``2 pi / Omega`` there. Checked against the closed-form ``exact`` backend, with the degenerate
+backend="heyoka")`` sends every member there (the heyoka backend's one loop). Checked against the
+closed-form ``exact`` backend, with the degenerate
 runs the property tests found (a release guard that touches zero, a stop at a net force of
 rounding size).
 """
@@ -42,13 +42,24 @@ def test_a_spring_member_runs_on_the_hybrid_loop_by_default(monkeypatch):
 
 @pytest.mark.parametrize("osc", [impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4, exponent=1.5),
                                  impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4,
-                                                      harmonics=((0.1, 2.0**0.5, 0.0),))],
-                         ids=["power law", "incommensurate harmonic"])
-def test_what_the_hybrid_loop_does_not_express_stays_on_the_piece_loop(monkeypatch, osc):
+                                                      harmonics=((0.1, 2.0**0.5, 0.0),)),
+                                 impactosc.Oscillator(F=1e-45, Omega=1.0, beta=1e-45, K=1e4)],
+                         ids=["power law", "incommensurate harmonic", "tiny forces"])
+def test_what_stayed_on_the_piece_loop_runs_on_the_hybrid_loop(monkeypatch, osc):
+    """Power-law flanges, incommensurate harmonics and forces below 1e-9 had the old piece loop; it is gone."""
     seen: list = []
-    monkeypatch.setattr("impactosc.backends.heyoka.run_on_hybrid_loop", lambda osc, *a, **k: seen.append(osc))
+    real = run_on_hybrid_loop
+
+    def spy(osc, *a, **k):
+        seen.append(osc)
+        return real(osc, *a, **k)
+
+    monkeypatch.setattr("impactosc.backends.heyoka.run_on_hybrid_loop", spy)
     sol = impactosc.simulate(osc, 20.0)
-    assert seen == [] and sol.status == 0
+    assert seen == [osc] and sol.status == 0, sol.message
+    ref = impactosc.simulate(osc, 20.0, backend="exact" if osc.exponent == 1.0 else "scipy")
+    assert sol.counts == ref.counts
+    np.testing.assert_allclose(sol.events.t, ref.events.t, rtol=0, atol=1e-9)
 
 
 def test_a_release_guard_that_touches_zero_is_no_release():
@@ -193,16 +204,3 @@ def test_a_frictionless_tie_at_rest_on_a_flange_surface_on_the_hybrid_loop():
     # the motion is 1e-25 (x + 1 ~ Omega^2 t^4 / 24): both ends are the start to rounding
     assert (sol.x_final, sol.v_final) == pytest.approx((ref.x_final, ref.v_final), abs=1e-12)
 
-
-def test_a_hybrid_loop_failure_is_redone_on_the_piece_loop(caplog):
-    """Where the hybrid loop fails (status -1), the default path gives the piece loop's answer and says so once."""
-    ref = impactosc.simulate(QUASI_STATIC_TIE, 1.0, -1.0, 0.0, backend="exact")
-    from impactosc._util import notice as notices
-
-    notices._given.discard("heyoka-piece-fallback")
-    with caplog.at_level("WARNING", logger="impactosc"):
-        sol = impactosc.simulate(QUASI_STATIC_TIE, 1.0, -1.0, 0.0)
-    assert sol.status == 0, sol.message
-    assert sol.counts == ref.counts
-    assert (sol.x_final, sol.v_final) == pytest.approx((ref.x_final, ref.v_final), abs=1e-12)
-    assert "redone on its piece loop" in caplog.text

@@ -13,14 +13,15 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     import impactosc as io
 
-    from ..backends.heyoka import integrator
+    from ..backends.heyoka import compiled_integrator
 
     osc = io.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4)
     print("impactosc demo: the tape edge between two flanges (paper eq. 3, two-sided flange)")
     print(f"  {osc}")
     print("  x0 = 0.95, v0 = 0 (paper eq. 6-7), t_end = 400 (nondimensional time omega_n t)\n")
     t = time.perf_counter()
-    integrator()
+    compiled_integrator(osc)  # the compile apart from the timed run
+    io.simulate(osc, 1.0, x0=0.95, v0=0.0)  # and numba's compiled rules and records, loaded from its cache
     compile_s = time.perf_counter() - t
     t = time.perf_counter()
     sol = io.simulate(osc, 400.0, x0=0.95, v0=0.0)
@@ -31,7 +32,8 @@ def run(args) -> int:
     print(sol.impact_table(limit=10))
     print()
     print(sol.summary())
-    print(f"heyoka integrator compiled once in {compile_s:.2f} s; this run took {run_s * 1e3:.1f} ms "
+    print(f"heyoka integrator compiled (and numba's code loaded) once in {compile_s:.2f} s; this run took "
+          f"{run_s * 1e3:.1f} ms "
           f"for {sum(sol.counts.values())} events.")
     drive = io.TapeDrive()
     lam = drive.seconds_to_lambda(1.0)

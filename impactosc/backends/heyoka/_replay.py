@@ -14,15 +14,13 @@ event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``rele
 Rigid flanges run there too: their impact guards carry the engine's chatter rule (the
 guard's ``accumulation``, :mod:`impactosc.engine._chatter`), so the run jumps at the impact
 where the engine's does, and :func:`_replay_rigid` records impacts, chatter, rest on the wall
-and release as the engine does. What the hybrid loop does not express stays on the piece loop
-of this package (:func:`piece_loop_reason` says which and why, in one place): power-law
-flanges (``d^p`` has no Taylor series at the contact's start: the piece stepper's boundary
-layer) and harmonics that are not whole multiples of ``Omega`` (the stuck phase below needs a
-forcing periodic with ``2 pi / Omega``) stay there.
+and release as the engine does. This is the heyoka backend's only loop: every member runs here.
 A stuck phase costs the hybrid loop at most about three forcing periods of steps whatever its
-length: the stick modes are *frozen* (every state's rate zero) and the loop jumps over whole
-periods (:func:`~impactosc.engine._hybrid.period_jump`); the piece loop solves each release in
-closed form instead (:mod:`impactosc.engine._stuck`).
+length when the forcing is periodic with ``2 pi / Omega``: the stick modes are *frozen* (every
+state's rate zero) and the loop jumps over whole periods
+(:func:`~impactosc.engine._hybrid.period_jump`). Harmonics that are not whole multiples of
+``Omega`` have no such period: the loop steps through the stuck phase, at a cost in proportion
+to its length.
 """
 
 from __future__ import annotations
@@ -35,6 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..._util.heyoka_log import log_on_stderr
 from ...engine._chatter import ChatterTracker
 from ...engine._driver import (
     AT_WALL,
@@ -63,9 +62,8 @@ from ...model.hybrid import oscillator_system
 from ...results._bulk import PIECE_DTYPE, bulk
 from ...results._solution import EVENT_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
 from .._hybrid_heyoka import DEFAULT_COOLDOWN, compiled, dense_states, run_counted
-from ._ode import log_on_stderr
 
-__all__ = ["piece_loop_reason", "run_on_hybrid_loop", "drive_on_hybrid_loop"]
+__all__ = ["run_on_hybrid_loop", "drive_on_hybrid_loop"]
 
 #: The scale of the replayed system's integrals (``oscillator_system(integral_scale=...)``): a power of
 #: two keeps them exact and out of heyoka's error norm, which is relative to the largest state
@@ -75,53 +73,6 @@ INTEGRAL_SCALE = 2.0**-40
 
 _REGIONS = {"free": 0, "upper": 1, "lower": -1}
 _MOTIONS = {"0": 0, "+": 1, "-": -1}
-
-
-def piece_loop_reason(osc: Oscillator, max_wall_time=None) -> str | None:
-    """Why ``osc`` runs on the piece loop rather than the one hybrid loop, or None when it does not.
-
-    The one place that decides the dispatch of the heyoka backend: spring flanges
-    (``exponent == 1``) and rigid flanges with a forcing periodic in ``2 pi / Omega`` run on the
-    hybrid loop; power-law flanges and harmonics that are not whole multiples of ``Omega`` stay
-    on the piece loop (the reasons below). ``max_wall_time`` is accepted by both loops.
-    """
-    levels = [F for F, _, _ in osc.terms] + [osc.beta, osc.beta_s]
-    if 0.0 < max(levels) < TINY_FORCES:
-        return (f"forcing and friction levels of at most {TINY_FORCES:g}: the hybrid loop decides a state on a "
-                "guard with a tolerance absolute at 1e-12 (1 + |y|), which forces this small fall under (a stuck "
-                "mass with F = beta = 1e-45 was released and stuck at one instant for ever)")
-    return _hybrid_loop_reason(osc)
-
-
-#: Forcing and friction levels below which a member stays on the piece loop (see piece_loop_reason).
-TINY_FORCES = 1e-9
-
-
-def _hybrid_loop_reason(osc: Oscillator) -> str | None:
-    """What keeps ``osc`` off the hybrid loop (power-law flanges, harmonics that are not whole multiples of Omega).
-
-    Rigid flanges run on it: their impact guards carry the engine's chatter rule
-    (:class:`~impactosc.model.hybrid._oscillator_system.WallChatter`) and the replay records the
-    engine's events and sums (:func:`_replay_rigid`).
-    """
-    if osc.exponent != 1.0:
-        return "a power-law flange: d^p needs the boundary layer of the piece stepper"
-    if not _periodic_forcing(osc):
-        return ("harmonics that are not whole multiples of Omega: the forcing is not periodic with the system's "
-                "period 2 pi / Omega, so a stuck phase cannot be jumped over whole periods (the hybrid loop would "
-                "step through it); the piece loop solves each release in closed form")
-    return None
-
-
-def _periodic_forcing(osc: Oscillator) -> bool:
-    """Whether every forcing term repeats with ``2 pi / Omega`` (or none depends on the time)."""
-    omegas = [Om for F, Om, _ in osc.terms if F != 0.0]
-    if all(Om == 0.0 for Om in omegas):
-        return True
-    if osc.Omega <= 0.0:
-        return False
-    ratios = [Om / osc.Omega for Om in omegas]
-    return all(r >= 0.5 and abs(r - round(r)) <= 4.0 * 2.0**-52 * r for r in ratios)
 
 
 @lru_cache(maxsize=64)
@@ -258,7 +209,7 @@ def run_on_hybrid_loop(osc: Oscillator, t_end: float, x0: float, v0: float, *, r
     """Run ``osc`` on the one heyoka event loop and replay the run into the built-in :class:`Solution`.
 
     The arguments are those of :func:`impactosc.backends.heyoka.run` (already checked);
-    ``osc`` must be a member that :func:`piece_loop_reason` accepts.
+    ``osc`` must be a member that :func:`~impactosc.model.hybrid.oscillator_system` writes.
     """
     _, modes, _, guards, slots = _member_system(osc)
     hybrid, steps, start = _run(osc, t_end, x0, v0, max_events, tol, max_wall_time)

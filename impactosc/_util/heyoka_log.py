@@ -1,0 +1,63 @@
+"""heyoka's log on ``stderr``: its warnings must not corrupt tables and piped output on ``stdout``.
+
+heyoka logs through spdlog to a sink on C's ``stdout``. The sink takes the ``FILE *`` that
+``stdout`` holds when heyoka creates its logger, on the first integrator built in the
+process: :func:`log_on_stderr` makes that build with ``stdout`` holding ``stderr``.
+"""
+
+from __future__ import annotations
+
+import threading
+
+__all__ = ["log_on_stderr"]
+
+
+def _log_to_stderr(build):
+    """Call ``build()`` with C's ``stdout`` pointing at ``stderr``, so heyoka's logger goes there.
+
+    Python's own ``sys.stdout`` is not a C ``FILE *`` and is unaffected. If heyoka's logger
+    already exists (created by an earlier heyoka call outside impactosc), it keeps stdout.
+    """
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None)
+        for out_name, err_name in (("stdout", "stderr"), ("__stdoutp", "__stderrp")):  # glibc/musl, macOS
+            try:
+                out = ctypes.c_void_p.in_dll(libc, out_name)
+                err = ctypes.c_void_p.in_dll(libc, err_name)
+                break
+            except ValueError:
+                continue
+        else:
+            return build()
+    except (OSError, TypeError, AttributeError):  # no C library to reach (e.g. Windows): leave it
+        return build()
+    saved = out.value
+    out.value = err.value
+    try:
+        return build()
+    finally:
+        out.value = saved
+
+
+_first_build = threading.Lock()
+_logger_routed = False
+
+
+def log_on_stderr(build):
+    """``build()``; the process's first heyoka build is made with C's ``stdout`` on ``stderr``.
+
+    Whichever integrator heyoka builds first creates its logger (:func:`_log_to_stderr`).
+    Later calls cost a flag check.
+    """
+    global _logger_routed
+    if _logger_routed:
+        return build()
+    with _first_build:
+        if not _logger_routed:
+            try:
+                return _log_to_stderr(build)
+            finally:
+                _logger_routed = True
+    return build()
