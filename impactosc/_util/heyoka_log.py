@@ -46,18 +46,22 @@ _logger_routed = False
 
 
 def log_on_stderr(build):
-    """``build()``; the process's first heyoka build is made with C's ``stdout`` on ``stderr``.
+    """``build()``, with heyoka's logger created on ``stderr`` first if this process has none yet.
 
-    Whichever integrator heyoka builds first creates its logger (:func:`_log_to_stderr`).
-    Later calls cost a flag check.
+    heyoka creates its logger at its first use (any compile logs at debug level), so whatever
+    impactosc compiles first (an integrator, a compiled function of a user system's guards)
+    goes through here. The logger is created by setting its level (to heyoka's default,
+    warning) with C's ``stdout`` on ``stderr`` (:func:`_log_to_stderr`); later calls cost a
+    flag check.
     """
     global _logger_routed
-    if _logger_routed:
-        return build()
-    with _first_build:
-        if not _logger_routed:
-            try:
-                return _log_to_stderr(build)
-            finally:
-                _logger_routed = True
+    if not _logger_routed:
+        with _first_build:
+            if not _logger_routed:
+                try:
+                    import heyoka
+
+                    _log_to_stderr(heyoka.set_logger_level_warning)
+                finally:
+                    _logger_routed = True
     return build()

@@ -64,6 +64,7 @@ import numpy as np
 
 from .._util import validation as _v
 from .._util.cache import BuiltOnce
+from .._util.heyoka_log import log_on_stderr
 from .._util.notice import notice
 from ..engine._hybrid import (
     CROSSING,
@@ -381,7 +382,8 @@ def _pool(system: HybridSystem, tol: float, cooldown: float) -> _Instances:
         notice(f"hybrid-compile:{hash(key)}",
                f"impactosc: heyoka is compiling the integrator of the system {system.name!r} "
                f"(tol={tol:g}); this process compiles it once and reuses it for every run and parameter value")
-        return _Instances(lambda: CompiledSystem(system, tol, cooldown))
+        # the process's first heyoka build also creates heyoka's logger: on stderr, not in piped output
+        return log_on_stderr(lambda: _Instances(lambda: CompiledSystem(system, tol, cooldown)))
 
     return _cache.get(key, first)
 

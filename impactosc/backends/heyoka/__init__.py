@@ -47,7 +47,6 @@ costs in proportion to its length (about 2.5 us per unit of time at ``Omega = 0.
 
 from __future__ import annotations
 
-from ..._util.heyoka_log import log_on_stderr
 from ...model._oscillator import Oscillator
 from ...results._solution import Solution
 from .._hybrid_heyoka import DEFAULT_COOLDOWN, DEFAULT_TOL, MAX_TOL, MIN_TOL, check_tol, compiled
@@ -90,7 +89,7 @@ def compiled_integrator(osc: Oscillator, tol: float = DEFAULT_TOL):
     """
     system = _system(osc)[0]
     tol = check_tol(tol)
-    return log_on_stderr(lambda: compiled(system, tol, DEFAULT_COOLDOWN))
+    return compiled(system, tol, DEFAULT_COOLDOWN)
 
 
 def run(osc: Oscillator, t_end: float, x0: float, v0: float, *, record: str, max_events: int,

@@ -33,7 +33,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..._util.heyoka_log import log_on_stderr
 from ...engine._chatter import ChatterTracker
 from ...engine._driver import (
     AT_WALL,
@@ -183,7 +182,7 @@ def _run(osc: Oscillator, t_end: float, x0: float, v0: float, max_events: int, t
          max_wall_time: float | None):
     """``(hybrid, steps, start)``: ``osc`` run on the one heyoka loop from the engine's initial mode."""
     system, _, index, _, _ = _member_system(osc)
-    log_on_stderr(lambda: compiled(system, tol))  # heyoka's warnings on stderr, not in piped output
+    compiled(system, tol)  # compiled before the run, heyoka's log on stderr (see _util/heyoka_log)
     v0 = 0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0  # rest, as the engine's drive takes it
     start = initial_mode(osc, 0.0, x0, v0)
     name = system.mode_names[index[(start.region, start.motion)]]

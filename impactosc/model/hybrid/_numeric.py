@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..._util.cache import BuiltOnce
+from ..._util.heyoka_log import log_on_stderr
 
 if TYPE_CHECKING:  # annotations only: the definition imports this module for its period
     from ._definition import HybridSystem
@@ -155,7 +156,7 @@ def evaluator(num: Numeric, exprs, label: str):
     renamed = [hy.subs(e, {str(v): w for v, w in zip(num.states, internal, strict=True)}) for e in exprs]
     if not exprs:
         return lambda t, y, p: ()
-    compiled = hy.cfunc(exprs, num.states)
+    compiled = log_on_stderr(lambda: hy.cfunc(exprs, num.states))  # heyoka's log on stderr (see there)
     args = ", ".join(names)
     pars = ", ".join(f"p{i}" for i in range(num.n_params))
     body = ["def _f(t, y, p):", f"    {args}{',' if n == 1 else ''} = y"]
