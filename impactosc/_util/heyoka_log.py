@@ -8,8 +8,9 @@ process: :func:`log_on_stderr` makes that build with ``stdout`` holding ``stderr
 from __future__ import annotations
 
 import threading
+from contextlib import contextmanager
 
-__all__ = ["log_on_stderr"]
+__all__ = ["log_on_stderr", "root_finding_muted"]
 
 
 def _log_to_stderr(build):
@@ -65,3 +66,35 @@ def log_on_stderr(build):
                 finally:
                     _logger_routed = True
     return build()
+
+
+_muted = 0
+_muted_lock = threading.Lock()
+
+
+@contextmanager
+def root_finding_muted():
+    """heyoka's log at level error while the block runs (in any thread), then at warning again.
+
+    For the hybrid loop's integration only. heyoka warns "polynomial root finding during event
+    detection failed due to too many iterations" when it gives up isolating an event's roots on a
+    step, and then skips that event on that step. The loop checks at every event and at the run's
+    end for a guard that crossed zero without its event and applies it at its first root (the
+    lost-crossing check of ``backends/_hybrid_heyoka``), so the warning is handled and says nothing
+    a user can act on; a tape drive's creep printed 45 of them in the demo. The level is the
+    process's (heyoka has one logger), set back to heyoka's default when the last block ends.
+    """
+    global _muted
+    import heyoka
+
+    with _muted_lock:
+        if _muted == 0:
+            heyoka.set_logger_level_error()
+        _muted += 1
+    try:
+        yield
+    finally:
+        with _muted_lock:
+            _muted -= 1
+            if _muted == 0:
+                heyoka.set_logger_level_warning()

@@ -64,7 +64,7 @@ import numpy as np
 
 from .._util import validation as _v
 from .._util.cache import BuiltOnce
-from .._util.heyoka_log import log_on_stderr
+from .._util.heyoka_log import log_on_stderr, root_finding_muted
 from .._util.notice import notice
 from ..engine._hybrid import (
     CROSSING,
@@ -642,7 +642,8 @@ def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: fl
         comp.holder.run = run
         try:
             quiet = system.guard_names.index(quiet_at_start) if quiet_at_start is not None else -1
-            steps = _propagate(run, comp, t0, y0, t_end, deadline, quiet)
+            with root_finding_muted():  # what heyoka's root finder gives up on, the lost-crossing check finds
+                steps = _propagate(run, comp, t0, y0, t_end, deadline, quiet)
         finally:
             comp.holder.run = None
         ta = comp.ta
