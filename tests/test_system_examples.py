@@ -174,9 +174,12 @@ def test_eq3_with_a_harmonic_and_one_flange():
     assert sol.integrals["Q"] == pytest.approx(ref.flange_impulse(), rel=1e-10)
 
 
-def test_power_law_flange_is_refused_with_the_reason():
-    with pytest.raises(ValueError, match="exponent=1.5.*not analytic"):
-        oscillator_system(impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4, exponent=1.5))
+def test_power_law_flange_is_written_with_its_boundary_layers():
+    """``d^p`` is not analytic at ``d = 0``: each flange has a layer mode left at the layer's edge
+    (the runs are checked in tests/test_one_loop_power.py)."""
+    system = oscillator_system(impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4, exponent=1.5))
+    assert system.mode_names[-2:] == ("upper_layer+", "lower_layer-")
+    assert dict(system.parameters)["exponent"] == 1.5 and 0.0 < dict(system.parameters)["layer"] < 1e-13
 
 
 @pytest.mark.parametrize("backend, above", [("heyoka", 1e-12), ("scipy", 1e-9)])

@@ -11,7 +11,11 @@ and piece starts, as arrays in one ``bulk`` call, then ``finish``. The hybrid
 modes map onto the engine's ``Mode(region, motion)`` and its guards onto the built-in
 event kinds (``contact_start``, ``contact_end``, ``stick``, ``reversal``, ``release``).
 
-Rigid flanges run there too: their impact guards carry the engine's chatter rule (the
+Power-law flanges (``K d^p``) can run there too: :func:`~impactosc.model.hybrid.oscillator_system` gives
+each flange a boundary-layer mode with an internal edge guard (``LAYER_EDGE``), which the replay
+drops (:func:`recorded_crossings`: a contact's pieces across the edge are one piece, its integrals
+continuous there), and whose dense output inside a contact goes through the edge with the events on
+(:func:`_through_layer`). Rigid flanges run there too: their impact guards carry the engine's chatter rule (the
 guard's ``accumulation``, :mod:`impactosc.engine._chatter`), so the run jumps at the impact
 where the engine's does, and :func:`_replay_rigid` records impacts, chatter, rest on the wall
 and release as the engine does. This is the heyoka backend's only loop: every member runs here.
@@ -70,7 +74,10 @@ __all__ = ["run_on_hybrid_loop", "drive_on_hybrid_loop"]
 #: times moved by 0.16).
 INTEGRAL_SCALE = 2.0**-40
 
-_REGIONS = {"free": 0, "upper": 1, "lower": -1}
+_REGIONS = {"free": 0, "upper": 1, "lower": -1, "upper_layer": 1, "lower_layer": -1}
+#: The kind of a power-law flange's boundary-layer edge: an internal event of the hybrid run, no event of the
+#: built-in Solution (its two pieces are one piece).
+LAYER_EDGE = "layer edge"
 _MOTIONS = {"0": 0, "+": 1, "-": -1}
 
 
@@ -81,11 +88,18 @@ def _system(osc: Oscillator):
     modes = []
     for name in system.mode_names:
         modes.append(Mode(_REGIONS[name[:-1]], _MOTIONS[name[-1]], True))
-    index = {(m.region, m.motion): i for i, m in enumerate(modes)}
-    # guard -> (kind, side) by name: "enter upper", "leave lower", "free+ stop", "upper release-", "impact upper"
+    # a power-law flange's layer mode ("upper_layer+") is where a run moving into the flange starts: its
+    # layer's edge is ahead, or behind when the start is deeper (oscillator_system's _boundary_layers)
+    layered = [i for i, name in enumerate(system.mode_names) if "_layer" in name]
+    index = {(m.region, m.motion): i for i, m in enumerate(modes) if i not in layered}
+    index.update({(modes[i].region, modes[i].motion): i for i in layered})
+    # guard -> (kind, side) by name: "enter upper", "leave lower", "free+ stop", "upper release-", "impact upper",
+    # "upper layer in"
     guards: list[tuple[str | None, int]] = []
     for name in system.guard_names:
-        if name.startswith("impact "):
+        if name.endswith(" layer in"):
+            guards.append((LAYER_EDGE, _REGIONS[name.split()[0]]))
+        elif name.startswith("impact "):
             guards.append((IMPACT, _REGIONS[name[7:]]))
         elif osc.rigid and name.split()[0] in ("upper", "lower"):
             guards.append((CONTACT_END, _REGIONS[name.split()[0]]))  # the release off a rigid wall
@@ -265,7 +279,7 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
         _replay_rigid(osc, hybrid, rec, modes, guards, slots, start, max_events)
         return
     y0 = hybrid._pieces[0][2]
-    events = [e for e in hybrid._raw_events if e[2] == CROSSING]
+    events = recorded_crossings(hybrid._raw_events, guards)
     rec.begin(osc, 0.0, y0[0], y0[1], start)
     table = _kinds(modes, guards)
     t, guard, target, states_before, states_after = _crossings(events, guards, table.kind, len(y0))
@@ -325,6 +339,16 @@ def _replay(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode, max_
     _finish(hybrid, rec, mode, max_events)
 
 
+def recorded_crossings(raw_events, guards) -> list:
+    """The crossings of a hybrid run that the built-in :class:`Solution` records: all but a power-law
+    flange's layer edges (``LAYER_EDGE``), which split a contact's piece without an event.
+
+    The integrals are continuous there (no reset), and each piece's increments are differences
+    of the run's integrals between recorded events, so they add up over the layer's sub-pieces.
+    """
+    return [e for e in raw_events if e[2] == CROSSING and guards[e[1]][0] != LAYER_EDGE]
+
+
 def _crossings(events: list, guards, kinds: np.ndarray, width: int) -> tuple:
     """The crossing records of a hybrid run as arrays (times, guards, modes after, states before and after),
     each touch of a flange as the reversal it is (:func:`_crossings_without_touches`).
@@ -375,7 +399,7 @@ _START, _END, _RELEASE, _STICK, _REVERSAL = range(len(_KIND_NAMES))
 class _KindTable(NamedTuple):
     """The built-in kind and side of each hybrid guard and the region and motion of each hybrid mode, as arrays."""
 
-    kind: np.ndarray  # index into _KIND_NAMES, -1: stick or reversal, decided by the mode after it
+    kind: np.ndarray  # index into _KIND_NAMES, -1: stick or reversal, decided by the mode after it; -2: a layer edge
     side: np.ndarray
     region: np.ndarray
     motion: np.ndarray
@@ -384,7 +408,7 @@ class _KindTable(NamedTuple):
 
 @lru_cache(maxsize=64)
 def _kinds(modes: tuple, guards: tuple) -> _KindTable:
-    codes = {CONTACT_START: _START, CONTACT_END: _END, RELEASE: _RELEASE, None: -1}
+    codes = {CONTACT_START: _START, CONTACT_END: _END, RELEASE: _RELEASE, None: -1, LAYER_EDGE: -2}
     return _KindTable(np.array([codes[k] for k, _ in guards]), np.array([s for _, s in guards]),
                       np.array([m.region for m in modes]), np.array([m.motion for m in modes]),
                       np.array([m.armed for m in modes]))
@@ -750,6 +774,32 @@ class _Evaluator:
         system, _, index, _, slots = _system(self.osc)
         state = [x, v] + [0.0] * len(system.integrals)
         times = np.asarray(times, dtype=float)
-        out = dense_states(system, self.tol, DEFAULT_COOLDOWN, index[(mode.region, mode.motion)], t0, state, times)
+        m = index[(mode.region, mode.motion)]
+        if self.osc.linear or self.osc.rigid or mode.region == 0:
+            out = dense_states(system, self.tol, DEFAULT_COOLDOWN, m, t0, state, times)
+        else:
+            out = _through_layer(system, self.tol, m, t0, state, times)
         q = out[:, slots["Q"]] / INTEGRAL_SCALE if "Q" in slots else np.zeros(times.shape)
         return out[:, 0].copy(), out[:, 1].copy(), np.asarray(q, dtype=float).copy()
+
+
+def _through_layer(system, tol: float, mode: int, t0: float, state: list, times: np.ndarray) -> np.ndarray:
+    """The states (then integrals) at ``times`` of a piece inside a power-law flange, from ``(t0, state)`` in ``mode``.
+
+    Integrated with the events on (the hybrid loop, to the last time): the spring comes on at the
+    layer's edge only where a step ends there (``oscillator_system``'s ``_power_law``), which dense
+    output with the events off would step over. The times lie in one piece of the built-in
+    :class:`Solution` (between two of its events), so only the layer's edge may fire before the last.
+    """
+    out = np.empty((times.size, len(state)))
+    later = times > t0
+    out[~later] = state
+    if later.any():
+        name = system.mode_names[mode]
+        quiet = f"{name} stop" if name[-1] != "0" else None  # the piece starts where a slip starts (run_on_hybrid_loop)
+        hybrid, _ = run_counted(system, float(times[later].max()), state[:2], mode=name, t0=t0, tol=tol,
+                                quiet_at_start=quiet)
+        if hybrid.status not in (0, 1):
+            raise FloatingPointError(f"heyoka could not re-integrate the piece starting at t={t0!r}: {hybrid.message}")
+        out[later] = hybrid.sample(np.minimum(times[later], hybrid.t_final))
+    return out

@@ -10,7 +10,7 @@ from .._oscillator import Oscillator
 from ._definition import EngineRule, Guard, HybridMode, HybridSystem
 from ._friction import stick_slip
 
-__all__ = ["oscillator_system", "WallChatter", "StickTest"]
+__all__ = ["oscillator_system", "WallChatter", "StickTest", "layer_thickness"]
 
 #: A flange mode may be entered a few rounding errors outside its surface: a stop located inside a
 #: spring flange at the turning point of a grazing contact can round to ``X = gap (1 - eps)``, where
@@ -22,6 +22,59 @@ _SURFACE_ROUNDING = 4.0 * 2.0**-52
 _IMPACT_ROUNDING = 64.0 * 2.0**-52
 #: A speed away from a rigid wall below this is none (the engine's kinematic guard offset).
 _NO_SPEED = 1e-300
+#: The spring force at the edge of a power-law flange's boundary layer: the unit roundoff (see layer_thickness).
+_LAYER_FORCE = 2.0**-53
+#: The layer's least thickness: a few ulps of the flange's position ``|X| ~ 1`` (see layer_thickness).
+_LAYER_FLOOR = 4.0 * 2.0**-52
+
+
+def layer_thickness(osc: Oscillator) -> float:
+    """The thickness ``delta`` of a power-law flange's boundary layer: ``max((u / K)^(1/p), 4 eps)``.
+
+    ``d^p`` (``p > 1``; a Taylor integrator computes it as ``exp(p log d)``) is not analytic at
+    ``d = 0``, where each contact starts: its Taylor coefficients divide by ``d``, so a step that
+    starts at ``d = 0`` has non-finite coefficients, and near ``d = 0`` the steps shrink
+    geometrically. The spring is therefore off in the layer ``0 <= d < delta`` (see
+    :func:`oscillator_system`). The force left out there is below ``K delta^p = max(u, K (4 eps)^p)``
+    with ``u = 2^-53``: the unit roundoff, below the rounding of the tape-spring term ``X``
+    (``|X| >= 1``) that every evaluation of the net force carries, wherever ``K <= u / (4 eps)^p``
+    (``K <= 4.2e6`` for ``p = 1.5``, ``K <= 1.4e14`` for ``p = 2``); beyond, ``K (4 eps)^p`` is
+    ``8 / p`` times the error that the rounding of ``X`` (``eps / 2``) puts into ``K d^p`` at ``d = 4 eps``.
+    Over a stay of length ``T`` in the layer the omission moves ``V`` by at most ``K delta^p T``
+    and leaves out at most that much of the flange impulse; a contact entered at speed ``v``
+    crosses the layer in ``T ~ delta / v``. A numerical device, not a change of the model: a
+    contact still starts and ends at ``d = 0``, the flange's surface.
+
+    Examples
+    --------
+    >>> import impactosc
+    >>> from impactosc.model.hybrid._oscillator_system import layer_thickness
+    >>> f"{layer_thickness(impactosc.Oscillator(0.5, 1.1, 0.01, 1e4, exponent=1.5)):.3g}"
+    '4.98e-14'
+    """
+    p, K = osc.exponent, osc.K
+    return max((_LAYER_FORCE / K) ** (1.0 / p), _LAYER_FLOOR)
+
+
+def _power_law(K, exponent, depth, layer):
+    """The force ``K d^p`` of a power-law flange at depth ``d``, off while a step starts in the boundary layer.
+
+    Every mode's vector field is one expression of the integrator (gated by the mode), so the
+    force must be finite at every state, also outside the flange: ``select(delta / 2 > d, 0, (d^2)^(p/2))``
+    takes one branch, and the other's non-finite Taylor coefficients (``d = 0``) stay out of it;
+    ``(d^2)^(p/2)`` is ``d^p`` where it is taken and is finite for ``d < 0``, where the evaluators
+    (which may compute both branches) would take ``d^p`` of a negative number. heyoka's
+    ``select`` decides on the value at the start of each step, so the force is on for a
+    whole step that starts beyond ``delta / 2`` and off for one that starts before it. The
+    guards ``d = delta`` (``"upper layer in"``, ``"upper layer out"``) end a step there, so
+    that moving in the spring comes on at ``d = delta``; moving out it goes off at the first
+    step that starts below ``delta / 2``, and a step that starts beyond it stays within the
+    radius of convergence ``d / |V|`` of ``d^p`` (heyoka's steps do), so never reaches ``d = 0``.
+    Evaluated (guards, entry conditions, resets), the force is ``K d^p`` for ``d > delta / 2``.
+    """
+    import heyoka as hy
+
+    return K * hy.select(hy.gt(0.5 * layer, depth), 0.0, (depth * depth) ** (0.5 * exponent))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,11 +168,15 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     two (the built-in heyoka backend takes ``2**-40``) they stay out of it, and the
     integrals divided by it are the same numbers to rounding.
 
-    Raises
-    ------
-    ValueError
-        For a power-law flange (``exponent != 1``): ``d^p`` is not analytic at ``d = 0``,
-        where a Taylor integrator starts each contact.
+    A power-law flange (``exponent = p > 1``, the Hertz contact ``K d^p``) has the parameters
+    ``exponent`` and ``layer`` (:func:`layer_thickness`): ``d^p`` is not analytic at ``d = 0``, where
+    each contact starts, so the spring is off in a boundary layer ``0 <= d < layer`` whose left-out
+    force is below the unit roundoff, and each flange has one more mode, ``"upper_layer+"``
+    (``"lower_layer-"``): moving in with the layer's edge ahead, left at the edge by the internal
+    guard ``"upper layer in"`` (``_boundary_layers``). Contacts still start and end at ``d = 0``.
+    The layer is as thin as the unit roundoff allows whatever the speed, so a contact entered
+    faster than about ``1e15 * layer`` crawls (tiny steps at its edge; the built-in heyoka
+    backend's piece loop thickens its layer with the speed).
 
     Examples
     --------
@@ -140,6 +197,12 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     A rigid flange under a constant push: its impacts accumulate (at ``pi / 3 + sum_k 2 atan(sqrt(3) / 2^k)``),
     where the engine's chatter rule jumps to rest on the wall:
 
+    A Hertz contact (``p = 1.5``): the layer's edge is an internal event of each contact:
+
+    >>> hertz = oscillator_system(impactosc.Oscillator(F=0.5, Omega=1.1, beta=0.01, K=1e4, exponent=1.5))
+    >>> hertz.mode_names[-2:], hertz.guard_names[-1]
+    (('upper_layer+', 'lower_layer-'), 'lower layer in')
+
     >>> rigid = oscillator_system(impactosc.Oscillator(F=2.0, Omega=0.0, beta=0.0, flange="rigid", restitution=0.5))
     >>> rest = impactosc.simulate(rigid, 10.0, [0.0, 0.0]).events[-1]
     >>> rest.kind, rest.mode_after, round(rest.t, 9)
@@ -153,9 +216,6 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
         raise TypeError(f"osc must be an impactosc.Oscillator, got {osc!r}")
     if not (isinstance(integral_scale, (int, float)) and math.isfinite(integral_scale) and integral_scale > 0.0):
         raise ValueError(f"integral_scale must be a finite number > 0, got {integral_scale!r}")
-    if osc.exponent != 1.0 and not osc.rigid:
-        raise ValueError(f"exponent={osc.exponent!r}: a power-law flange d^p is not analytic at d = 0, where each "
-                         "contact starts; oscillator_system writes linear (exponent=1) and rigid flanges only")
     x, v = symbols("x v")
     params: dict[str, float] = {}
 
@@ -184,9 +244,16 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     regions = [("free", base, None, inside)]
     if not osc.rigid:
         K = par("K", osc.K)
+        if not osc.linear:
+            exponent, layer = par("exponent", osc.exponent), par("layer", layer_thickness(osc))
         for side, _ in flanges:
             wall = side * gaps[side]
-            regions.append(("upper" if side > 0 else "lower", base - K * (x - wall), side * K * (x - wall),
+            if osc.linear:
+                force, spring = base - K * (x - wall), side * K * (x - wall)
+            else:  # the force's magnitude K d^p, with its boundary layer (_power_law)
+                spring = _power_law(K, exponent, side * x - gaps[side], layer)
+                force = base - side * spring
+            regions.append(("upper" if side > 0 else "lower", force, spring,
                             [side * x - gaps[side] + _SURFACE_ROUNDING * (1.0 + gaps[side])]))
     for prefix, force, impulse, region in regions:
         ints: dict = {"Q": impulse} if impulse is not None else {}
@@ -213,6 +280,8 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
             surface = x - side * gaps[side]
             guards.append(Guard(f"enter {name}", surface, side, armed=f"free{into}", to=f"{name}{into}"))
             guards.append(Guard(f"leave {name}", surface, -side, armed=f"{name}{out}", to=f"free{out}"))
+        if not osc.linear:
+            modes, guards = _boundary_layers(modes, guards, flanges, gaps, x, layer)
     period = 2.0 * math.pi / symbols("Omega") if osc.Omega > 0.0 else None
     integrals = [] if osc.rigid else ["Q"]
     if energy:
@@ -234,6 +303,41 @@ def _force_level(amplitudes, beta, beta_s):
     for F in amplitudes:
         level = level + hy.select(hy.lt(F, 0.0), -F, F)
     return hy.select(hy.lt(level, 1.0), level, 1.0)
+
+
+def _boundary_layers(modes: list, guards: list, flanges, gaps: dict, x, layer) -> tuple[list, list]:
+    """The modes and guards of power-law flanges with each flange's boundary layer crossed moving in.
+
+    Per flange one more mode, ``"upper_layer+"`` (``"lower_layer-"``): moving into the flange with
+    the layer's edge ``d = delta`` ahead, the vector field and integrands those of ``"upper+"``. Its
+    guard ``"upper layer in"`` (``d`` rises through ``delta``, into ``"upper+"``) ends the step
+    there, so that the spring comes on (:func:`_power_law`); it is an internal event, no contact
+    event. Every way into the flange moving in goes through it: the contact's start (``"enter
+    upper"``), a release from sticking and a stop moving out that turns back in (the mass may lie
+    inside the layer there), and so does a run started moving in (the built-in replay's mode of
+    ``(region, motion)``): deeper than the layer its edge is behind, and the mode is ``"upper+"`` in
+    all but name. Its slip's stop (``"upper_layer+ stop"``) is that of ``"upper+"``. Moving out
+    needs no edge: the spring goes off at the first step that starts within ``delta / 2``, and
+    ``"leave upper"`` ends the contact.
+    """
+    for side, _ in flanges:
+        name, into = ("upper", "+") if side > 0 else ("lower", "-")
+        spring, layered = f"{name}{into}", f"{name}_layer{into}"
+        model = next(m for m in modes if m.name == spring)
+        modes.append(HybridMode(layered, dict(model.field), entry=model.entry, integrands=dict(model.integrands)))
+        stop = next(g for g in guards if g.name == f"{spring} stop")
+        # every way in but the edge: with the edge ahead
+        guards = [dataclasses.replace(g, to=tuple(layered if m == spring else m for m in g.to)) if spring in g.to
+                  else g for g in guards]
+        guards.append(dataclasses.replace(stop, name=f"{layered} stop", armed=(layered,)))  # the slip's stop
+        # In units of the layer's thickness: on the flange's surface it is 1, far from the loop's tolerance of a
+        # state on a guard (1e-12 (1 + |y|), which took the surface for the edge and skipped the layer). It
+        # crosses in the direction opposite to the contact's start: heyoka shares one event among guards of one
+        # direction armed in disjoint modes, and the contact start's cooldown (1e-12) hid an edge crossed
+        # 7e-14 later.
+        edge = side * (gaps[side] + layer - side * x) / layer
+        guards.append(Guard(f"{name} layer in", edge, -side, armed=(layered,), to=(spring,)))
+    return modes, guards
 
 
 def _rigid_flanges(modes: list, guards: list, flanges, gaps: dict, x, v, force, beta_s, e,
