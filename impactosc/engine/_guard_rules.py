@@ -55,7 +55,11 @@ def stick_test(spec: StickTest, system: HybridSystem):
     every stop and release with the same call.
     """
     names = system.parameter_names
-    by_motion = [system.mode_index(f"{spec.region}{s}") for s in ("0", "+", "-")]  # motion 0, 1, -1
+    # motion 0, 1, -1; moving into a power-law flange, the mode with its boundary layer's edge ahead
+    # (oscillator_system's "upper_layer+", "lower_layer-": the spring comes on at the edge)
+    names_of = set(system.mode_names)
+    by_motion = [system.mode_index(f"{spec.region}_layer{s}" if f"{spec.region}_layer{s}" in names_of
+                                   else f"{spec.region}{s}") for s in ("0", "+", "-")]
     x = spec.position
     values, params, rigid = None, None, False  # the parameter values of the run, their member's vector
 

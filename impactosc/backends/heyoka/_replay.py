@@ -424,7 +424,7 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     if osc.rigid:
         _replay_rigid(osc, hybrid, rec, modes, guards, slots, start, max_events, stops)
         return
-    events = _crossings_without_touches(hybrid._raw_events, guards)
+    events = _crossings_without_touches(recorded_crossings(hybrid._raw_events, guards), guards)
     n = len(events)
     y0 = hybrid._pieces[0][2]
     rec.begin(osc, 0.0, y0[0], y0[1], start)
@@ -771,7 +771,7 @@ class _Evaluator:
         self.tol = tol
 
     def __call__(self, mode: Mode, t0: float, x: float, v: float, times: np.ndarray):
-        system, _, index, _, slots = _system(self.osc)
+        system, _, index, _, slots = _member_system(self.osc)
         state = [x, v] + [0.0] * len(system.integrals)
         times = np.asarray(times, dtype=float)
         m = index[(mode.region, mode.motion)]

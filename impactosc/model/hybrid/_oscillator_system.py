@@ -132,7 +132,8 @@ def _member(names: tuple[str, ...], values: tuple[float, ...]) -> Oscillator:
     rigid = "e" in named  # a rigid member's restitution; a spring member's stiffness is K
     flange = dict(flange="rigid", restitution=named["e"]) if rigid else {}
     return Oscillator(F, Omega, named["beta"], 0.0 if rigid else named["K"], phase, zeta=named.get("zeta", 0.0),
-                      beta_static=named["beta_s"], harmonics=harmonics, **flange,  # type: ignore[arg-type]
+                      beta_static=named["beta_s"], harmonics=harmonics, exponent=named.get("exponent", 1.0),
+                      **flange,  # type: ignore[arg-type]
                       gap_lower=named.get("gap_lower", math.inf), gap_upper=named.get("gap_upper", math.inf))
 
 
