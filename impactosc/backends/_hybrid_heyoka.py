@@ -658,6 +658,15 @@ def run_counted(system: HybridSystem, t_end: float, state0, *, mode=None, t0: fl
     return solution, steps
 
 
+def _stalled(t_start: float, t_now: float, steps: int) -> bool:
+    """Whether ``steps`` integrator steps from ``t_start`` to ``t_now`` averaged at most 16 ulps of the time.
+
+    Steps that short are at the rounding of the time: the run would go on without getting anywhere (a
+    power-law contact entered at 30 with ``K = 1e6`` took 10,000 steps per 1e-12 of time, for ever).
+    """
+    return abs(t_now - t_start) <= steps * 16.0 * math.ulp(max(abs(t_start), abs(t_now), 1e-300))
+
+
 def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: float,
                deadline: float | None = None, quiet: int = -1) -> int:
     """The run from ``(t0, y0)``: the transitions at the start, then one ``propagate_until`` (more after a
@@ -682,7 +691,9 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
         found = usable_period(switch.system)
         watch.reset(off=found is None)
         period = watch.period = found if found is not None else math.inf
-    max_steps = 0 if deadline is None else WALL_TIME_STEPS
+    # in chunks of steps, always: the clock is checked between them with a deadline, and the time's
+    # progress always (steps at the rounding of the time make no progress: see _stalled)
+    max_steps = WALL_TIME_STEPS
     last_missed: tuple[int, float] | None = None  # the last crossing lost to rounding and applied
     step_limit, time_limit = hy.taylor_outcome.step_limit, hy.taylor_outcome.time_limit
     steps = 0
@@ -708,12 +719,21 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
                 switch.jump = None
                 rest(g, min(jump.time, t_end), jump)
                 continue
+            t_chunk = ta.time
             res = ta.propagate_until(t_end, max_steps=max_steps)
             outcome = res[0]
             steps += res[3]
             if outcome == step_limit and not run.status:
-                if time.monotonic() > deadline:  # type: ignore[operator]
+                if deadline is not None and time.monotonic() > deadline:
                     run.status = 1
+                    break
+                if _stalled(t_chunk, ta.time, res[3]):
+                    run.status = -1
+                    run.message = (f"the integrator's steps fell to the rounding of the time at t={ta.time!r} "
+                                   f"(in mode {switch.system.mode_names[run.mode]!r}): {res[3]} steps advanced "
+                                   f"it by {ta.time - t_chunk!r}. A vector field singular where the run is (a "
+                                   "power-law flange's boundary layer crossed faster than the time resolves), "
+                                   "or a time too large for the system's time scale; results up to t_final are kept.")
                     break
                 continue
             if watch is not None and watch.jump is not None and not run.status and not switch.done:
