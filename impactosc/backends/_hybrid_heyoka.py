@@ -730,10 +730,11 @@ def _propagate(run: _Run, comp: CompiledSystem, t0: float, y0: list, t_end: floa
                 if _stalled(t_chunk, ta.time, res[3]):
                     run.status = -1
                     run.message = (f"the integrator's steps fell to the rounding of the time at t={ta.time!r} "
-                                   f"(in mode {switch.system.mode_names[run.mode]!r}): {res[3]} steps advanced "
-                                   f"it by {ta.time - t_chunk!r}. A vector field singular where the run is (a "
-                                   "power-law flange's boundary layer crossed faster than the time resolves), "
-                                   "or a time too large for the system's time scale; results up to t_final are kept.")
+                                   f"(in mode {switch.system.mode_names[run.mode]!r}): the last {res[3]} steps "
+                                   f"advanced it by {ta.time - t_chunk!r}. The vector field is singular where the "
+                                   "run is (a pole ahead, a non-analytic force such as d^p at d = 0 approached "
+                                   "faster than the time resolves), or the time is too large for the system's "
+                                   "time scale; results up to t_final are kept.")
                     break
                 continue
             if watch is not None and watch.jump is not None and not run.status and not switch.done:

@@ -56,6 +56,29 @@ def layer_thickness(osc: Oscillator) -> float:
     return max((_LAYER_FORCE / K) ** (1.0 / p), _LAYER_FLOOR)
 
 
+#: The least time a power-law contact spends crossing its layer, in ulps of the time (see _resolved_layer).
+_LAYER_CROSSING_ULPS = 64.0
+
+
+def _resolved_layer(layer, v):
+    """The layer's thickness ``max(layer, 64 eps |V| (1 + |t|))``: crossed in at least 64 ulps of the time.
+
+    Beyond the layer's edge the steps are limited by the radius of convergence of ``d^p``, the
+    time ``d / |V|`` to reach ``d = 0``. Where that is a few ulps of the time, the steps fall to
+    the rounding of the time and the run crawls (a contact entered at 30 with ``K = 1e6`` at
+    ``t = 0.1``: ``layer = 2.3e-15`` is crossed in 8e-17). The floor keeps every step beyond the
+    edge at 32 ulps of the time or more. The force it leaves out, ``K (64 eps |V| t)^p`` for a
+    time ``64 eps t``, changes ``V`` by ``K (64 eps t)^(p+1) |V|^p``: 4e-17 of 30 at ``t = 1e4``
+    with ``K = 1e6``, ``p = 1.5``. ``|V|`` and ``|t|`` as ``select`` (no singular derivative).
+    """
+    import heyoka as hy
+
+    speed = hy.select(hy.gt(v, 0.0), v, -v)
+    clock = 1.0 + hy.select(hy.gt(hy.time, 0.0), hy.time, -hy.time)
+    resolved = (_LAYER_CROSSING_ULPS * 2.0**-52) * speed * clock
+    return hy.select(hy.gt(resolved, layer), resolved, layer)
+
+
 def _power_law(K, exponent, depth, layer):
     """The force ``K d^p`` of a power-law flange at depth ``d``, off while a step starts in the boundary layer.
 
@@ -246,7 +269,8 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     if not osc.rigid:
         K = par("K", osc.K)
         if not osc.linear:
-            exponent, layer = par("exponent", osc.exponent), par("layer", layer_thickness(osc))
+            exponent = par("exponent", osc.exponent)
+            layer = _resolved_layer(par("layer", layer_thickness(osc)), v)
         for side, _ in flanges:
             wall = side * gaps[side]
             if osc.linear:
