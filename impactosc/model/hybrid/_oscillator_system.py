@@ -197,9 +197,9 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     force is below the unit roundoff, and each flange has one more mode, ``"upper_layer+"``
     (``"lower_layer-"``): moving in with the layer's edge ahead, left at the edge by the internal
     guard ``"upper layer in"`` (``_boundary_layers``). Contacts still start and end at ``d = 0``.
-    The layer is as thin as the unit roundoff allows whatever the speed, so a contact entered
-    faster than about ``1e15 * layer`` crawls (tiny steps at its edge; the built-in heyoka
-    backend's piece loop thickens its layer with the speed).
+    The layer is as thin as the unit roundoff allows, and at least as thick as the mass
+    crosses in 64 ulps of the time (``_resolved_layer``: a fast contact would otherwise take
+    steps at the rounding of the time beyond its edge).
 
     Examples
     --------
