@@ -273,49 +273,45 @@ def test_tape_drive_without_friction_is_still_fine():
 
 
 # -- item 13: heyoka's log goes to stderr --------------------------------------------------------
-@pytest.mark.slow  # a subprocess
-def test_heyoka_warnings_do_not_reach_stdout():
-    # A non-finite velocity makes heyoka warn "event detection skipped ..." from C++.
-    # The backend's integrator (the hybrid loop's) is the first heyoka builds in the process.
-    code = ("import math\n"
-            "from impactosc import Oscillator\n"
-            "from impactosc.backends.heyoka import compiled_integrator\n"
-            "print('table start', flush=True)\n"
-            "ta = compiled_integrator(Oscillator(0.5, 0.3, 0.1, 1e4)).ta\n"
-            "ta.time = 0.0\n"
-            "ta.state[:] = [0.5, math.inf] + [0.0] * (ta.dim - 2)\n"
-            "ta.propagate_until(1.0)\n"
-            "print('table end', flush=True)\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         env={**os.environ, "PYTHONPATH": REPO})
+# A non-finite velocity makes heyoka warn "event detection skipped ..." from C++: the warning must
+# reach stderr, never the tables on stdout between the two markers.
+_WARNS_BETWEEN_MARKERS = ("print('table start', flush=True)\n"
+                          "ta = compiled_integrator(Oscillator(0.5, 0.3, 0.1, 1e4)).ta\n"
+                          "ta.time = 0.0\n"
+                          "ta.state[:] = [0.5, math.inf] + [0.0] * (ta.dim - 2)\n"
+                          "ta.propagate_until(1.0)\n"
+                          "print('table end', flush=True)\n")
+
+
+def _assert_warning_on_stderr_only(code: str) -> None:
+    out = subprocess.run([sys.executable, "-c", code + _WARNS_BETWEEN_MARKERS], capture_output=True, text=True,
+                         timeout=120, env={**os.environ, "PYTHONPATH": REPO})
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines() == ["table start", "table end"]
     assert "[warning] event detection skipped" in out.stderr, out.stderr
+
+
+@pytest.mark.slow  # a subprocess
+def test_heyoka_warnings_do_not_reach_stdout():
+    """The backend's integrator (the hybrid loop's) is the first heyoka builds in the process."""
+    _assert_warning_on_stderr_only("import math\n"
+                                   "from impactosc import Oscillator\n"
+                                   "from impactosc.backends.heyoka import compiled_integrator\n")
 
 
 @pytest.mark.slow  # a subprocess
 def test_heyoka_warnings_do_not_reach_stdout_when_a_user_system_comes_first():
     """The process's first heyoka compile is a user system's compiled functions (its scipy run):
     heyoka's logger was created there on stdout, so the warnings of every later integrator went to stdout."""
-    code = ("import math\n"
-            "import impactosc\n"
-            "from impactosc import Guard, HybridMode, HybridSystem, Oscillator, symbols\n"
-            "from impactosc.backends.heyoka import compiled_integrator\n"
-            "x, v = symbols('x v')\n"
-            "ball = HybridSystem('x v', {}, [HybridMode('flight', {x: v, v: -1.0})],\n"
-            "                    [Guard('impact', x, -1, armed='flight', to='flight', reset={v: -0.5 * v})])\n"
-            "impactosc.simulate(ball, 1.0, [1.0, 0.0], backend='scipy')\n"
-            "print('table start', flush=True)\n"
-            "ta = compiled_integrator(Oscillator(0.5, 0.3, 0.1, 1e4)).ta\n"
-            "ta.time = 0.0\n"
-            "ta.state[:] = [0.5, math.inf] + [0.0] * (ta.dim - 2)\n"
-            "ta.propagate_until(1.0)\n"
-            "print('table end', flush=True)\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         env={**os.environ, "PYTHONPATH": REPO})
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.splitlines() == ["table start", "table end"]
-    assert "[warning] event detection skipped" in out.stderr, out.stderr
+    _assert_warning_on_stderr_only(
+        "import math\n"
+        "import impactosc\n"
+        "from impactosc import Guard, HybridMode, HybridSystem, Oscillator, symbols\n"
+        "from impactosc.backends.heyoka import compiled_integrator\n"
+        "x, v = symbols('x v')\n"
+        "ball = HybridSystem('x v', {}, [HybridMode('flight', {x: v, v: -1.0})],\n"
+        "                    [Guard('impact', x, -1, armed='flight', to='flight', reset={v: -0.5 * v})])\n"
+        "impactosc.simulate(ball, 1.0, [1.0, 0.0], backend='scipy')\n")
 
 
 # -- item 14 (part): table limits, rk4's max_events ---------------------------------------------
