@@ -184,8 +184,7 @@ def split(osc, n_events: int) -> dict:
     set against ``simulate`` (loop and replay into the built-in ``Solution``), and the fixed cost
     of one ``propagate_until`` call is measured on the compiled integrator with its events off.
     """
-    from impactosc.backends._hybrid_heyoka import run_counted
-    from impactosc.backends.heyoka import compiled_integrator
+    from impactosc.backends._hybrid_heyoka import DEFAULT_COOLDOWN, DEFAULT_TOL, checked_out, run_counted
     from impactosc.backends.heyoka._replay import _system
     from impactosc.engine import initial_mode
 
@@ -202,8 +201,7 @@ def split(osc, n_events: int) -> dict:
     loop = time.perf_counter() - t1
     n = int(sum(sol.counts.values()))
     # The fixed cost of one propagate_until call that takes a single tiny step, events off.
-    comp = compiled_integrator(osc)
-    with comp.lock:
+    with checked_out(system, DEFAULT_TOL, DEFAULT_COOLDOWN) as comp:  # an instance no run uses meanwhile
         comp.load(system.parameter_values, system.mode_index("free+"), 0.0)
         raw = comp.ta
         raw.state[:] = 0.0

@@ -337,10 +337,11 @@ def _hoisted(body: list[str]) -> list[str]:
 
 #: A group that may be computed before the branch that uses it: names, numbers, ``+ - *`` and
 #: parentheses only (on floats these never raise; a call, a division, a power or a comparison may).
-# Possessive (the alternatives start with disjoint characters, so it accepts the same groups): with plain
-# quantifiers a long group that fails (a power-law flange's select) backtracked through every split of
-# its names, and building one transition took minutes.
-_ARITHMETIC = re.compile(r"\((?:[\w.]++|\s[-+*]\s|[-(]|\))++\)")
+# The names possessive: with plain quantifiers a long group that fails (a power-law flange's select)
+# backtracked through every split of its names, and building one transition took minutes. The group's
+# own repetition may not be possessive: one of its alternatives is the closing parenthesis, which it
+# would then keep from the pattern's end (no group matched: nothing was hoisted).
+_ARITHMETIC = re.compile(r"\((?:[\w.]++|\s[-+*]\s|[-(]|\))+\)")
 _OPERATOR = re.compile(r"\s[-+*]\s")
 _ASSIGNED = re.compile(r"^\s*(\w+)\s*=[^=]", re.MULTILINE)
 _WORD = re.compile(r"[A-Za-z_]\w*")

@@ -192,7 +192,7 @@ def oscillator_system(osc: Oscillator, *, energy: bool = False, integral_scale: 
     integrals divided by it are the same numbers to rounding.
 
     A power-law flange (``exponent = p > 1``, the Hertz contact ``K d^p``) has the parameters
-    ``exponent`` and ``layer`` (:func:`layer_thickness`): ``d^p`` is not analytic at ``d = 0``, where
+    ``exponent`` and ``layer`` (``layer_thickness``): ``d^p`` is not analytic at ``d = 0``, where
     each contact starts, so the spring is off in a boundary layer ``0 <= d < layer`` whose left-out
     force is below the unit roundoff, and each flange has one more mode, ``"upper_layer+"``
     (``"lower_layer-"``): moving in with the layer's edge ahead, left at the edge by the internal
