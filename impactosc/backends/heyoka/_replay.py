@@ -439,12 +439,7 @@ def _replay_each(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode,
     t_prev, x_prev, mode = 0.0, float(y0[0]), start
     for k in range(n):
         t, g, _, _, b, before, state = events[k]
-        if cut is not None:
-            cut.reached(t_prev, mode)
-            t_prev, x_prev = cut.split(mode, t_prev, x_prev, t)
-        if t > t_prev:  # not a second event at one instant (the engine records no piece between them)
-            dq, dq2, dw, dvv = increments[k] if cut is None else cut.increments(before, increments[k])
-            rec.piece(mode, t_prev, x_prev, t, before[0], dq, dq2, dw, dvv, 0)
+        t_prev, x_prev = _piece_to(rec, cut, mode, t_prev, x_prev, t, before, increments[k])
         kind, side = guards[g]
         new = modes[b]
         if kind is None:
@@ -542,6 +537,19 @@ class _Stops:
             self.next += 1
 
 
+def _piece_to(rec: _Recorder, cut, mode: Mode, t_prev: float, x_prev: float, t: float, before, increment):
+    """Record the piece of ``mode`` from ``(t_prev, x_prev)`` up to the event at ``t`` (state ``before``), as
+    ``drive`` does: cut at the sample stops in it (``cut``, a :class:`_Stops` or None), none between two
+    events at one instant. Returns where the recorded pieces got to, ``(t_prev, x_prev)``."""
+    if cut is not None:
+        cut.reached(t_prev, mode)
+        t_prev, x_prev = cut.split(mode, t_prev, x_prev, t)
+    if t > t_prev:  # not a second event at one instant (the engine records no piece between them)
+        dq, dq2, dw, dvv = increment if cut is None else cut.increments(before, increment)
+        rec.piece(mode, t_prev, x_prev, t, before[0], dq, dq2, dw, dvv, 0)
+    return t_prev, x_prev
+
+
 def _piece_increments(hybrid, events, slots) -> np.ndarray:
     """The increments of ``Q, Q2, W, VV`` (0 where the run has no such integral) over each piece of ``hybrid``:
     from the start or an event of ``events`` (the state after it) to the next event or the end (before it)."""
@@ -623,12 +631,7 @@ def _replay_rigid(osc, hybrid, rec: _Recorder, modes, guards, slots, start: Mode
                 cut.moved(state, x)
                 cut.v = 0.0
             continue
-        if cut is not None:
-            cut.reached(t_prev, mode)
-            t_prev, x_prev = cut.split(mode, t_prev, x_prev, t)
-        if t > t_prev:  # not a second event at one instant (the engine records no piece between them)
-            dq, dq2, dw, dvv = increments[k] if cut is None else cut.increments(before, increments[k])
-            rec.piece(mode, t_prev, x_prev, t, before[0], dq, dq2, dw, dvv, 0)
+        t_prev, x_prev = _piece_to(rec, cut, mode, t_prev, x_prev, t, before, increments[k])
         what, side = guards[g]
         x, v = (walls[side] if side else state[0]), state[1]
         jump = None  # the engine takes a jump right after the impact it comes from, or never
