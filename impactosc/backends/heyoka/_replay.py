@@ -64,7 +64,7 @@ from ...model._oscillator import Oscillator
 from ...model.hybrid import oscillator_system
 from ...results._bulk import PIECE_DTYPE, bulk
 from ...results._solution import EVENT_DTYPE, SEGMENT_DTYPE, Solution, _Recorder
-from .._hybrid_heyoka import DEFAULT_COOLDOWN, compiled, dense_states, run_counted
+from .._hybrid_heyoka import DEFAULT_COOLDOWN, dense_states, run_counted
 
 __all__ = ["run_on_hybrid_loop", "drive_on_hybrid_loop"]
 
@@ -196,7 +196,6 @@ def _run(osc: Oscillator, t_end: float, x0: float, v0: float, max_events: int, t
          max_wall_time: float | None):
     """``(hybrid, steps, start)``: ``osc`` run on the one heyoka loop from the engine's initial mode."""
     system, _, index, _, _ = _member_system(osc)
-    compiled(system, tol)  # compiled before the run, heyoka's log on stderr (see _util/heyoka_log)
     v0 = 0.0 if abs(v0) <= KINEMATIC_GUARD_OFFSET else v0  # rest, as the engine's drive takes it
     start = initial_mode(osc, 0.0, x0, v0)
     name = system.mode_names[index[(start.region, start.motion)]]
